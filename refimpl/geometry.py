@@ -1,0 +1,58 @@
+"""Boxes and the matching likelihood: vectorised IoU and its integer scale (IoU x 100000).
+
+Boxes are numpy arrays of shape (n, 4) in (x, y, w, h) pixels unless a name says xyxy.
+The integer IoU is what both solver backends see, so it is computed here, once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .spec import IOU_SCALE, Box
+
+
+def xywh_to_xyxy(boxes: np.ndarray) -> np.ndarray:
+    """(x, y, w, h) -> (x1, y1, x2, y2)."""
+    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    return np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3]])
+
+
+def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
+    """(x1, y1, x2, y2) -> (x, y, w, h)."""
+    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    return np.column_stack([b[:, 0], b[:, 1], b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]])
+
+
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU of every box in a (n, 4 xywh) with every box in b (m, 4 xywh): an (n, m) array in [0, 1]."""
+    a = xywh_to_xyxy(a)
+    b = xywh_to_xyxy(b)
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros((len(a), len(b)))
+    iw = np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
+    ih = np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
+    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    union = area_a[:, None] + area_b[None, :] - inter
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(union > 0, inter / union, 0.0)
+    return out
+
+
+def scale_iou(iou: np.ndarray) -> np.ndarray:
+    """IoU in [0, 1] -> integers 0..100000, rounding half up (0.346245 -> 34625)."""
+    return np.floor(np.asarray(iou, dtype=float) * IOU_SCALE + 0.5).astype(np.int64)
+
+
+def integer_box(box: np.ndarray) -> Box:
+    """A float (x, y, w, h) box as the integer box2d of the fact format (rounded half up, w, h >= 1)."""
+    x, y, w, h = (int(np.floor(float(v) + 0.5)) for v in box)
+    return (x, y, max(w, 1), max(h, 1))
+
+
+def intersection_area(a: Box, b: Box) -> int:
+    """Integer overlap area of two integer boxes (the spatial relations use integers, as the ASP model does)."""
+    iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    ih = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    return max(iw, 0) * max(ih, 0)

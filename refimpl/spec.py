@@ -1,0 +1,454 @@
+"""The per-frame problem <VO_t, P_t, ML_t> of the paper (Section 3, Step 1) and its fact format.
+
+A frame problem holds the visual observations (detections), the Kalman predictions of the
+tracks, the matching likelihood (IoU x 100000, integers), the current time point, model
+constants and the event history H^events before the current time point.  It reads and writes
+exactly the ASP fact syntax the paper prints::
+
+    #const curr_time=79.
+    det(det_0, car, 99).
+    box2d(det_0, 0, 189, 208, 119).
+    trk(trk_0, car).
+    trk_state(trk_0, halted).
+    box2d(trk_0, -42, 227, 249, 159).
+    iou(trk_0,det_0,34625).
+    occurs_at(missing_detections(trk_0),70).
+
+This module is layer 0: it imports nothing of refimpl and nothing heavy.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Iterable, Mapping
+
+IOU_SCALE = 100_000
+"""Matching likelihood unit: IoU 1.0 is written as 100000 (the paper's iou/3 facts)."""
+
+TRACK_STATES = ("active", "halted")
+
+Box = tuple[int, int, int, int]
+"""An integer box (x, y, w, h) in pixels: top-left corner, width, height; x, y may be negative."""
+
+
+class ProblemFormatError(ValueError):
+    """A fact file (or fact text) that is not a valid frame problem; the message names file and line."""
+
+    def __init__(self, message: str, source: str = "<text>", line: int | None = None):
+        self.source = source
+        self.line = line
+        self.reason = message
+        where = f"{source}:{line}" if line is not None else source
+        super().__init__(f"{where}: {message}")
+
+
+@dataclass(frozen=True, order=True)
+class Term:
+    """A ground ASP term: a constant/integer (no args) or a function term name(args...)."""
+
+    name: str
+    args: tuple["Term", ...] = ()
+
+    def __str__(self) -> str:
+        if not self.args:
+            return self.name
+        return f"{self.name}({','.join(str(a) for a in self.args)})"
+
+    @property
+    def is_int(self) -> bool:
+        return not self.args and re.fullmatch(r"-?\d+", self.name) is not None
+
+    def as_int(self) -> int:
+        if not self.is_int:
+            raise ValueError(f"{self} is not an integer")
+        return int(self.name)
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One visual observation: det(Id, Type, Conf) and box2d(Id, X, Y, W, H)."""
+
+    id: str
+    type: str
+    conf: int
+    box: Box
+
+
+@dataclass(frozen=True)
+class TrackPrediction:
+    """One track's Kalman prediction for this time point: trk/2, trk_state/2 and box2d/5."""
+
+    id: str
+    type: str
+    state: str
+    box: Box
+
+
+@dataclass(frozen=True)
+class HistoryEvent:
+    """occurs_at(Event, Time) for an event abduced at an earlier time point."""
+
+    event: Term
+    time: int
+
+    def __str__(self) -> str:
+        return f"occurs_at({self.event},{self.time})"
+
+
+@dataclass(frozen=True)
+class FrameProblem:
+    """<VO_t, P_t, ML_t> plus constants and the event history before curr_time."""
+
+    time: int
+    detections: tuple[Detection, ...] = ()
+    tracks: tuple[TrackPrediction, ...] = ()
+    iou: tuple[tuple[str, str, int], ...] = ()
+    """Matching likelihood (trk id, det id, IoU x 100000); pairs not listed have likelihood 0."""
+    constants: tuple[tuple[str, int], ...] = ()
+    """#const overrides other than curr_time, in file order."""
+    history: tuple[HistoryEvent, ...] = ()
+    match_types: tuple[tuple[str, str], ...] = ()
+    """Extra match_type(TrkType, DetType) facts; a type always matches itself."""
+
+    def __post_init__(self) -> None:
+        _validate(self)
+
+    # -- lookups -------------------------------------------------------------------------
+    @property
+    def constant_map(self) -> dict[str, int]:
+        return dict(self.constants)
+
+    @property
+    def iou_map(self) -> dict[tuple[str, str], int]:
+        return {(t, d): v for t, d, v in self.iou}
+
+    def detection(self, det_id: str) -> Detection:
+        for d in self.detections:
+            if d.id == det_id:
+                return d
+        raise KeyError(det_id)
+
+    def track(self, trk_id: str) -> TrackPrediction:
+        for t in self.tracks:
+            if t.id == trk_id:
+                return t
+        raise KeyError(trk_id)
+
+    # -- fact format -----------------------------------------------------------------------
+    def to_facts(self) -> str:
+        return write_facts(self)
+
+    @classmethod
+    def from_facts(cls, text: str, source: str = "<text>") -> "FrameProblem":
+        return parse_facts(text, source)
+
+
+def _validate(p: FrameProblem) -> None:
+    ids: set[str] = set()
+    for d in p.detections:
+        if d.id in ids:
+            raise ProblemFormatError(f"duplicate id {d.id}")
+        ids.add(d.id)
+        if not 0 <= d.conf <= 100:
+            raise ProblemFormatError(f"confidence of {d.id} must be 0..100, got {d.conf}")
+        _check_box(d.id, d.box)
+    for t in p.tracks:
+        if t.id in ids:
+            raise ProblemFormatError(f"duplicate id {t.id}")
+        ids.add(t.id)
+        if t.state not in TRACK_STATES:
+            raise ProblemFormatError(f"trk_state of {t.id} must be active or halted, got {t.state}")
+        _check_box(t.id, t.box)
+    trk_ids = {t.id for t in p.tracks}
+    det_ids = {d.id for d in p.detections}
+    seen: set[tuple[str, str]] = set()
+    for t, d, v in p.iou:
+        if t not in trk_ids:
+            raise ProblemFormatError(f"iou({t},{d},{v}) names unknown track {t}")
+        if d not in det_ids:
+            raise ProblemFormatError(f"iou({t},{d},{v}) names unknown detection {d}")
+        if not 0 <= v <= IOU_SCALE:
+            raise ProblemFormatError(f"iou({t},{d},{v}) must be within 0..{IOU_SCALE}")
+        if (t, d) in seen:
+            raise ProblemFormatError(f"duplicate iou for ({t},{d})")
+        seen.add((t, d))
+    for h in p.history:
+        if h.time >= p.time:
+            raise ProblemFormatError(f"history event {h} is not before curr_time={p.time}")
+
+
+def _check_box(ident: str, box: Box) -> None:
+    if len(box) != 4 or not all(isinstance(v, int) for v in box):
+        raise ProblemFormatError(f"box of {ident} must be four integers")
+    if box[2] <= 0 or box[3] <= 0:
+        raise ProblemFormatError(f"box of {ident} must have width and height > 0, got {box[2]}x{box[3]}")
+
+
+# ---------------------------------------------------------------------------------------
+# Writing
+# ---------------------------------------------------------------------------------------
+
+def _box_fact(ident: str, box: Box) -> str:
+    return f"box2d({ident}, {box[0]}, {box[1]}, {box[2]}, {box[3]})."
+
+
+def write_facts(p: FrameProblem) -> str:
+    """The problem in the paper's fact syntax; parse_facts(write_facts(p)) == p."""
+    out = [f"#const curr_time={p.time}."]
+    out += [f"#const {k}={v}." for k, v in p.constants]
+    out += [f"det({d.id}, {d.type}, {d.conf})." for d in p.detections]
+    out += [_box_fact(d.id, d.box) for d in p.detections]
+    for t in p.tracks:
+        out.append(f"trk({t.id}, {t.type}).")
+        out.append(f"trk_state({t.id}, {t.state}).")
+    out += [_box_fact(t.id, t.box) for t in p.tracks]
+    out += [f"iou({t},{d},{v})." for t, d, v in p.iou]
+    out += [f"match_type({a}, {b})." for a, b in p.match_types]
+    out += [f"{h}." for h in p.history]
+    return "\n".join(out) + "\n"
+
+
+# ---------------------------------------------------------------------------------------
+# Reading
+# ---------------------------------------------------------------------------------------
+
+_TOKEN = re.compile(r"\s*(?:(?P<num>-?\d+)|(?P<name>[a-z_][A-Za-z0-9_]*)|(?P<punct>[(),.]))")
+_CONST = re.compile(r"#const\s+([a-z_][A-Za-z0-9_]*)\s*=\s*(-?\d+)\s*\.")
+
+
+class _Cursor:
+    def __init__(self, text: str, source: str, line: int):
+        self.text, self.pos, self.source, self.line = text, 0, source, line
+
+    def fail(self, msg: str) -> ProblemFormatError:
+        return ProblemFormatError(msg, self.source, self.line)
+
+    def peek(self) -> tuple[str, str] | None:
+        m = _TOKEN.match(self.text, self.pos)
+        if not m:
+            return None
+        kind = m.lastgroup or "punct"
+        return kind, m.group(kind)
+
+    def next(self) -> tuple[str, str]:
+        m = _TOKEN.match(self.text, self.pos)
+        if not m:
+            rest = self.text[self.pos:].strip()
+            raise self.fail(f"unexpected text {rest[:30]!r}")
+        self.pos = m.end()
+        kind = m.lastgroup or "punct"
+        return kind, m.group(kind)
+
+    def expect(self, char: str) -> None:
+        kind, val = self.next()
+        if val != char:
+            raise self.fail(f"expected {char!r}, got {val!r}")
+
+    def at_end(self) -> bool:
+        return self.text[self.pos:].strip() == ""
+
+    def term(self) -> Term:
+        kind, val = self.next()
+        if kind == "num":
+            return Term(str(int(val)))
+        if kind != "name":
+            raise self.fail(f"expected a term, got {val!r}")
+        nxt = self.peek()
+        if nxt and nxt[1] == "(":
+            self.next()
+            args = [self.term()]
+            while True:
+                _, sep = self.next()
+                if sep == ")":
+                    break
+                if sep != ",":
+                    raise self.fail(f"expected ',' or ')', got {sep!r}")
+                args.append(self.term())
+            return Term(val, tuple(args))
+        return Term(val)
+
+
+# predicate/arity -> argument kinds ('s' symbol, 'i' integer, 't' any term)
+_SIGNATURES = {
+    ("det", 3): "ssi",
+    ("box2d", 5): "siiii",
+    ("trk", 2): "ss",
+    ("trk_state", 2): "ss",
+    ("iou", 3): "ssi",
+    ("occurs_at", 2): "ti",
+    ("match_type", 2): "ss",
+}
+
+
+def _strip_comment(line: str) -> str:
+    i = line.find("%")
+    return line if i < 0 else line[:i]
+
+
+def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
+    """Parse the paper's fact syntax into a FrameProblem; errors name source and line."""
+    consts: list[tuple[str, int]] = []
+    curr_time: int | None = None
+    dets: dict[str, tuple[str, int, int]] = {}
+    trks: dict[str, tuple[str, int]] = {}
+    states: dict[str, str] = {}
+    boxes: dict[str, tuple[Box, int]] = {}
+    ious: list[tuple[str, str, int]] = []
+    iou_seen: set[tuple[str, str]] = set()
+    history: list[tuple[HistoryEvent, int]] = []
+    match_types: list[tuple[str, str]] = []
+
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = _strip_comment(raw).strip()
+        if not line:
+            continue
+        while line:
+            if line.startswith("#const"):
+                m = _CONST.match(line)
+                if not m:
+                    raise ProblemFormatError(f"malformed #const: {line[:40]!r}", source, lineno)
+                name, value = m.group(1), int(m.group(2))
+                if name == "curr_time":
+                    if curr_time is not None:
+                        raise ProblemFormatError("curr_time defined twice", source, lineno)
+                    curr_time = value
+                else:
+                    if any(k == name for k, _ in consts):
+                        raise ProblemFormatError(f"#const {name} defined twice", source, lineno)
+                    consts.append((name, value))
+                line = line[m.end():].strip()
+                continue
+            cur = _Cursor(line, source, lineno)
+            fact = cur.term()
+            cur.expect(".")
+            line = line[cur.pos:].strip()
+            key = (fact.name, len(fact.args))
+            sig = _SIGNATURES.get(key)
+            if sig is None:
+                raise ProblemFormatError(
+                    f"unknown fact {fact.name}/{len(fact.args)} (expected one of "
+                    + ", ".join(f"{n}/{a}" for n, a in _SIGNATURES) + ")", source, lineno)
+            vals: list = []
+            for arg, kind in zip(fact.args, sig):
+                if kind == "i":
+                    if not arg.is_int:
+                        raise ProblemFormatError(f"{fact}: {arg} must be an integer", source, lineno)
+                    vals.append(arg.as_int())
+                elif kind == "s":
+                    if arg.args or arg.is_int:
+                        raise ProblemFormatError(f"{fact}: {arg} must be a constant name", source, lineno)
+                    vals.append(arg.name)
+                else:
+                    vals.append(arg)
+
+            def dup(ident: str, what: str) -> ProblemFormatError:
+                return ProblemFormatError(f"duplicate {what} for {ident}", source, lineno)
+
+            name = fact.name
+            if name == "det":
+                if vals[0] in dets or vals[0] in trks:
+                    raise dup(vals[0], "det/trk id")
+                if not 0 <= vals[2] <= 100:
+                    raise ProblemFormatError(f"{fact}: confidence must be 0..100", source, lineno)
+                dets[vals[0]] = (vals[1], vals[2], lineno)
+            elif name == "trk":
+                if vals[0] in dets or vals[0] in trks:
+                    raise dup(vals[0], "det/trk id")
+                trks[vals[0]] = (vals[1], lineno)
+            elif name == "trk_state":
+                if vals[0] in states:
+                    raise dup(vals[0], "trk_state")
+                if vals[1] not in TRACK_STATES:
+                    raise ProblemFormatError(f"{fact}: state must be active or halted", source, lineno)
+                states[vals[0]] = vals[1]
+            elif name == "box2d":
+                if vals[0] in boxes:
+                    raise dup(vals[0], "box2d")
+                if vals[3] <= 0 or vals[4] <= 0:
+                    raise ProblemFormatError(f"{fact}: width and height must be > 0", source, lineno)
+                boxes[vals[0]] = ((vals[1], vals[2], vals[3], vals[4]), lineno)
+            elif name == "iou":
+                if (vals[0], vals[1]) in iou_seen:
+                    raise dup(f"({vals[0]},{vals[1]})", "iou")
+                if not 0 <= vals[2] <= IOU_SCALE:
+                    raise ProblemFormatError(f"{fact}: IoU must be 0..{IOU_SCALE}", source, lineno)
+                iou_seen.add((vals[0], vals[1]))
+                ious.append((vals[0], vals[1], vals[2], lineno))  # type: ignore[arg-type]
+            elif name == "occurs_at":
+                history.append((HistoryEvent(vals[0], vals[1]), lineno))
+            elif name == "match_type":
+                match_types.append((vals[0], vals[1]))
+
+    if curr_time is None:
+        raise ProblemFormatError("missing '#const curr_time=<int>.'", source)
+    for ident, (_, lineno) in boxes.items():
+        if ident not in dets and ident not in trks:
+            raise ProblemFormatError(f"box2d for unknown id {ident}", source, lineno)
+    for ident, (_, _, lineno) in dets.items():
+        if ident not in boxes:
+            raise ProblemFormatError(f"detection {ident} has no box2d", source, lineno)
+    for ident, (_, lineno) in trks.items():
+        if ident not in boxes:
+            raise ProblemFormatError(f"track {ident} has no box2d", source, lineno)
+        if ident not in states:
+            raise ProblemFormatError(f"track {ident} has no trk_state", source, lineno)
+    for ident in states:
+        if ident not in trks:
+            raise ProblemFormatError(f"trk_state for unknown track {ident}", source)
+    for t, d, v, lineno in ious:  # type: ignore[misc]
+        if t not in trks or d not in dets:
+            unknown = t if t not in trks else d
+            raise ProblemFormatError(f"iou({t},{d},{v}) names unknown id {unknown}", source, lineno)
+    for h, lineno in history:
+        if h.time >= curr_time:
+            raise ProblemFormatError(f"{h} is not before curr_time={curr_time}", source, lineno)
+
+    return FrameProblem(
+        time=curr_time,
+        detections=tuple(Detection(i, ty, c, boxes[i][0]) for i, (ty, c, _) in dets.items()),
+        tracks=tuple(TrackPrediction(i, ty, states[i], boxes[i][0]) for i, (ty, _) in trks.items()),
+        iou=tuple((t, d, v) for t, d, v, _ in ious),  # type: ignore[misc]
+        constants=tuple(consts),
+        history=tuple(h for h, _ in history),
+        match_types=tuple(match_types),
+    )
+
+
+def read_problem(path: str) -> FrameProblem:
+    """Read a fact file; a missing or undecodable file is a ProblemFormatError too."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except OSError as exc:
+        raise ProblemFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
+    except UnicodeDecodeError:
+        raise ProblemFormatError("not a UTF-8 text file", path) from None
+    return parse_facts(text, path)
+
+
+def parse_term(text: str) -> Term:
+    """Parse one ground term such as 'hides_behind(trk_13,trk_12)'."""
+    cur = _Cursor(text, "<term>", 1)
+    t = cur.term()
+    if not cur.at_end():
+        raise cur.fail(f"trailing text after term {t}")
+    return t
+
+
+def natural_key(ident: str) -> tuple:
+    """Sort key for ids like trk_12: name part, then number (trk_2 before trk_12)."""
+    m = re.fullmatch(r"(.*?)(\d+)", ident)
+    return (m.group(1), int(m.group(2)), ident) if m else (ident, -1, ident)
+
+
+def with_history(p: FrameProblem, history: Iterable[HistoryEvent]) -> FrameProblem:
+    """The same problem with another event history."""
+    return FrameProblem(p.time, p.detections, p.tracks, p.iou, p.constants, tuple(history), p.match_types)
+
+
+def with_constants(p: FrameProblem, overrides: Mapping[str, int]) -> FrameProblem:
+    """The same problem with #const values overridden or added."""
+    merged = dict(p.constants)
+    merged.update(overrides)
+    return FrameProblem(p.time, p.detections, p.tracks, p.iou, tuple(merged.items()), p.history, p.match_types)
