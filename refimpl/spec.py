@@ -235,12 +235,16 @@ class _Cursor:
         m = _TOKEN.match(self.text, self.pos)
         if not m:
             rest = self.text[self.pos:].strip()
+            if not rest:
+                raise self.fail("unexpected end of line inside a fact (facts stay on one line)")
             raise self.fail(f"unexpected text {rest[:30]!r}")
         self.pos = m.end()
         kind = m.lastgroup or "punct"
         return kind, m.group(kind)
 
     def expect(self, char: str) -> None:
+        if self.at_end():
+            raise self.fail(f"expected {char!r} at the end of the line (facts end with '.' and stay on one line)")
         kind, val = self.next()
         if val != char:
             raise self.fail(f"expected {char!r}, got {val!r}")

@@ -1,0 +1,100 @@
+"""The frame problem and the paper's fact format (refimpl.spec)."""
+
+from __future__ import annotations
+
+import pytest
+
+from refimpl.spec import (
+    Detection, FrameProblem, HistoryEvent, ProblemFormatError, Term, TrackPrediction,
+    natural_key, parse_facts, parse_term, read_problem, write_facts,
+)
+
+PAPER_FRAMES = ["kitti_0020_t79.lp", "bus_t235.lp"]
+
+
+@pytest.mark.parametrize("name", PAPER_FRAMES)
+def test_paper_frame_round_trips_byte_exact(examples, name):
+    text = (examples / name).read_text()
+    problem = parse_facts(text, name)
+    assert write_facts(problem) == text
+    assert parse_facts(write_facts(problem)) == problem
+
+
+def test_kitti_frame_reads_the_papers_numbers(examples):
+    p = read_problem(str(examples / "kitti_0020_t79.lp"))
+    # Appendix C: 15 detections (13 car, 2 truck), 10 tracks (trk_0 and trk_9 halted), 22 IoU facts
+    assert p.time == 79
+    assert len(p.detections) == 15 and len(p.tracks) == 10 and len(p.iou) == 22
+    assert sum(d.type == "truck" for d in p.detections) == 2
+    assert {t.id for t in p.tracks if t.state == "halted"} == {"trk_0", "trk_9"}
+    assert p.track("trk_0").box == (-42, 227, 249, 159)  # negative x, as printed in the paper
+    assert p.detection("det_0") == Detection("det_0", "car", 99, (0, 189, 208, 119))
+    assert p.iou_map[("trk_0", "det_0")] == 34625
+    assert HistoryEvent(Term("missing_detections", (Term("trk_0"),)), 70) in p.history
+
+
+def test_several_facts_on_one_line_and_comments_are_read():
+    # the paper prints several facts per line, e.g. in the bus frame of Section 4.1.1
+    p = parse_facts(
+        "#const curr_time=5. % a comment\n"
+        "det(det_0, person, 99). det(det_1, bus, 86).\n"
+        "box2d(det_0, 1, 2, 3, 4). box2d(det_1, -5, 6, 7, 8).\n"
+    )
+    assert [d.id for d in p.detections] == ["det_0", "det_1"]
+    assert p.detection("det_1").box == (-5, 6, 7, 8)
+
+
+def test_constants_and_history_round_trip():
+    p = FrameProblem(
+        time=10,
+        detections=(Detection("det_0", "car", 50, (0, 0, 10, 10)),),
+        tracks=(TrackPrediction("trk_1", "car", "halted", (1, 1, 10, 10)),),
+        iou=(("trk_1", "det_0", 68067),),
+        constants=(("iou_thresh", 20000),),
+        history=(HistoryEvent(parse_term("hides_behind(trk_1,trk_2)"), 9),),
+    )
+    text = write_facts(p)
+    assert "#const iou_thresh=20000." in text
+    assert "occurs_at(hides_behind(trk_1,trk_2),9)." in text
+    assert parse_facts(text) == p
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("det(det_0, car, 99).", "missing '#const curr_time"),
+        ("#const curr_time=1.\ndet(det_0, car).", "unknown fact det/2"),
+        ("#const curr_time=1.\ndet(det_0, car, high).", "must be an integer"),
+        ("#const curr_time=1.\ndet(det_0, car, 101).\nbox2d(det_0,0,0,1,1).", "confidence must be 0..100"),
+        ("#const curr_time=1.\ndet(det_0, car, 9).\nbox2d(det_0, 0, 0, 0, 5).", "width and height must be > 0"),
+        ("#const curr_time=1.\ndet(det_0, car, 9).\ndet(det_0, car, 9).", "duplicate det/trk id"),
+        ("#const curr_time=1.\ndet(det_0, car, 9).\nbox2d(det_0,0,0,1,1).\niou(trk_9,det_0,5).", "unknown id trk_9"),
+        ("#const curr_time=1.\ndet(det_0, car, 9)", "expected '.'"),
+        ("#const curr_time=1.\ndet(det_0, car, 9).", "has no box2d"),
+        ("#const curr_time=1.\ntrk(trk_0, car).\nbox2d(trk_0,0,0,1,1).", "has no trk_state"),
+        ("#const curr_time=1.\noccurs_at(noise(trk_0),1).", "is not before curr_time=1"),
+        ("#const curr_time=1.\n#const curr_time=2.", "curr_time defined twice"),
+        ("#const curr_time=x.", "malformed #const"),
+    ],
+)
+def test_malformed_facts_give_one_line_error_naming_file_and_line(text, message):
+    with pytest.raises(ProblemFormatError) as err:
+        parse_facts(text, "frame.lp")
+    msg = str(err.value)
+    assert message in msg
+    assert msg.startswith("frame.lp")
+    assert "\n" not in msg
+
+
+def test_error_names_the_line_of_the_bad_fact():
+    with pytest.raises(ProblemFormatError, match=r"^f.lp:3: "):
+        parse_facts("#const curr_time=1.\n\nbox2d(det_0, 0, 0, -2, 5).\n", "f.lp")
+
+
+def test_missing_file_is_a_format_error_not_a_traceback(tmp_path):
+    with pytest.raises(ProblemFormatError, match="cannot read file"):
+        read_problem(str(tmp_path / "nope.lp"))
+
+
+def test_natural_key_orders_ids_by_number():
+    assert sorted(["trk_12", "trk_2", "trk_10"], key=natural_key) == ["trk_2", "trk_10", "trk_12"]
