@@ -110,7 +110,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     from . import io
     seq = _load_sequence(args)
     rows, events = _run_tracker(seq, args.backend)
-    io.write_mot_results(args.out, rows)
+    io.write_mot_results(args.out, rows, first_frame=seq.first_frame)
     print(f"{seq.name}: {len(seq.frames)} frames, {len(set(rows[:, 1].tolist())) if len(rows) else 0} tracks"
           f" -> {args.out}")
     if args.events:
@@ -131,7 +131,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
         if args.cls is None:
             raise UserError("--format kitti needs --class Car|Pedestrian")
         gt = io.read_kitti_ground_truth(args.gt, args.cls)
-    results = io.read_mot_results(args.results)
+    results = io.read_mot_results(args.results, first_frame=gt.first_frame)
     per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
     return EXIT_OK

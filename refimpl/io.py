@@ -1,0 +1,837 @@
+"""Files in and out: MOTChallenge and KITTI tracking detections, ground truth and results.
+
+Every reader turns a user mistake in a file into ``InputFormatError("<path>:<line>: <reason>")``
+(never a numpy/pandas traceback, never a silently dropped row), because a benchmark number
+computed from a half-read file is worse than no number.
+
+Formats and the conventions implemented
+---------------------------------------
+MOTChallenge detections (``det/det.txt``): comma separated ``frame,id,x,y,w,h,score[,...]``,
+7 to 10 fields, 1-based frames.  The sequence runs over frames ``1..seqLength`` of
+``seqinfo.ini`` (or ``1..max frame`` without one); frames without detections are kept as
+empty frames.  Confidence (the paper's integer 0..100), decided once per file:
+
+* every score in [0, 1] (e.g. SORT's Faster R-CNN ``det_sort_frcnn.txt``, 0.5..1.0):
+  ``conf = round(100 * score)``;
+* otherwise (raw ACF scores of the official MOT15 ``det.txt``, about -0.8..139):
+  ``conf = clip(round(score), 0, 100)``.
+
+``round`` is half up everywhere in this module (``floor(x + 0.5)``), as in ``geometry``.
+
+KITTI PointRCNN detections (AB3DMOT's ``det_02_pointrcnn/<Class>/NNNN.txt``): comma separated
+``frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha`` (15 fields, type 1 pedestrian, 2 car,
+3 cyclist), 0-based frames.  Only rows of the requested class are kept (filtering by class,
+not dropping).  The raw score is a logit (can be negative): ``conf = round(100*sigmoid(score))``.
+The files contain a handful of zero-width boxes (``x1 == x2`` at the right image border: 1 in
+Car/0000, 4 in Car/0019); by default these are dropped and *recorded* in
+``DetectionSequence.dropped`` (with a warning), ``on_degenerate="error"`` raises instead.  A
+negative width or height is always an error.  ``image_size`` is (1242, 375), the usual
+image_02 size; individual KITTI sequences differ by a few pixels (e.g. 1224x370, 1238x374).
+``fps`` is 10 (KITTI's recording rate).
+
+MOTChallenge ground truth, following the MOTChallenge devkit:
+
+* MOT15, 10 fields ``frame,id,x,y,w,h,flag,wx,wy,wz``: a row is a target iff ``flag != 0``;
+  there are no distractors (as in the MOT15 evaluation).
+* MOT16/17/20, 9 fields ``frame,id,x,y,w,h,flag,class,visibility``: a row is a target iff
+  ``flag != 0`` and ``class == 1`` (pedestrian); classes 2 (person on vehicle), 7 (static
+  person), 8 (distractor) and 12 (reflection) are distractors: a hypothesis matched to one
+  (IoU >= 0.5, Hungarian per frame over all gt rows of the frame) is removed rather than
+  counted.  The other classes (3..6, 9..11, 13) are kept as rows that are neither targets nor
+  distractors (they take part in that matching, as in the devkit).  Class ids outside 1..13
+  are an error.
+
+KITTI tracking ground truth (``label_02/NNNN.txt``), space separated, 17 fields
+``frame id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry``, 0-based frames:
+
+* ``car``: ``Car`` rows are targets, ``Van`` rows distractors;
+* ``pedestrian``: ``Pedestrian`` rows are targets, ``Person`` rows (KITTI *tracking* labels
+  spell person-sitting ``Person``; ``Person_sitting`` is accepted too) distractors;
+* ``cyclist``: ``Cyclist`` rows are targets, no distractors;
+* ``DontCare`` rows become ignore regions (``GroundTruth.dontcare``); all other types are
+  not loaded.  Type names outside the KITTI vocabulary are an error.
+* Not implemented (unlike the official KITTI devkit): no minimum box height (25 px), no
+  truncation/occlusion-based ignoring.  Scores are therefore close to, not identical with,
+  the official devkit.
+
+MOTChallenge results: ``frame,id,x,y,w,h,1,-1,-1,-1`` sorted by (frame, id), boxes with two
+decimals, written atomically (temporary file in the same folder, then ``os.replace``).  Frame
+numbers are written as the tracker numbered them, so KITTI results stay 0-based: pass
+``first_frame=0`` to ``write_mot_results`` / ``read_mot_results`` for them.
+
+Frame numbers above ``MAX_FRAME`` (10 million) are rejected as typos everywhere, since a
+sequence is materialised frame by frame.
+"""
+
+from __future__ import annotations
+
+import configparser
+import os
+import tempfile
+import warnings
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+OBJECT_TYPES = ("pedestrian", "car", "cyclist")
+"""Object types in the paper's vocabulary."""
+
+KITTI_IMAGE_SIZE = (1242, 375)
+KITTI_FPS = 10.0
+
+_KITTI_DET_TYPE = {"pedestrian": 1, "car": 2, "cyclist": 3}
+_KITTI_LABEL_TYPES = (
+    "Car", "Van", "Truck", "Pedestrian", "Person", "Person_sitting",
+    "Cyclist", "Tram", "Misc", "DontCare",
+)
+_KITTI_TARGETS = {
+    "car": (("Car",), ("Van",)),
+    "pedestrian": (("Pedestrian",), ("Person", "Person_sitting")),
+    "cyclist": (("Cyclist",), ()),
+}
+_MOT_PEDESTRIAN = 1
+_MOT_DISTRACTORS = (2, 7, 8, 12)
+_MOT_NUM_CLASSES = 13
+MAX_FRAME = 10_000_000
+"""Frame numbers above this are rejected as typos (sequences are built frame by frame)."""
+
+
+# ---------------------------------------------------------------------------------------
+# errors
+
+
+class InputFormatError(ValueError):
+    """A user mistake in an input file; the message is ``"<path>:<line>: <reason>"``."""
+
+    def __init__(self, reason: str, path: str | os.PathLike, line: int | None = None):
+        self.reason = reason
+        self.path = str(path)
+        self.line = line
+        where = f"{self.path}:{line}" if line is not None else self.path
+        super().__init__(f"{where}: {reason}")
+
+    def __reduce__(self):  # keep it picklable (e.g. across a process pool)
+        return (type(self), (self.reason, self.path, self.line))
+
+
+class InputFormatWarning(UserWarning):
+    """Rows a reader skipped by documented policy (they are also recorded on the result)."""
+
+
+# ---------------------------------------------------------------------------------------
+# data types
+
+
+@dataclass(frozen=True)
+class DetectionFrame:
+    """The detections of one frame: xywh boxes, raw scores, 0..100 confidences and types."""
+
+    frame: int
+    boxes: np.ndarray
+    scores: np.ndarray
+    confidences: np.ndarray
+    types: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.types)
+
+
+@dataclass(frozen=True)
+class DetectionSequence:
+    """All frames of a sequence from first to last, empty frames included, in order."""
+
+    name: str
+    frames: tuple[DetectionFrame, ...]
+    first_frame: int
+    image_size: tuple[int, int] | None
+    fps: float | None
+    dropped: tuple[tuple[int, str], ...] = ()
+    """(line, reason) of rows skipped by a documented policy (KITTI zero-area boxes)."""
+
+    @property
+    def num_frames(self) -> int:
+        return len(self.frames)
+
+    @property
+    def num_detections(self) -> int:
+        return sum(len(f) for f in self.frames)
+
+    def frame(self, number: int) -> DetectionFrame:
+        """The frame with this frame number (numbering as in the file)."""
+        i = number - self.first_frame
+        if not 0 <= i < len(self.frames):
+            raise KeyError(number)
+        return self.frames[i]
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """Ground-truth rows (sorted by frame, id) with target / distractor flags and ignore regions.
+
+    ``considered`` rows are the targets that count; a hypothesis matched to a ``distractor``
+    row is removed rather than counted; rows that are neither only take part in that matching.
+    ``dontcare`` is a (k, 5) table ``frame, x, y, w, h`` of KITTI DontCare regions.
+    """
+
+    name: str
+    frames: np.ndarray
+    ids: np.ndarray
+    boxes: np.ndarray
+    considered: np.ndarray
+    distractor: np.ndarray
+    dontcare: np.ndarray
+    first_frame: int
+    num_frames: int
+    visibility: np.ndarray | None = None
+    """Visible fraction per row (MOT16+ column 9); all 1.0 where the format has none (None -> ones)."""
+
+    def __post_init__(self) -> None:
+        if self.visibility is None:
+            object.__setattr__(self, "visibility", np.ones(len(self.frames)))
+        n = len(self.frames)
+        for name in ("ids", "boxes", "considered", "distractor", "visibility"):
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"GroundTruth.{name} has {len(getattr(self, name))} rows, frames has {n}")
+
+    @property
+    def num_targets(self) -> int:
+        return int(np.count_nonzero(self.considered))
+
+    @property
+    def last_frame(self) -> int:
+        return self.first_frame + self.num_frames - 1
+
+
+@dataclass(frozen=True)
+class BenchmarkSequence:
+    """Where one benchmark sequence's detections and ground truth live, and how to read them."""
+
+    name: str
+    dets_path: Path
+    gt_path: Path
+    format: str
+    object_class: str
+    seqinfo_path: Path | None = None
+
+
+# ---------------------------------------------------------------------------------------
+# low-level parsing
+
+
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    """(line number, stripped text) of the non-blank lines; missing/empty/unreadable is an error."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputFormatError("file not found", path) from None
+    except IsADirectoryError:
+        raise InputFormatError("is a directory, expected a file", path) from None
+    except UnicodeDecodeError as exc:
+        raise InputFormatError(f"not a UTF-8 text file ({exc.reason} at byte {exc.start})", path) from None
+    except OSError as exc:
+        raise InputFormatError(f"cannot read file ({exc.strerror or exc})", path) from None
+    lines = [(i, s.strip()) for i, s in enumerate(text.splitlines(), start=1)]
+    lines = [(i, s) for i, s in lines if s]
+    if not lines:
+        raise InputFormatError("empty file (no data lines)", path)
+    return lines
+
+
+def _split(path: Path, lines: list[tuple[int, str]], sep: str | None, lo: int, hi: int,
+           what: str) -> list[list[str]]:
+    """Split every line into fields and check the field count is in lo..hi."""
+    out = []
+    for lineno, text in lines:
+        fields = text.split(sep)  # numpy and float() accept surrounding blanks
+        if not lo <= len(fields) <= hi:
+            want = f"{lo}" if lo == hi else f"{lo} to {hi}"
+            sep_name = "comma-separated" if sep == "," else "space-separated"
+            raise InputFormatError(
+                f"expected {want} {sep_name} fields ({what}), found {len(fields)}", path, lineno)
+        out.append(fields)
+    return out
+
+
+def _numbers(path: Path, linenos: Sequence[int], rows: list[list[str]], columns: Sequence[int],
+             names: Sequence[str]) -> np.ndarray:
+    """The given columns of rows as a float array; non-numeric, NaN and inf fields are errors."""
+    columns = list(columns)
+    try:  # fast path: numpy parses the strings; on failure convert field by field to name the culprit
+        if columns == list(range(len(columns))):
+            table = [r[:len(columns)] for r in rows]
+        else:
+            table = [[r[c] for c in columns] for r in rows]
+        out = np.array(table, dtype=float).reshape(len(rows), len(columns))
+    except ValueError:
+        out = np.empty((len(rows), len(columns)))
+        for r, fields in enumerate(rows):
+            for c, (col, name) in enumerate(zip(columns, names)):
+                try:
+                    out[r, c] = float(fields[col])
+                except ValueError:
+                    raise InputFormatError(f"field {col + 1} ({name}) is not a number: {fields[col]!r}",
+                                           path, linenos[r]) from None
+    bad = np.argwhere(~np.isfinite(out))
+    if len(bad):
+        r, c = (int(v) for v in bad[0])
+        raise InputFormatError(f"field {columns[c] + 1} ({names[c]}) is not finite: {rows[r][columns[c]]!r}",
+                               path, linenos[r])
+    return out
+
+
+def _first_bad(mask: np.ndarray) -> int | None:
+    idx = np.flatnonzero(mask)
+    return int(idx[0]) if len(idx) else None
+
+
+def _check_integral(path: Path, linenos: Sequence[int], values: np.ndarray, name: str) -> np.ndarray:
+    bad = _first_bad((values != np.floor(values)) | (np.abs(values) > 2.0 ** 53))
+    if bad is not None:
+        raise InputFormatError(f"{name} is not an integer: {values[bad]:g}", path, linenos[bad])
+    return values.astype(np.int64)
+
+
+def _check_min_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, first: int) -> None:
+    """Frames >= first, and below MAX_FRAME (a typo must not make a billion-frame sequence)."""
+    bad = _first_bad(frames < first)
+    if bad is not None:
+        raise InputFormatError(
+            f"frame {frames[bad]} is before the first frame {first}", path, linenos[bad])
+    _check_max_frame(path, linenos, frames, MAX_FRAME, "implausibly large frame number")
+
+
+def _check_max_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, last: int,
+                     what: str) -> None:
+    bad = _first_bad(frames > last)
+    if bad is not None:
+        raise InputFormatError(f"frame {frames[bad]} is after the last frame {last} ({what})",
+                               path, linenos[bad])
+
+
+def _check_positive_size(path: Path, linenos: Sequence[int], boxes: np.ndarray) -> None:
+    bad = _first_bad((boxes[:, 2] <= 0) | (boxes[:, 3] <= 0))
+    if bad is not None:
+        w, h = boxes[bad, 2], boxes[bad, 3]
+        raise InputFormatError(f"box width and height must be > 0, got w={w:g} h={h:g}",
+                               path, linenos[bad])
+
+
+def _check_unique(path: Path, linenos: Sequence[int], frames: np.ndarray, ids: np.ndarray) -> None:
+    """Each (frame, id) at most once; the message names both lines."""
+    if len(frames) < 2:
+        return
+    order = np.lexsort((np.arange(len(frames)), ids, frames))
+    f, i = frames[order], ids[order]
+    dup = _first_bad((f[1:] == f[:-1]) & (i[1:] == i[:-1]))
+    if dup is not None:
+        first, second = order[dup], order[dup + 1]
+        raise InputFormatError(
+            f"duplicate (frame {frames[second]}, id {ids[second]}); first seen on line {linenos[first]}",
+            path, linenos[second])
+
+
+def _round_half_up(x: np.ndarray) -> np.ndarray:
+    return np.floor(np.asarray(x, dtype=float) + 0.5).astype(np.int64)
+
+
+def _object_type(name: str, path: Path | str) -> str:
+    key = str(name).strip().lower()
+    if key not in OBJECT_TYPES:
+        raise InputFormatError(
+            f"unknown object class {name!r} (known: {', '.join(OBJECT_TYPES)})", path)
+    return key
+
+
+def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, conf: np.ndarray,
+                  types: Sequence[str], first: int, count: int) -> tuple[DetectionFrame, ...]:
+    """One DetectionFrame per frame first..first+count-1, keeping file order within a frame."""
+    order = np.argsort(frames, kind="stable")
+    frames, boxes, scores, conf = frames[order], boxes[order], scores[order], conf[order]
+    types = [types[i] for i in order]
+    numbers = np.arange(first, first + count)
+    starts = np.searchsorted(frames, numbers, side="left")
+    ends = np.searchsorted(frames, numbers, side="right")
+    out = []
+    for n, a, b in zip(numbers, starts, ends):
+        out.append(DetectionFrame(
+            frame=int(n),
+            boxes=boxes[a:b].copy(),
+            scores=scores[a:b].copy(),
+            confidences=conf[a:b].copy(),
+            types=tuple(types[a:b]),
+        ))
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------------------------
+# MOTChallenge
+
+
+def read_seqinfo(path: str | os.PathLike) -> dict:
+    """A MOTChallenge seqinfo.ini as a dict: name, frameRate, seqLength, imWidth, imHeight (+ others as str)."""
+    path = Path(path)
+    lines = _read_lines(path)  # missing / empty / unreadable
+    parser = configparser.ConfigParser(interpolation=None)
+    parser.optionxform = str  # keep key case
+    try:
+        parser.read_string("\n".join(s for _, s in lines), source=str(path))
+    except configparser.Error as exc:
+        raise InputFormatError(f"not a valid seqinfo.ini: {str(exc).splitlines()[0]}", path) from None
+    if not parser.has_section("Sequence"):
+        raise InputFormatError("no [Sequence] section", path)
+    raw = {k: v.strip() for k, v in parser.items("Sequence")}
+    by_lower = {k.lower(): k for k in raw}
+    line_of = {}
+    for lineno, text in lines:
+        key = text.split("=", 1)[0].strip().lower()
+        line_of.setdefault(key, lineno)
+    out: dict = {k: v for k, v in raw.items()}
+    for key, kind in (("name", str), ("frameRate", float), ("seqLength", int),
+                      ("imWidth", int), ("imHeight", int)):
+        if key.lower() not in by_lower:
+            raise InputFormatError(f"missing key {key!r} in [Sequence]", path)
+        orig = by_lower[key.lower()]
+        text = raw[orig]
+        del out[orig]
+        try:
+            value = kind(text)
+        except ValueError:
+            raise InputFormatError(f"{key} is not {'an integer' if kind is int else 'a number'}: {text!r}",
+                                   path, line_of.get(key.lower())) from None
+        if kind is not str and not (np.isfinite(value) and value > 0):
+            raise InputFormatError(f"{key} must be > 0, got {text!r}", path, line_of.get(key.lower()))
+        if kind is str and not value:
+            raise InputFormatError(f"{key} is empty", path, line_of.get(key.lower()))
+        if key == "seqLength" and value > MAX_FRAME:
+            raise InputFormatError(f"seqLength {value} is implausibly large (> {MAX_FRAME})",
+                                   path, line_of.get(key.lower()))
+        out[key] = value
+    return out
+
+
+def _resolve_seqinfo(seqinfo, data_path: Path) -> dict | None:
+    """seqinfo given as a dict or a path, or found at ../seqinfo.ini relative to the file's folder."""
+    if isinstance(seqinfo, Mapping):
+        missing = [k for k in ("name", "frameRate", "seqLength", "imWidth", "imHeight") if k not in seqinfo]
+        if missing:
+            raise ValueError(f"seqinfo dict lacks {', '.join(missing)} (use read_seqinfo)")
+        return dict(seqinfo)
+    if seqinfo is not None:
+        return read_seqinfo(seqinfo)
+    candidate = data_path.parent.parent / "seqinfo.ini"
+    return read_seqinfo(candidate) if candidate.is_file() else None
+
+
+def _mot_sequence_name(path: Path, info: dict | None) -> str:
+    if info is not None:
+        return str(info["name"])
+    if path.parent.name in ("det", "gt") and path.parent.parent.name:
+        return path.parent.parent.name
+    return path.stem
+
+
+def read_mot_detections(path: str | os.PathLike, seqinfo=None,
+                        object_type: str = "pedestrian") -> DetectionSequence:
+    """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
+    path = Path(path)
+    otype = _object_type(object_type, path)
+    lines = _read_lines(path)
+    info = _resolve_seqinfo(seqinfo, path)
+    rows = _split(path, lines, ",", 7, 10, "frame,id,x,y,w,h,score,...")
+    linenos = [n for n, _ in lines]
+    a = _numbers(path, linenos, rows, range(7), ("frame", "id", "x", "y", "w", "h", "score"))
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    _check_min_frame(path, linenos, frames, 1)
+    if info is not None:
+        _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
+    boxes = a[:, 2:6]
+    _check_positive_size(path, linenos, boxes)
+    scores = a[:, 6]
+    if np.all((scores >= 0.0) & (scores <= 1.0)):
+        conf = _round_half_up(100.0 * scores)
+    else:
+        conf = np.clip(_round_half_up(scores), 0, 100)
+    count = int(info["seqLength"]) if info is not None else int(frames.max())
+    return DetectionSequence(
+        name=_mot_sequence_name(path, info),
+        frames=_build_frames(frames, boxes, scores, conf, [otype] * len(frames), 1, count),
+        first_frame=1,
+        image_size=(int(info["imWidth"]), int(info["imHeight"])) if info is not None else None,
+        fps=float(info["frameRate"]) if info is not None else None,
+    )
+
+
+def read_mot_ground_truth(path: str | os.PathLike, seqinfo=None) -> GroundTruth:
+    """A MOTChallenge gt.txt (MOT15 10 fields or MOT16/17/20 9 fields) with devkit target/distractor flags."""
+    path = Path(path)
+    lines = _read_lines(path)
+    info = _resolve_seqinfo(seqinfo, path)
+    rows = _split(path, lines, ",", 9, 10, "frame,id,x,y,w,h,flag,class,visibility or MOT15 frame,id,x,y,w,h,flag,wx,wy,wz")
+    linenos = [n for n, _ in lines]
+    widths = {len(r) for r in rows}
+    if len(widths) > 1:
+        bad = next(i for i, r in enumerate(rows) if len(r) != len(rows[0]))
+        raise InputFormatError(
+            f"mixed field counts: {len(rows[bad])} here, {len(rows[0])} on line {linenos[0]}",
+            path, linenos[bad])
+    mot15 = len(rows[0]) == 10
+    if mot15:
+        a = _numbers(path, linenos, rows, range(7), ("frame", "id", "x", "y", "w", "h", "flag"))
+    else:
+        a = _numbers(path, linenos, rows, range(9),
+                     ("frame", "id", "x", "y", "w", "h", "flag", "class", "visibility"))
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    ids = _check_integral(path, linenos, a[:, 1], "id")
+    _check_min_frame(path, linenos, frames, 1)
+    if info is not None:
+        _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
+    boxes = a[:, 2:6]
+    _check_positive_size(path, linenos, boxes)
+    _check_unique(path, linenos, frames, ids)
+    flag = a[:, 6] != 0
+    if mot15:
+        considered = flag
+        distractor = np.zeros(len(frames), dtype=bool)
+        visibility = np.ones(len(frames))
+    else:
+        classes = _check_integral(path, linenos, a[:, 7], "class")
+        bad = _first_bad((classes < 1) | (classes > _MOT_NUM_CLASSES))
+        if bad is not None:
+            raise InputFormatError(
+                f"unknown class {classes[bad]} (MOTChallenge classes are 1..{_MOT_NUM_CLASSES})",
+                path, linenos[bad])
+        considered = flag & (classes == _MOT_PEDESTRIAN)
+        distractor = np.isin(classes, _MOT_DISTRACTORS)
+        visibility = a[:, 8]
+    order = np.lexsort((ids, frames))
+    count = int(info["seqLength"]) if info is not None else int(frames.max())
+    return GroundTruth(
+        name=_mot_sequence_name(path, info),
+        frames=frames[order],
+        ids=ids[order],
+        boxes=boxes[order],
+        considered=considered[order],
+        distractor=distractor[order],
+        dontcare=np.zeros((0, 5)),
+        first_frame=1,
+        num_frames=count,
+        visibility=visibility[order],
+    )
+
+
+def _results_array(path: Path, lines: list[tuple[int, str]], first_frame: int) -> np.ndarray:
+    rows = _split(path, lines, ",", 6, 10, "frame,id,x,y,w,h,...")
+    linenos = [n for n, _ in lines]
+    a = _numbers(path, linenos, rows, range(6), ("frame", "id", "x", "y", "w", "h"))
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    ids = _check_integral(path, linenos, a[:, 1], "id")
+    _check_min_frame(path, linenos, frames, first_frame)
+    _check_positive_size(path, linenos, a[:, 2:6])
+    _check_unique(path, linenos, frames, ids)
+    return a
+
+
+def read_mot_results(path: str | os.PathLike, allow_empty: bool = False, first_frame: int = 1) -> np.ndarray:
+    """A MOTChallenge results file as an (n, 6) float array ``frame, id, x, y, w, h`` in file order.
+
+    An empty file is an error (usually a crashed tracker) unless ``allow_empty``.  Frames before
+    ``first_frame`` are errors: 1 for MOTChallenge, 0 for KITTI results kept 0-based.
+    """
+    path = Path(path)
+    try:
+        lines = _read_lines(path)
+    except InputFormatError as exc:
+        if allow_empty and exc.reason.startswith("empty file"):
+            return np.zeros((0, 6))
+        raise
+    return _results_array(path, lines, first_frame)
+
+
+def _fmt2(v: float) -> str:
+    return f"{round(float(v), 2) + 0.0:.2f}"  # + 0.0 turns -0.0 into 0.0
+
+
+def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> None:
+    """Write (n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results, sorted, atomically.
+
+    The lines go to a temporary file in the target folder which then replaces the target, so a
+    crash never leaves a partial results file.  Bad rows raise ValueError before anything is
+    written.  Frames are written as given; ``first_frame`` (1 MOT, 0 KITTI) is the smallest allowed.
+    """
+    path = Path(path)
+    a = np.asarray(rows, dtype=float)
+    if a.size == 0:
+        a = a.reshape(0, 6)
+    if a.ndim != 2 or a.shape[1] != 6:
+        raise ValueError(f"results must be an (n, 6) array frame,id,x,y,w,h; got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError("results contain NaN or inf")
+    if np.any(a[:, :2] != np.floor(a[:, :2])):
+        raise ValueError("frame and id must be integers")
+    if np.any(a[:, 0] < first_frame):
+        raise ValueError(f"frame {int(a[:, 0].min())} is before the first frame {first_frame} "
+                         "(pass first_frame=0 for 0-based KITTI frames)")
+    if np.any(np.round(a[:, 4:6], 2) <= 0):
+        raise ValueError("box width and height must be > 0 (after rounding to 2 decimals)")
+    frames, ids = a[:, 0].astype(np.int64), a[:, 1].astype(np.int64)
+    order = np.lexsort((ids, frames))
+    a, frames, ids = a[order], frames[order], ids[order]
+    if len(a) > 1 and np.any((frames[1:] == frames[:-1]) & (ids[1:] == ids[:-1])):
+        k = int(np.flatnonzero((frames[1:] == frames[:-1]) & (ids[1:] == ids[:-1]))[0])
+        raise ValueError(f"duplicate (frame {frames[k]}, id {ids[k]}) in results")
+    text = "".join(
+        f"{f},{i},{_fmt2(r[2])},{_fmt2(r[3])},{_fmt2(r[4])},{_fmt2(r[5])},1,-1,-1,-1\n"
+        for f, i, r in zip(frames, ids, a))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; results are meant to be shared
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+# ---------------------------------------------------------------------------------------
+# KITTI tracking
+
+
+def _kitti_label_num_frames(path: Path) -> int:
+    """Number of frames of a KITTI label_02 file: its largest frame number + 1."""
+    lines = _read_lines(path)
+    rows = _split(path, lines, None, 17, 17, "KITTI tracking label")
+    linenos = [n for n, _ in lines]
+    frames = _check_integral(path, linenos, _numbers(path, linenos, rows, [0], ["frame"])[:, 0], "frame")
+    _check_min_frame(path, linenos, frames, 0)
+    return int(frames.max()) + 1
+
+
+def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames: int | None = None,
+                          on_degenerate: str = "drop") -> DetectionSequence:
+    """PointRCNN detections of one class as a DetectionSequence over frames 0..num_frames-1.
+
+    num_frames defaults to the frame count of ``../../label_02/NNNN.txt`` (relative to the class
+    folder) if present, else max frame + 1.  Zero-width/height boxes: see module doc.
+    """
+    path = Path(path)
+    otype = _object_type(object_class, path)
+    if on_degenerate not in ("drop", "error"):
+        raise ValueError("on_degenerate must be 'drop' or 'error'")
+    lines = _read_lines(path)
+    rows = _split(path, lines, ",", 15, 15,
+                  "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha")
+    linenos = [n for n, _ in lines]
+    a = _numbers(path, linenos, rows, range(15),
+                 ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l",
+                  "x", "y", "z", "rot_y", "alpha"))
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    types = _check_integral(path, linenos, a[:, 1], "type")
+    _check_min_frame(path, linenos, frames, 0)
+    bad = _first_bad(~np.isin(types, list(_KITTI_DET_TYPE.values())))
+    if bad is not None:
+        raise InputFormatError(
+            f"unknown class type {types[bad]} (1 pedestrian, 2 car, 3 cyclist)", path, linenos[bad])
+    if num_frames is None:
+        label = path.parent.parent.parent / "label_02" / path.name
+        num_frames = _kitti_label_num_frames(label) if label.is_file() else int(frames.max()) + 1
+    elif num_frames < 1:
+        raise ValueError("num_frames must be >= 1")
+    _check_max_frame(path, linenos, frames, num_frames - 1, f"num_frames={num_frames}")
+    w = a[:, 4] - a[:, 2]
+    h = a[:, 5] - a[:, 3]
+    neg = _first_bad((w < 0) | (h < 0))
+    if neg is not None:
+        raise InputFormatError(
+            f"box has negative size: x2-x1={w[neg]:g}, y2-y1={h[neg]:g}", path, linenos[neg])
+    keep = types == _KITTI_DET_TYPE[otype]
+    zero = keep & ((w == 0) | (h == 0))
+    dropped: list[tuple[int, str]] = []
+    if zero.any():
+        first = int(np.flatnonzero(zero)[0])
+        if on_degenerate == "error":
+            raise InputFormatError(
+                f"box width and height must be > 0, got w={w[first]:g} h={h[first]:g}",
+                path, linenos[first])
+        for i in np.flatnonzero(zero):
+            dropped.append((linenos[i], f"zero-area box w={w[i]:g} h={h[i]:g}"))
+        warnings.warn(
+            f"{path}: dropped {len(dropped)} zero-area detection box(es) on line(s) "
+            f"{', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=2)
+        keep &= ~zero
+    boxes = np.column_stack([a[:, 2], a[:, 3], w, h])[keep]
+    scores = a[keep, 6]
+    conf = _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))  # sigmoid, overflow-free
+    return DetectionSequence(
+        name=path.stem,
+        frames=_build_frames(frames[keep], boxes, scores, conf, [otype] * int(keep.sum()), 0, num_frames),
+        first_frame=0,
+        image_size=KITTI_IMAGE_SIZE,
+        fps=KITTI_FPS,
+        dropped=tuple(dropped),
+    )
+
+
+def read_kitti_ground_truth(path: str | os.PathLike, object_class: str) -> GroundTruth:
+    """A KITTI label_02 file: targets and distractors of one class plus DontCare regions (module doc)."""
+    path = Path(path)
+    otype = _object_type(object_class, path)
+    lines = _read_lines(path)
+    rows = _split(path, lines, None, 17, 17,
+                  "frame id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry")
+    linenos = [n for n, _ in lines]
+    cols = [0, 1] + list(range(3, 17))
+    names = ["frame", "id", "truncated", "occluded", "alpha", "x1", "y1", "x2", "y2",
+             "h", "w", "l", "x", "y", "z", "ry"]
+    a = _numbers(path, linenos, rows, cols, names)
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    ids = _check_integral(path, linenos, a[:, 1], "id")
+    _check_min_frame(path, linenos, frames, 0)
+    types = [r[2] for r in rows]
+    for t, lineno in zip(types, linenos):
+        if t not in _KITTI_LABEL_TYPES:
+            raise InputFormatError(
+                f"unknown object type {t!r} (KITTI types: {', '.join(_KITTI_LABEL_TYPES)})",
+                path, lineno)
+    x1, y1, x2, y2 = a[:, 5], a[:, 6], a[:, 7], a[:, 8]
+    boxes = np.column_stack([x1, y1, x2 - x1, y2 - y1])
+    _check_positive_size(path, linenos, boxes)
+    types_arr = np.array(types, dtype=object)
+    is_dc = types_arr == "DontCare"
+    objects = ~is_dc
+    obj_idx = np.flatnonzero(objects)
+    _check_unique(path, [linenos[i] for i in obj_idx], frames[obj_idx], ids[obj_idx])
+    targets, distractors = _KITTI_TARGETS[otype]
+    is_target = np.isin(types_arr, list(targets))
+    is_distr = np.isin(types_arr, list(distractors)) if distractors else np.zeros(len(types), bool)
+    sel = np.flatnonzero(is_target | is_distr)
+    sel = sel[np.lexsort((ids[sel], frames[sel]))]
+    dc = np.flatnonzero(is_dc)
+    dontcare = np.column_stack([frames[dc].astype(float), boxes[dc]]) if len(dc) else np.zeros((0, 5))
+    return GroundTruth(
+        name=path.stem,
+        frames=frames[sel],
+        ids=ids[sel],
+        boxes=boxes[sel],
+        considered=is_target[sel],
+        distractor=is_distr[sel],
+        dontcare=dontcare,
+        first_frame=0,
+        num_frames=int(frames.max()) + 1,
+        visibility=np.ones(len(sel)),
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# benchmarks
+
+
+MOT15_TRAIN = (
+    "ADL-Rundle-6", "ADL-Rundle-8", "ETH-Bahnhof", "ETH-Pedcross2", "ETH-Sunnyday", "KITTI-13",
+    "KITTI-17", "PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "Venice-2",
+)
+MOT15_SORT6 = ("TUD-Campus", "ETH-Sunnyday", "ETH-Pedcross2", "ADL-Rundle-8", "Venice-2", "KITTI-17")
+KITTI_TRAIN = tuple(f"{i:04d}" for i in range(21))
+BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped")
+
+
+def _mot15(root: Path, names: Sequence[str]) -> list[BenchmarkSequence]:
+    out = []
+    for name in names:
+        seq = root / "MOT15" / "train" / name
+        out.append(BenchmarkSequence(
+            name=name, dets_path=seq / "det" / "det_sort_frcnn.txt", gt_path=seq / "gt" / "gt.txt",
+            format="mot", object_class="pedestrian", seqinfo_path=seq / "seqinfo.ini"))
+    return out
+
+
+def _kitti(root: Path, object_class: str) -> list[BenchmarkSequence]:
+    base = root / "KITTI" / "tracking" / "training"
+    det_dir = base / "det_02_pointrcnn" / {"car": "Car", "pedestrian": "Pedestrian"}[object_class]
+    return [BenchmarkSequence(
+        name=name, dets_path=det_dir / f"{name}.txt", gt_path=base / "label_02" / f"{name}.txt",
+        format="kitti", object_class=object_class, seqinfo_path=None) for name in KITTI_TRAIN]
+
+
+def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
+    """The sequences of a named benchmark under data_root (layout of /work/shared/data).
+
+    ``mot15`` (11 MOT15 train sequences, SORT Faster R-CNN dets), ``mot15-sort6`` (the six
+    sequences of the SORT paper's comparison), ``kitti-car`` / ``kitti-ped`` (KITTI tracking
+    train 0000-0020, PointRCNN dets, label_02 ground truth).  Every file must exist.
+    """
+    root = Path(data_root)
+    key = name.strip().lower()
+    if key == "mot15":
+        seqs = _mot15(root, MOT15_TRAIN)
+    elif key == "mot15-sort6":
+        seqs = _mot15(root, MOT15_SORT6)
+    elif key == "kitti-car":
+        seqs = _kitti(root, "car")
+    elif key == "kitti-ped":
+        seqs = _kitti(root, "pedestrian")
+    else:
+        raise ValueError(f"unknown benchmark {name!r} (known: {', '.join(BENCHMARKS)})")
+    if not root.is_dir():
+        raise InputFormatError(f"data root for benchmark {key!r} not found", root)
+    for s in seqs:
+        for p in (s.dets_path, s.gt_path, s.seqinfo_path):
+            if p is not None and not p.is_file():
+                raise InputFormatError(
+                    f"missing file of benchmark {key!r} (sequence {s.name}); is {root} the benchmark "
+                    f"data root (holding MOT15/ and KITTI/)?", p)
+    return seqs
+
+
+def load_detections(seq: BenchmarkSequence) -> DetectionSequence:
+    """Read a benchmark sequence's detections (KITTI frame count from its label file)."""
+    if seq.format == "mot":
+        return read_mot_detections(seq.dets_path, seqinfo=seq.seqinfo_path, object_type=seq.object_class)
+    if seq.format == "kitti":
+        n = _kitti_label_num_frames(Path(seq.gt_path))
+        return read_kitti_detections(seq.dets_path, seq.object_class, num_frames=n)
+    raise ValueError(f"unknown format {seq.format!r} (mot or kitti)")
+
+
+def load_ground_truth(seq: BenchmarkSequence) -> GroundTruth:
+    """Read a benchmark sequence's ground truth."""
+    if seq.format == "mot":
+        return read_mot_ground_truth(seq.gt_path, seqinfo=seq.seqinfo_path)
+    if seq.format == "kitti":
+        return read_kitti_ground_truth(seq.gt_path, seq.object_class)
+    raise ValueError(f"unknown format {seq.format!r} (mot or kitti)")
+
+
+def _demo_in(base: Path) -> BenchmarkSequence | None:
+    seq = base / "TUD-Campus"
+    paths = (seq / "det" / "det.txt", seq / "gt" / "gt.txt", seq / "seqinfo.ini")
+    if all(p.is_file() for p in paths):
+        return BenchmarkSequence(name="TUD-Campus", dets_path=paths[0], gt_path=paths[1],
+                                 format="mot", object_class="pedestrian", seqinfo_path=paths[2])
+    return None
+
+
+def demo_sequence_paths() -> BenchmarkSequence:
+    """The bundled TUD-Campus demo (MOT15 gt + SORT Faster R-CNN dets), from a checkout or an install."""
+    checkout = Path(__file__).resolve().parent.parent / "data" / "demo"
+    found = _demo_in(checkout)
+    if found is not None:
+        return found
+    try:
+        installed = Path(str(resources.files("refimpl.data") / "demo"))
+    except (ModuleNotFoundError, TypeError):
+        installed = None
+    found = _demo_in(installed) if installed is not None else None
+    if found is None:
+        raise InputFormatError("bundled demo sequence not found (expected data/demo/TUD-Campus in "
+                               "the checkout or the refimpl.data package)", checkout)
+    return found
