@@ -1,0 +1,210 @@
+"""Movement prediction: one constant-velocity Kalman filter per track, as in SORT.
+
+The paper (Section 3, Step 1, "Movement Prediction") predicts each track's position and
+size with a Kalman filter "as described in" SORT (Bewley et al., ICIP 2016).  SORT models a
+box by its centre (u, v), its area s = w * h and its aspect ratio r = w / h; centre and
+area move with constant velocity, the aspect ratio is taken as constant:
+
+    state        x = [u, v, s, r, du, dv, ds]
+    observation  z = [u, v, s, r]
+
+    x_t = F x_{t-1} (+ noise Q),  F = I_7 with F[0,4] = F[1,5] = F[2,6] = 1 (one frame = one step)
+    z_t = H x_t     (+ noise R),  H = [I_4 | 0]
+
+A new track starts at the detection with zero velocity; because the velocity is unobserved
+its covariance starts large.  The noise values are the ones SORT published (see the
+constants below).
+
+Boxes going in and out are (x, y, w, h) pixels (top-left corner, width, height), as
+everywhere in refimpl.  A prediction can never leak a non-finite box or one with w, h <= 0:
+`BoxKalman.predict` raises `InvalidPrediction` instead, and the caller drops the track
+(SORT drops tracks whose prediction contains NaN).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+DIM_X = 7
+"""State size: [u, v, s, r, du, dv, ds]."""
+
+DIM_Z = 4
+"""Observation size: [u, v, s, r]."""
+
+# Initial state covariance P0 (diagonal).  SORT starts from the identity, multiplies the
+# velocity block by 1000 ("large values, reflecting this uncertainty" on the unobserved
+# velocities) and then the whole matrix by 10.
+INITIAL_STATE_VARIANCE = 10.0
+"""P0 for the observed components u, v, s, r: 1 * 10 (pixels^2, pixels^2, pixels^4, 1)."""
+
+INITIAL_VELOCITY_VARIANCE = 10_000.0
+"""P0 for the unobserved velocities du, dv, ds: 1 * 1000 * 10 -- a new track's velocity is unknown."""
+
+# Measurement noise R (diagonal): identity, with the area and aspect-ratio block times 10.
+MEASUREMENT_POSITION_VARIANCE = 1.0
+"""R for the measured centre u, v (pixels^2): detections place centres to about a pixel."""
+
+MEASUREMENT_SHAPE_VARIANCE = 10.0
+"""R for the measured area s and aspect ratio r: 1 * 10, detected sizes are noisier than centres."""
+
+# Process noise Q (diagonal): identity, with the velocity block times 0.01 and, on top of
+# that, the area velocity ds times 0.01 again.
+PROCESS_STATE_VARIANCE = 1.0
+"""Q for u, v, s, r per frame: the random-walk part of position, area and aspect ratio."""
+
+PROCESS_VELOCITY_VARIANCE = 0.01
+"""Q for the velocities du, dv per frame: 1 * 0.01, velocities change slowly."""
+
+PROCESS_AREA_VELOCITY_VARIANCE = 0.0001
+"""Q for the area velocity ds per frame: 1 * 0.01 * 0.01, the growth rate of the area changes slowest."""
+
+
+class InvalidPrediction(ValueError):
+    """A Kalman prediction that is not a finite box with positive width and height."""
+
+
+def _valid_box(box: np.ndarray) -> bool:
+    return bool(np.all(np.isfinite(box)) and box[2] > 0 and box[3] > 0)
+
+
+def xywh_to_z(box_xywh) -> np.ndarray:
+    """(x, y, w, h) -> observation z = [u, v, s, r] (centre, area w*h, aspect ratio w/h), shape (4,).
+
+    Raises ValueError for a box that is not finite or has w <= 0 or h <= 0 (no area, no aspect ratio).
+    """
+    b = np.asarray(box_xywh, dtype=float).reshape(-1)
+    if b.shape != (4,):
+        raise ValueError(f"expected one (x, y, w, h) box, got shape {np.shape(box_xywh)}")
+    if not _valid_box(b):
+        raise ValueError(f"box {b.tolist()} must be finite with w > 0 and h > 0")
+    x, y, w, h = b
+    return np.array([x + w / 2.0, y + h / 2.0, w * h, w / h])
+
+
+def x_to_xywh(x) -> np.ndarray:
+    """State (or observation) [u, v, s, r, ...] -> (x, y, w, h) with w = sqrt(s*r), h = s/w, shape (4,).
+
+    No validity check: s * r <= 0 gives NaN (or w = 0); `BoxKalman.predict` is where that is caught.
+    """
+    v = np.asarray(x, dtype=float).reshape(-1)
+    u, c, s, r = v[0], v[1], v[2], v[3]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = np.sqrt(s * r)
+        h = s / w
+    return np.array([u - w / 2.0, c - h / 2.0, w, h])
+
+
+def transition_matrix() -> np.ndarray:
+    """F: constant velocity, one frame per step (u += du, v += dv, s += ds; r constant)."""
+    F = np.eye(DIM_X)
+    F[0, 4] = F[1, 5] = F[2, 6] = 1.0
+    return F
+
+
+def measurement_matrix() -> np.ndarray:
+    """H: the first four state components are observed."""
+    H = np.zeros((DIM_Z, DIM_X))
+    H[:, :DIM_Z] = np.eye(DIM_Z)
+    return H
+
+
+def initial_covariance() -> np.ndarray:
+    """P0 = diag(10, 10, 10, 10, 10000, 10000, 10000)."""
+    return np.diag([INITIAL_STATE_VARIANCE] * 4 + [INITIAL_VELOCITY_VARIANCE] * 3)
+
+
+def measurement_noise() -> np.ndarray:
+    """R = diag(1, 1, 10, 10)."""
+    return np.diag([MEASUREMENT_POSITION_VARIANCE] * 2 + [MEASUREMENT_SHAPE_VARIANCE] * 2)
+
+
+def process_noise() -> np.ndarray:
+    """Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001)."""
+    return np.diag([PROCESS_STATE_VARIANCE] * 4 + [PROCESS_VELOCITY_VARIANCE] * 2 + [PROCESS_AREA_VELOCITY_VARIANCE])
+
+
+class BoxKalman:
+    """The motion model of one track: a Kalman filter over [u, v, s, r, du, dv, ds] plus SORT's counters.
+
+    Counters (all start at 0 when the track is created from its first detection):
+      age                 predictions made (frames the track has lived through after its first)
+      hits                updates (detections assigned) after creation
+      hit_streak          consecutive frames with an update; reset at the first prediction after a miss
+      time_since_update   predictions since the last update (0 right after an update or at creation)
+    """
+
+    def __init__(self, box_xywh):
+        kf = KalmanFilter(dim_x=DIM_X, dim_z=DIM_Z)
+        kf.F = transition_matrix()
+        kf.H = measurement_matrix()
+        kf.P = initial_covariance()
+        kf.R = measurement_noise()
+        kf.Q = process_noise()
+        kf.x = np.zeros((DIM_X, 1))
+        kf.x[:DIM_Z, 0] = xywh_to_z(box_xywh)
+        self.kf = kf
+        self.age = 0
+        self.hits = 0
+        self.hit_streak = 0
+        self.time_since_update = 0
+
+    @property
+    def state(self) -> np.ndarray:
+        """The state vector [u, v, s, r, du, dv, ds], shape (7,) (a copy)."""
+        return self.kf.x[:, 0].copy()
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The state covariance P, shape (7, 7) (a copy)."""
+        return self.kf.P.copy()
+
+    @property
+    def box(self) -> np.ndarray:
+        """The current state as an (x, y, w, h) box: after `update` the filtered box, after `predict` the prediction.
+
+        Raises InvalidPrediction if the state is not a finite box with w, h > 0 (only possible
+        after `predict` raised it, or if the state was edited by hand).
+        """
+        box = x_to_xywh(self.kf.x[:, 0])
+        if not (np.all(np.isfinite(self.kf.x)) and _valid_box(box)):
+            raise InvalidPrediction(f"state {self.kf.x[:, 0].tolist()} is not a valid box")
+        return box
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """(du, dv): the centre's velocity in pixels per frame, shape (2,)."""
+        return self.kf.x[4:6, 0].copy()
+
+    @property
+    def is_valid(self) -> bool:
+        """Whether the current state is a finite box with w > 0 and h > 0."""
+        return bool(np.all(np.isfinite(self.kf.x))) and _valid_box(x_to_xywh(self.kf.x[:, 0]))
+
+    def predict(self) -> np.ndarray:
+        """Advance one frame; return the predicted (x, y, w, h) box.
+
+        If the area velocity would make the area non-positive (s + ds <= 0) it is set to zero
+        first, as SORT does, so the area stays where it is.  Counters: age += 1; a track that
+        was not updated in the previous frame loses its hit streak; time_since_update += 1.
+
+        Raises InvalidPrediction if the predicted box is not finite or has w <= 0 or h <= 0
+        (the state is still advanced and the counters still move; the caller should drop the track).
+        """
+        x = self.kf.x
+        if x[2, 0] + x[6, 0] <= 0:
+            x[6, 0] = 0.0
+        self.kf.predict()
+        self.age += 1
+        if self.time_since_update > 0:
+            self.hit_streak = 0
+        self.time_since_update += 1
+        return self.box  # raises InvalidPrediction for a non-finite box or w, h <= 0
+
+    def update(self, box_xywh) -> None:
+        """Correct the state with a detected (x, y, w, h) box. Counters: hits += 1, hit_streak += 1, time_since_update = 0."""
+        z = xywh_to_z(box_xywh)
+        self.kf.update(z.reshape(DIM_Z, 1))
+        self.time_since_update = 0
+        self.hits += 1
+        self.hit_streak += 1

@@ -1,0 +1,147 @@
+"""The SORT motion model: box <-> observation conversion, one predict/update step by hand, guards."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from refimpl.motion import (
+    BoxKalman,
+    InvalidPrediction,
+    initial_covariance,
+    measurement_noise,
+    process_noise,
+    transition_matrix,
+    x_to_xywh,
+    xywh_to_z,
+)
+
+BOX = np.array([10.0, 20.0, 30.0, 60.0])
+# centre u = 10 + 30/2 = 25, v = 20 + 60/2 = 50; area s = 30 * 60 = 1800; aspect r = 30/60 = 0.5
+Z = np.array([25.0, 50.0, 1800.0, 0.5])
+
+
+def test_xywh_to_z_gives_centre_area_and_aspect_ratio():
+    np.testing.assert_allclose(xywh_to_z(BOX), Z)
+
+
+def test_x_to_xywh_inverts_the_conversion_from_state_or_observation():
+    # w = sqrt(s * r) = sqrt(900) = 30, h = s / w = 60, x = u - w/2 = 10, y = v - h/2 = 20
+    np.testing.assert_allclose(x_to_xywh(Z), BOX)
+    state = np.concatenate([Z, [3.0, -2.0, 7.0]])  # velocities do not enter the box
+    np.testing.assert_allclose(x_to_xywh(state), BOX)
+
+
+def test_xywh_to_z_rejects_boxes_without_area():
+    for bad in ([0, 0, 0, 10], [0, 0, 10, -1], [np.nan, 0, 10, 10]):
+        with pytest.raises(ValueError):
+            xywh_to_z(bad)
+
+
+def test_published_noise_matrices_are_diagonal_with_sort_values():
+    # SORT: P = I; P[velocities] *= 1000; P *= 10 -> 10 on u, v, s, r and 10000 on du, dv, ds
+    np.testing.assert_array_equal(np.diag(initial_covariance()), [10, 10, 10, 10, 1e4, 1e4, 1e4])
+    # R = I; R[s, r] *= 10
+    np.testing.assert_array_equal(np.diag(measurement_noise()), [1, 1, 10, 10])
+    # Q = I; Q[ds] *= 0.01; Q[velocities] *= 0.01 -> ds gets 0.01 * 0.01
+    np.testing.assert_allclose(np.diag(process_noise()), [1, 1, 1, 1, 0.01, 0.01, 1e-4])
+    for m in (initial_covariance(), measurement_noise(), process_noise()):
+        assert np.count_nonzero(m - np.diag(np.diag(m))) == 0
+
+
+def test_new_track_starts_at_the_detection_with_zero_velocity_and_zero_counters():
+    k = BoxKalman(BOX)
+    np.testing.assert_allclose(k.state, np.concatenate([Z, [0, 0, 0]]))
+    np.testing.assert_allclose(k.box, BOX)
+    np.testing.assert_array_equal(k.velocity, [0.0, 0.0])
+    assert (k.age, k.hits, k.hit_streak, k.time_since_update) == (0, 0, 0, 0)
+
+
+def test_first_predict_keeps_the_box_and_inflates_covariance_by_F_P_Ft_plus_Q():
+    k = BoxKalman(BOX)
+    predicted = k.predict()
+    # velocity 0: the centre moves by 0, the area by 0 -> same box
+    np.testing.assert_allclose(predicted, BOX)
+    P = k.covariance
+    # P' = F P0 F^T + Q with F[0,4] = F[1,5] = F[2,6] = 1, P0 = diag(10,10,10,10,1e4,1e4,1e4):
+    #   P'[0,0] = P0[0,0] + 2 P0[0,4] + P0[4,4] + Q[0,0] = 10 + 0 + 10000 + 1 = 10011 (same for v, s)
+    #   P'[0,4] = P0[0,4] + P0[4,4] = 10000              (position-velocity correlation appears)
+    #   P'[3,3] = P0[3,3] + Q[3,3] = 10 + 1 = 11          (aspect ratio has no velocity)
+    #   P'[4,4] = 10000 + 0.01, P'[6,6] = 10000 + 0.0001
+    #   P'[0,1] = 0                                        (u and v stay independent)
+    assert P[0, 0] == pytest.approx(10011.0)
+    assert P[1, 1] == pytest.approx(10011.0)
+    assert P[2, 2] == pytest.approx(10011.0)
+    assert P[0, 4] == pytest.approx(10000.0)
+    assert P[4, 0] == pytest.approx(10000.0)
+    assert P[2, 6] == pytest.approx(10000.0)
+    assert P[3, 3] == pytest.approx(11.0)
+    assert P[4, 4] == pytest.approx(10000.01)
+    assert P[6, 6] == pytest.approx(10000.0001)
+    assert P[0, 1] == 0.0
+    # and in full, against the matrices
+    P0, F, Q = initial_covariance(), transition_matrix(), process_noise()
+    np.testing.assert_allclose(P, F @ P0 @ F.T + Q)
+    assert (k.age, k.time_since_update, k.hit_streak) == (1, 1, 0)
+
+
+def test_predict_moves_the_centre_by_the_velocity():
+    k = BoxKalman(BOX)
+    k.kf.x[4, 0], k.kf.x[5, 0] = 3.0, -2.0  # du, dv
+    p = k.predict()
+    np.testing.assert_allclose(p, BOX + [3.0, -2.0, 0.0, 0.0])
+
+
+def test_update_pulls_the_state_towards_the_measurement_by_the_kalman_gain():
+    k = BoxKalman(BOX)
+    k.predict()
+    k.update(BOX + [10.0, 0.0, 0.0, 0.0])  # measured centre u = 35, predicted 25
+    # the u/du block decouples: S = P'[0,0] + R[0,0] = 10011 + 1 = 10012
+    #   u  = 25 + 10 * 10011 / 10012
+    #   du = 10 * P'[4,0] / S = 10 * 10000 / 10012
+    u, v, s, r, du, dv, ds = k.state
+    assert u == pytest.approx(25.0 + 10.0 * 10011.0 / 10012.0)
+    assert du == pytest.approx(10.0 * 10000.0 / 10012.0)
+    assert 25.0 < u < 35.0
+    assert (v, s, r, dv, ds) == pytest.approx((50.0, 1800.0, 0.5, 0.0, 0.0))
+    np.testing.assert_allclose(k.velocity, [du, 0.0])
+    assert (k.hits, k.hit_streak, k.time_since_update) == (1, 1, 0)
+
+
+def test_hit_streak_resets_at_the_first_predict_after_a_missed_frame():
+    k = BoxKalman(BOX)
+    for _ in range(2):
+        k.predict()
+        k.update(BOX)
+    assert (k.hits, k.hit_streak) == (2, 2)
+    k.predict()  # this frame: no detection
+    assert (k.hit_streak, k.time_since_update) == (2, 1)
+    k.predict()  # previous frame was missed -> streak lost
+    assert (k.age, k.hits, k.hit_streak, k.time_since_update) == (4, 2, 0, 2)
+
+
+def test_area_velocity_is_zeroed_when_the_predicted_area_would_not_be_positive():
+    k = BoxKalman(BOX)
+    k.kf.x[6, 0] = -2000.0  # s + ds = 1800 - 2000 <= 0
+    p = k.predict()
+    assert k.state[6] == 0.0
+    assert k.state[2] == pytest.approx(1800.0)  # area kept
+    np.testing.assert_allclose(p, BOX)
+
+
+def test_area_velocity_is_kept_when_the_predicted_area_stays_positive():
+    k = BoxKalman(BOX)
+    k.kf.x[6, 0] = -800.0  # s + ds = 1000 > 0
+    k.predict()
+    assert k.state[2] == pytest.approx(1000.0)
+    assert k.state[6] == pytest.approx(-800.0)
+
+
+def test_an_invalid_prediction_is_signalled_never_returned():
+    k = BoxKalman(BOX)
+    k.kf.x[3, 0] = -0.5  # negative aspect ratio: w = sqrt(s * r) is not a number
+    with pytest.raises(InvalidPrediction):
+        k.predict()
+    assert not k.is_valid
+    with pytest.raises(InvalidPrediction):
+        k.box  # the NaN box is not readable either
