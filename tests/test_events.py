@@ -1,0 +1,305 @@
+"""The hand-written event calculus (refimpl/events.py) on hand-made histories."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from refimpl.constants import resolve_constants
+from refimpl.events import (
+    EFFECTS,
+    EventState,
+    fluent_key,
+    poss,
+    poss_hides_behind,
+    poss_lost,
+    poss_missing_detections,
+    poss_noise,
+    poss_recover,
+    poss_unhides_from_behind,
+    possible_events,
+)
+from refimpl.spec import FrameProblem, HistoryEvent, TrackPrediction, parse_term
+
+
+def H(event: str, t: int) -> HistoryEvent:
+    return HistoryEvent(parse_term(event), t)
+
+
+def state(*events: tuple[str, int], tracks=("trk_1", "trk_2", "trk_3")) -> EventState:
+    return EventState([H(e, t) for e, t in events], tracks)
+
+
+# -- initial values, effects, inertia --------------------------------------------------------
+
+def test_initial_values():
+    s = state()
+    assert s.values("visibility(trk_1)") == {"fully_visible"}
+    assert s.values(("clipped", "trk_1")) == {"false"}
+    assert s.values("in_fov(trk_1)") == {"true"}
+    assert s.values("hidden_by(trk_1,trk_2)") == {"false"}
+    assert s.started_at("trk_1") is None and s.halted_at("trk_1") is None
+    assert s.time is None
+
+
+def test_effects_of_every_event():
+    s = state(("hides_behind(trk_1,trk_2)", 5), ("missing_detections(trk_3)", 5), ("leaves_fov(trk_2)", 6))
+    assert s.holds_at("visibility(trk_1)", "not_visible")
+    assert not s.holds_at("visibility(trk_1)", "fully_visible")
+    assert s.holds_at("hidden_by(trk_1,trk_2)", "true")
+    assert s.holds_at("hidden_by(trk_2,trk_1)", "false")  # the other direction is untouched
+    assert s.holds_at("hidden_by(trk_1,trk_3)", "false")
+    assert s.holds_at("clipped(trk_3)", "true")
+    assert s.holds_at("in_fov(trk_2)", "false")
+    s.apply(["unhides_from_behind(trk_1,trk_2)", "enters_fov(trk_2)"], 9)
+    assert s.values("visibility(trk_1)") == {"fully_visible"}
+    assert s.values("hidden_by(trk_1,trk_2)") == {"false"}
+    assert s.values("in_fov(trk_2)") == {"true"}
+
+
+def test_inertia_over_unrelated_events():
+    s = state(("missing_detections(trk_1)", 1), ("hides_behind(trk_2,trk_3)", 2), ("enters_fov(trk_3)", 7),
+              ("noise(trk_3)", 8), ("lost(trk_1)", 9))
+    assert s.values("clipped(trk_1)") == {"true"}  # nothing reset it
+    assert s.values("visibility(trk_2)") == {"not_visible"}
+    assert s.values("visibility(trk_1)") == {"fully_visible"}  # lost/noise have no effects
+
+
+def test_effect_from_the_next_time_point_and_order_of_history():
+    # an event at Tm takes effect from Tm+1: at curr_time every history event is in effect, and the
+    # later of two events wins, whatever order the history lists them in
+    later_last = state(("missing_detections(trk_1)", 3), ("recover(trk_1)", 4))
+    later_first = state(("recover(trk_1)", 4), ("missing_detections(trk_1)", 3))
+    assert later_last.values("clipped(trk_1)") == later_first.values("clipped(trk_1)") == {"false"}
+    s = state(("recover(trk_1)", 3), ("missing_detections(trk_1)", 4))
+    assert s.values("clipped(trk_1)") == {"true"}
+    assert s.time == 4
+
+
+def test_events_before_mintime_still_apply():
+    # refimpl reading: every history event is folded, whatever mintime is
+    s = state(("missing_detections(trk_1)", -5))
+    assert s.values("clipped(trk_1)") == {"true"}
+
+
+def test_recover_resets_hidden_by_and_visibility_and_clipped():
+    s = state(("hides_behind(trk_1,trk_2)", 1), ("missing_detections(trk_1)", 1), ("recover(trk_1)", 2))
+    assert s.values("hidden_by(trk_1,trk_2)") == {"false"}
+    assert s.values("visibility(trk_1)") == {"fully_visible"}
+    assert s.values("clipped(trk_1)") == {"false"}
+    # recover(T) resets hidden_by(T, X) for every X, also tracks the state has never heard of
+    s2 = state(("hides_behind(trk_1,trk_9)", 1), ("recover(trk_1)", 2))
+    assert s2.values("hidden_by(trk_1,trk_9)") == {"false"}
+    # but not hidden_by(X, T)
+    s3 = state(("hides_behind(trk_2,trk_1)", 1), ("recover(trk_1)", 2))
+    assert s3.values("hidden_by(trk_2,trk_1)") == {"true"}
+    # a later hides_behind sets it again
+    s.apply(["hides_behind(trk_1,trk_3)"], 5)
+    assert s.values("hidden_by(trk_1,trk_3)") == {"true"}
+    assert s.values("hidden_by(trk_1,trk_2)") == {"false"}
+
+
+def test_effects_do_not_need_the_other_track_to_exist():
+    # hides_behind(T1, T2) makes T1 not_visible even after T2 has gone
+    s = EventState([H("hides_behind(trk_1,trk_2)", 4), H("lost(trk_2)", 6)], ("trk_1",))
+    assert s.values("visibility(trk_1)") == {"not_visible"}
+
+
+def test_started_and_halted_at_take_the_latest():
+    s = state(("enters_fov(trk_1)", 2), ("enters_fov(trk_1)", 7), ("missing_detections(trk_1)", 3),
+              ("hides_behind(trk_1,trk_2)", 9), ("recover(trk_1)", 10), ("hides_behind(trk_2,trk_1)", 12))
+    assert s.started_at("trk_1") == 7
+    assert s.halted_at("trk_1") == 9  # hides_behind(trk_2, trk_1) halts trk_2, not trk_1
+    assert s.halted_at("trk_2") == 12
+    assert s.started_at("trk_2") is None
+    assert s.occurs_at("recover(trk_1)", 10) and not s.occurs_at("recover(trk_1)", 11)
+    assert s.occurs_at(parse_term("hides_behind(trk_2,trk_1)"), 12)
+
+
+# -- the set-valued case ---------------------------------------------------------------------
+
+def test_two_values_at_one_time_point_both_hold():
+    s = state(("missing_detections(trk_1)", 4), ("recover(trk_1)", 4))
+    assert s.values("clipped(trk_1)") == {"true", "false"}
+    s = state(("hides_behind(trk_1,trk_2)", 4), ("unhides_from_behind(trk_1,trk_2)", 4))
+    assert s.values("visibility(trk_1)") == {"not_visible", "fully_visible"}
+    assert s.values("hidden_by(trk_1,trk_2)") == {"true", "false"}
+
+
+def test_set_valued_with_recover_in_either_order():
+    for order in ((("hides_behind(trk_1,trk_2)", 4), ("recover(trk_1)", 4)),
+                  (("recover(trk_1)", 4), ("hides_behind(trk_1,trk_2)", 4))):
+        s = state(("hides_behind(trk_1,trk_3)", 1), *order)
+        assert s.values("hidden_by(trk_1,trk_2)") == {"true", "false"}
+        assert s.values("hidden_by(trk_1,trk_3)") == {"false"}  # only recover set it at 4
+        assert s.values("visibility(trk_1)") == {"not_visible", "fully_visible"}
+
+
+def test_a_later_single_value_replaces_the_set():
+    s = state(("missing_detections(trk_1)", 4), ("recover(trk_1)", 4), ("missing_detections(trk_1)", 6))
+    assert s.values("clipped(trk_1)") == {"true"}
+    # a set persists by inertia while nothing sets the fluent
+    s = state(("missing_detections(trk_1)", 4), ("recover(trk_1)", 4), ("hides_behind(trk_2,trk_3)", 6))
+    assert s.values("clipped(trk_1)") == {"true", "false"}
+
+
+def test_set_valued_visibility_in_preconditions():
+    # visibility {fully_visible, not_visible}: "= not_visible" holds, "!= not_visible" does not
+    c = {"hide_overlap": 10, "curr_time": 10}
+    s = state(("hides_behind(trk_1,trk_2)", 4), ("unhides_from_behind(trk_1,trk_3)", 4))
+    t1 = TrackPrediction("trk_1", "car", "halted", (0, 0, 10, 10))
+    t2 = TrackPrediction("trk_2", "car", "active", (0, 0, 10, 10))
+    assert poss_recover(s, c, t1)
+    assert not poss_missing_detections(s, c, t1)
+    assert not poss_hides_behind(s, c, t1, t2)
+    assert poss_unhides_from_behind(s, c, t1, t2)
+
+
+# -- incremental apply -----------------------------------------------------------------------
+
+_EVENTS1 = ("missing_detections", "recover", "enters_fov", "leaves_fov", "lost", "noise")
+_EVENTS2 = ("hides_behind", "unhides_from_behind")
+
+
+def _random_history(rng: random.Random, ids: list[str], n: int) -> list[HistoryEvent]:
+    out, t = [], 0
+    for _ in range(n):
+        t += rng.choice((0, 0, 1, 2))  # repeated time points exercise the set-valued case
+        if rng.random() < 0.4:
+            a, b = rng.sample(ids, 2)
+            out.append(H(f"{rng.choice(_EVENTS2)}({a},{b})", t))
+        else:
+            out.append(H(f"{rng.choice(_EVENTS1)}({rng.choice(ids)})", t))
+    return out
+
+
+def _reference_fold(history: list[HistoryEvent], ids: list[str]) -> dict:
+    """A deliberately naive fold: every fluent of every pair, time point by time point."""
+    init = {"visibility": "fully_visible", "clipped": "false", "in_fov": "true", "hidden_by": "false"}
+    vals = {}
+    for a in ids:
+        for f in ("visibility", "clipped", "in_fov"):
+            vals[(f, a)] = {init[f]}
+        for b in ids:
+            if a != b:
+                vals[("hidden_by", a, b)] = {init["hidden_by"]}
+    for tm in sorted({h.time for h in history}):
+        setnow: dict = {}
+        for h in history:
+            if h.time != tm:
+                continue
+            name, args = h.event.name, [str(x) for x in h.event.args]
+            for fluent, pos, value in EFFECTS[name][1]:
+                if "*" in pos:
+                    keys = [("hidden_by", args[0], x) for x in ids if x != args[0]]
+                else:
+                    keys = [(fluent,) + tuple(args[i] for i in pos)]
+                for k in keys:
+                    setnow.setdefault(k, set()).add(value)
+        for k, v in setnow.items():
+            if k in vals:
+                vals[k] = v
+    return vals
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_fold_matches_a_naive_reference(seed):
+    rng = random.Random(seed)
+    ids = [f"trk_{i}" for i in range(1, 5)]
+    hist = _random_history(rng, ids, rng.randint(0, 25))
+    s = EventState(hist, ids)
+    assert s.snapshot() == {k: frozenset(v) for k, v in _reference_fold(hist, ids).items()}
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_incremental_apply_equals_a_fresh_fold(seed):
+    rng = random.Random(1000 + seed)
+    ids = [f"trk_{i}" for i in range(1, 5)]
+    hist = _random_history(rng, ids, rng.randint(1, 25))
+    split = rng.randint(0, len(hist))
+    inc = EventState(hist[:split], ids)
+    # the rest, one apply per time point; sometimes a time point in two applies
+    rest = hist[split:]
+    for tm in sorted({h.time for h in rest}):
+        group = [h.event for h in rest if h.time == tm]
+        cut = rng.randint(0, len(group))
+        inc.apply(group[:cut], tm)
+        inc.apply([f"occurs_at({e},{tm})" for e in group[cut:]], tm)
+    fresh = EventState(hist, ids)
+    assert inc.snapshot() == fresh.snapshot()
+    for a in ids:
+        assert inc.started_at(a) == fresh.started_at(a)
+        assert inc.halted_at(a) == fresh.halted_at(a)
+    for h in hist:
+        assert inc.occurs_at(h.event, h.time)
+
+
+def test_apply_rejects_going_back_in_time_and_copy_is_independent():
+    s = state(("missing_detections(trk_1)", 5))
+    with pytest.raises(ValueError):
+        s.apply(["recover(trk_1)"], 4)
+    snap = s.copy()
+    s.apply(["recover(trk_1)"], 6, tracks=("trk_1",))
+    assert s.values("clipped(trk_1)") == {"false"} and s.tracks == ("trk_1",)
+    assert snap.values("clipped(trk_1)") == {"true"}
+    # a time point with no events advances time: later events at it start a new time point
+    s.apply([], 8)
+    s.apply(["missing_detections(trk_1)"], 8)
+    assert s.values("clipped(trk_1)") == {"true"}
+
+
+def test_fluent_key_validation():
+    assert fluent_key("hidden_by(trk_1,trk_2)") == ("hidden_by", "trk_1", "trk_2")
+    with pytest.raises(ValueError):
+        fluent_key("hidden_by(trk_1)")
+    with pytest.raises(ValueError):
+        fluent_key(("speed", "trk_1"))
+
+
+def test_unknown_events_and_wrong_arity_have_no_effect():
+    s = state(("blink(trk_1)", 1), ("missing_detections(trk_1,trk_2)", 2), ("hides_behind(trk_1)", 3))
+    assert s.values("clipped(trk_1)") == {"false"}
+    assert s.values("visibility(trk_1)") == {"fully_visible"}
+    assert s.halted_at("trk_1") is None
+
+
+# -- preconditions ---------------------------------------------------------------------------
+
+def _problem(history, t=20, tracks=None, consts=()):
+    tracks = tracks or (
+        TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40)),
+        TrackPrediction("trk_2", "car", "active", (110, 105, 60, 50)),  # over trk_1, lower bottom edge
+        TrackPrediction("trk_3", "car", "active", (3, 300, 40, 40)),   # near the left border
+    )
+    return FrameProblem(time=t, tracks=tracks, history=tuple(history), constants=tuple(consts))
+
+
+def test_possible_events_on_a_small_scene():
+    p = _problem([H("enters_fov(trk_3)", 18), H("hides_behind(trk_1,trk_2)", 10)])
+    s = EventState.from_problem(p)
+    c = resolve_constants(p)
+    ev = possible_events(p, s, c)
+    assert ev["unhides_from_behind(trk_1,trk_2)"] and not ev["unhides_from_behind(trk_1,trk_3)"]
+    assert ev["recover(trk_1)"] and not ev["recover(trk_2)"]
+    assert not ev["hides_behind(trk_1,trk_2)"]  # trk_1 is not_visible already
+    assert not ev["missing_detections(trk_1)"] and ev["missing_detections(trk_2)"]
+    assert ev["leaves_fov(trk_3)"] and not ev["leaves_fov(trk_2)"]
+    assert ev["noise(trk_3)"] and not ev["noise(trk_1)"]  # 20 - 18 <= noise_max_age = 3
+    assert not ev["lost(trk_1)"]  # hidden: needs lost_after_hidden = 30 frames
+    assert ev == {k: poss(k, p, s, c) for k in ev}
+    assert not poss("recover(trk_99)", p, s, c) and not poss("recover(trk_1,trk_2)", p, s, c)
+
+
+def test_lost_thresholds_depend_on_visibility():
+    t1 = TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40))
+    p = _problem([H("missing_detections(trk_1)", 17)], t=20)
+    c = resolve_constants(p)
+    assert poss_lost(EventState.from_problem(p), c, t1)  # 20 - 17 >= lost_after_missing = 3
+    p = _problem([H("missing_detections(trk_1)", 18)], t=20)
+    assert not poss_lost(EventState.from_problem(p), c, t1)
+    p = _problem([H("hides_behind(trk_1,trk_2)", 0)], t=30)
+    c = resolve_constants(p)
+    assert poss_lost(EventState.from_problem(p), c, t1)
+    assert not poss_lost(EventState.from_problem(_problem([H("hides_behind(trk_1,trk_2)", 1)], t=30)), c, t1)
+    assert not poss_noise(EventState.from_problem(p), c, t1)
