@@ -49,7 +49,7 @@ def test_bus_example_is_the_papers_answer(examples):
     assert "occurs_at(hides_behind(trk_13,trk_12),235)" in h.events
     assert "start(det_5)" in h.actions and "occurs_at(enters_fov(det_5),235)" in h.events
     iou_sum = 82426 + 88079 + 98532 + 94981 + 90457
-    w, r = tiebreak_weights(p)
+    w, r, _ = tiebreak_weights(p)
     tb = sum(w[tuple(parse_action(a)[1])] for a in h.actions if a.startswith("assign")) + r[("trk_13", "trk_12")]
     assert h.cost == ((10, -(iou_sum + 5)), (3, 0), (2, 5), (1, 2), (0, tb))
     check_admissible(p, h)
@@ -105,7 +105,7 @@ def test_lower_levels_break_ties_of_higher_ones():
 
 def _tie_problem() -> FrameProblem:
     """trk_1 hid behind trk_2 and trk_3 (a hand-written history): unhiding from either explains
-    the resume equally well on every level."""
+    the resume equally well on levels 10..1; only the level-0 tie-break k(T2) separates them."""
     return FrameProblem(
         time=20,
         detections=(Detection("det_0", "car", 90, (0, 0, 40, 40)),),
@@ -124,14 +124,17 @@ def test_deterministic_including_a_tie():
     assert len(answers) == 1
     (ans,) = answers
     assert "resume(trk_1,det_0)" in ans
-    # the tie is genuine: both explanations are optimal (same cost vector with either forced)
-    am_costs = set()
+    # k(trk_2) = 1 < k(trk_3) = 2 (natural order trk_1, trk_2, trk_3): unhide from trk_2
+    assert "occurs_at(unhides_from_behind(trk_1,trk_2),20)" in ans
+    # without level 0 the two explanations tie: forcing either gives the same levels 10..1
+    costs = {}
     for t2 in ("trk_2", "trk_3"):
         state = EventState.from_problem(p)
         am = build_model(p, state, resolve_constants(p))
         am.model.add(am.events[f"unhides_from_behind(trk_1,{t2})"] == 1)
-        am_costs.add(solve_lexicographic(am, p).cost)
-    assert len(am_costs) == 1
+        costs[t2] = solve_lexicographic(am, p).cost
+    assert costs["trk_2"][:4] == costs["trk_3"][:4]
+    assert costs["trk_3"][4][1] - costs["trk_2"][4][1] == 2 - 1
 
 
 @pytest.mark.parametrize("seed", range(5))

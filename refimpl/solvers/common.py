@@ -2,12 +2,24 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 from ..geometry import intersection_area
 from ..spec import FrameProblem, natural_key
 
 
-def tiebreak_weights(problem: FrameProblem) -> tuple[dict[tuple[str, str], int], dict[tuple[str, str], int]]:
-    """(w, r): w[(trk, det)] for assign/resume pairs, r[(trk1, trk2)] for hides_behind occluders.
+class TiebreakWeights(NamedTuple):
+    pair: dict[tuple[str, str], int]
+    """w[(trk, det)] for the chosen assign/resume pairs."""
+    hides: dict[tuple[str, str], int]
+    """r[(trk1, trk2)] for the chosen hides_behind occluder."""
+    track: dict[str, int]
+    """k[trk2] for unhides_from_behind(trk1, trk2): trk2's index in natural order."""
+
+
+def tiebreak_weights(problem: FrameProblem) -> TiebreakWeights:
+    """(w, r, k): w[(trk, det)] for assign/resume pairs, r[(trk1, trk2)] for hides_behind occluders,
+    k[trk2] for the track unhidden from.
 
     w = (k+1)^2 with k the index of the pair among the iou/3 pairs in natural (trk, det) order;
     r = rank of trk2 among the other tracks overlapping trk1 (only those can occlude it) by decreasing overlap with trk1, then natural order.
@@ -22,12 +34,14 @@ def tiebreak_weights(problem: FrameProblem) -> tuple[dict[tuple[str, str], int],
         )
         for rank, t2 in enumerate(others):
             r[(t1.id, t2.id)] = rank
-    return w, r
+    k = {t.id: i for i, t in enumerate(sorted(problem.tracks, key=lambda t: natural_key(t.id)))}
+    return TiebreakWeights(w, r, k)
 
 
 def tiebreak_facts(problem: FrameProblem) -> str:
     """The tie-break weights as ASP facts for the clingo backend."""
-    w, r = tiebreak_weights(problem)
+    w, r, k = tiebreak_weights(problem)
     lines = [f"tiebreak_pair({t},{d},{v})." for (t, d), v in w.items()]
     lines += [f"tiebreak_hides({a},{b},{v})." for (a, b), v in r.items()]
+    lines += [f"tiebreak_track({t},{v})." for t, v in k.items()]
     return "\n".join(lines) + ("\n" if lines else "")

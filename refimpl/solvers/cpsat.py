@@ -121,7 +121,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
     model = cp_model.CpModel()
     am = AbductionModel(model, problem.time, objectives={p: [] for p in PRIORITIES})
     iou = problem.iou_map
-    w, r = tiebreak_weights(problem)
+    w, r, k = tiebreak_weights(problem)
     obj = am.objectives
     cost = {name: constants[c] for name, c in COST_CONSTANT.items()}
 
@@ -191,6 +191,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
                     obj[2].append((1, a))
                     obj[0].append((w[(t.id, d.id)], a))
                 expl = [event(f"unhides_from_behind({t.id},{t2.id})", "unhides_from_behind") for t2 in unhides]
+                obj[0].extend((k[t2.id], e) for t2, e in zip(unhides, expl) if k[t2.id])
                 if recover:
                     expl.append(event(f"recover({t.id})", "recover"))
                 model.add(sum(expl) == sum(res))

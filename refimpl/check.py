@@ -1,0 +1,179 @@
+"""An answer checker independent of both backends.
+
+Given a frame problem and a hypothesis, it verifies every rule of the model
+(docs/model-spec.md) — each track and each detection in exactly one action, every integrity
+constraint, every event's precondition, every halt/resume/start/end explained and no event
+without its action — recomputes the cost vector from the answer, and reports each violation
+by the rule's label.  It shares only the problem data, the constants, the event-calculus
+state and the preconditions (refimpl.events) with the backends: the numbers are the same,
+the reasoning over them is written again here.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, defaultdict
+from dataclasses import dataclass
+
+from .constants import resolve_constants
+from .events import EventState, poss
+from .hypothesis import Cost, Hypothesis
+from .solvers.common import tiebreak_weights
+from .spec import FrameProblem, parse_term
+
+_ACTION_ARITY = {"assign": 2, "resume": 2, "start": 1, "ignore_det": 1,
+                 "end": 1, "halt": 1, "ignore_trk": 1}
+_EXPLAINS = {  # action -> the events that may explain it (explain_* rules)
+    "halt": ("hides_behind", "missing_detections"),
+    "resume": ("unhides_from_behind", "recover"),
+    "start": ("enters_fov",),
+    "end": ("leaves_fov", "lost", "noise"),
+}
+_EXPLAINED_BY = {e: a for a, events in _EXPLAINS.items() for e in events}
+
+
+@dataclass(frozen=True)
+class Violation:
+    rule: str
+    detail: str
+
+    def __str__(self) -> str:
+        return f"[{self.rule}] {self.detail}"
+
+
+@dataclass(frozen=True)
+class CheckReport:
+    violations: tuple[Violation, ...]
+    cost: Cost
+    """The cost vector recomputed from the answer (clingo's convention)."""
+
+    @property
+    def ok(self) -> bool:
+        return not self.violations
+
+
+def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
+    """Every rule the answer breaks, and the cost vector it really has."""
+    c = resolve_constants(problem)
+    state = EventState.from_problem(problem)
+    tracks = {t.id: t for t in problem.tracks}
+    dets = {d.id: d for d in problem.detections}
+    iou = problem.iou_map
+    bad: list[Violation] = []
+
+    def match_type(a: str, b: str) -> bool:
+        return a == b or (a, b) in problem.match_types
+
+    # -- actions ---------------------------------------------------------------------------
+    per_track: dict[str, list[str]] = defaultdict(list)
+    per_det: dict[str, list[str]] = defaultdict(list)
+    actions: list[tuple[str, tuple[str, ...]]] = []
+    for atom in hyp.actions:
+        term = parse_term(atom)
+        name, args = term.name, tuple(a.name for a in term.args)
+        if _ACTION_ARITY.get(name) != len(args):
+            bad.append(Violation("action_syntax", f"{atom} is not an action of the model"))
+            continue
+        if name in ("assign", "resume"):
+            if args[0] not in tracks or args[1] not in dets:
+                bad.append(Violation("action_syntax", f"{atom} names an unknown id"))
+                continue
+            per_track[args[0]].append(atom)
+            per_det[args[1]].append(atom)
+        elif name in ("start", "ignore_det"):
+            if args[0] not in dets:
+                bad.append(Violation("action_syntax", f"{atom} names an unknown detection"))
+                continue
+            per_det[args[0]].append(atom)
+        else:
+            if args[0] not in tracks:
+                bad.append(Violation("action_syntax", f"{atom} names an unknown track"))
+                continue
+            per_track[args[0]].append(atom)
+        actions.append((name, args))
+
+    for t in tracks:
+        if len(per_track[t]) != 1:
+            bad.append(Violation("choose_track_action", f"{t} has {len(per_track[t])} actions: {per_track[t]}"))
+    for d in dets:
+        if len(per_det[d]) != 1:
+            bad.append(Violation("choose_det_action", f"{d} has {len(per_det[d])} actions: {per_det[d]}"))
+
+    for name, args in actions:
+        atom = f"{name}({','.join(args)})"
+        if name == "assign":
+            t, d = tracks[args[0]], dets[args[1]]
+            if not (t.state == "active" and match_type(t.type, d.type) and d.conf > c["conf_thresh_assign"]
+                    and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh"]):
+                bad.append(Violation("assignment_constraints", f"{atom} is not admissible"))
+        elif name == "resume":
+            t, d = tracks[args[0]], dets[args[1]]
+            if not (t.state == "halted" and match_type(t.type, d.type) and d.conf > c["conf_thresh_resume"]
+                    and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh_resume"]):
+                bad.append(Violation("resume_constraints", f"{atom} is not admissible"))
+        elif name == "start":
+            d = dets[args[0]]
+            if not (d.conf > c["conf_thresh_new_track"] and d.box[2] * d.box[3] > c["size_threshold"]):
+                bad.append(Violation("start_constraints", f"{atom} is not admissible"))
+        elif name in ("end", "ignore_trk") and tracks[args[0]].state != "halted":
+            bad.append(Violation(f"{name}_constraints", f"{atom} needs a halted track"))
+        elif name == "halt" and tracks[args[0]].state != "active":
+            bad.append(Violation("halt_constraints", f"{atom} needs an active track"))
+
+    # -- events ----------------------------------------------------------------------------
+    explanations: dict[tuple[str, str], list[str]] = defaultdict(list)  # (action, subject) -> events
+    event_names: list[str] = []
+    for atom in hyp.events:
+        term = parse_term(atom)
+        if term.name != "occurs_at" or len(term.args) != 2 or not term.args[1].is_int:
+            bad.append(Violation("event_syntax", f"{atom} is not occurs_at(Event, Time)"))
+            continue
+        event, when = term.args[0], term.args[1].as_int()
+        if when != problem.time:
+            bad.append(Violation("event_time", f"{atom} is not at curr_time={problem.time}"))
+        if event.name not in _EXPLAINED_BY:
+            bad.append(Violation("event_syntax", f"{atom}: unknown event {event.name}"))
+            continue
+        event_names.append(event.name)
+        if not poss(event, problem, state, c):
+            bad.append(Violation(f"poss_{event.name}", f"{atom}: its precondition does not hold"))
+        explanations[(_EXPLAINED_BY[event.name], event.args[0].name)].append(str(event))
+
+    subjects = {("halt", a[0]) for n, a in actions if n == "halt"}
+    subjects |= {("resume", a[0]) for n, a in actions if n == "resume"}
+    subjects |= {("start", a[0]) for n, a in actions if n == "start"}
+    subjects |= {("end", a[0]) for n, a in actions if n == "end"}
+    for action, subject in sorted(subjects | set(explanations)):
+        found = explanations.get((action, subject), [])
+        if (action, subject) not in subjects:
+            bad.append(Violation(f"explain_{action}", f"{found} occur without {action} of {subject}"))
+        elif len(found) != 1:
+            bad.append(Violation(f"explain_{action}",
+                                 f"{action} of {subject} needs exactly one explanation, has {found}"))
+
+    return CheckReport(tuple(bad), recompute_cost(problem, hyp.actions, event_names, hyp.events, c))
+
+
+def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) -> Cost:
+    """The five-level cost vector of an answer (docs/model-spec.md section 5)."""
+    iou = problem.iou_map
+    w, r, k = tiebreak_weights(problem)
+    kinds = Counter()
+    level10 = level0 = 0
+    for atom in actions:
+        term = parse_term(atom)
+        args = tuple(a.name for a in term.args)
+        kinds[term.name] += 1
+        if term.name == "assign":
+            level10 -= iou.get(args, 0) + 1
+        if term.name in ("assign", "resume"):
+            level0 += w.get(args, 0)
+    for atom in event_atoms:
+        event = parse_term(atom).args[0]
+        if event.name == "hides_behind":
+            level0 += r.get((event.args[0].name, event.args[1].name), 0)
+        elif event.name == "unhides_from_behind":
+            level0 += k[event.args[1].name]
+    level3 = 10 * (kinds["ignore_det"] + kinds["ignore_trk"])
+    level2 = kinds["resume"] + 5 * kinds["end"] + 5 * kinds["start"]
+    level1 = sum(c[f"cost_{name}"] for name in event_names)
+    return ((10, level10), (3, level3), (2, level2), (1, level1), (0, level0))

@@ -1,0 +1,722 @@
+"""Association tests: the same frames and the same expected answers for every backend.
+
+The clingo backend (model/*.lp) and the CP-SAT backend (refimpl/solvers/cpsat.py) implement
+one model (docs/model-spec.md); each test here runs on both and compares answers as sorted
+atom strings (Hypothesis.answer = actions + events).
+
+The rule tests build small frames where the answer that breaks the rule would otherwise be
+optimal, and check that the rule holds.  Unless a test says otherwise: curr_time = 10, default
+constants (model/constants.lp), boxes far from the image border (img_width = img_height = 0, so
+only the left and top borders count), and IoU facts chosen freely (the model takes the
+matching likelihood from iou/3, the spatial relations from box2d/5).
+"""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import pytest
+
+from refimpl.check import check_answer
+from refimpl.hypothesis import Hypothesis, parse_action
+from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable, get_solver
+from refimpl.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term,
+                          read_problem, write_facts)
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "data" / "examples"
+PRIORITIES = (10, 3, 2, 1, 0)
+
+
+def solver_for(backend: str):
+    try:
+        return get_solver(backend)
+    except SolverUnavailable as exc:
+        pytest.skip(str(exc))
+
+
+def solve(backend: str, problem: FrameProblem, **kw) -> Hypothesis:
+    """Solve, and pass the answer through the independent checker: no rule broken, cost as claimed."""
+    hyp = solver_for(backend).solve(problem, **kw)
+    report = check_answer(problem, hyp)
+    assert report.ok, [str(v) for v in report.violations]
+    assert report.cost == hyp.cost
+    return hyp
+
+
+# --- frame building -------------------------------------------------------------------------
+
+MID = (300, 300, 50, 50)  # a box far from every border
+
+
+def det(i: int, box=MID, typ: str = "car", conf: int = 90) -> Detection:
+    return Detection(f"det_{i}", typ, conf, box)
+
+
+def trk(i: int, state: str = "active", box=MID, typ: str = "car") -> TrackPrediction:
+    return TrackPrediction(f"trk_{i}", typ, state, box)
+
+
+def hist(event: str, t: int) -> HistoryEvent:
+    return HistoryEvent(parse_term(event), t)
+
+
+def frame(dets=(), trks=(), iou=(), history=(), constants=(), time=10, match_types=()) -> FrameProblem:
+    return FrameProblem(time=time, detections=tuple(dets), tracks=tuple(trks), iou=tuple(iou),
+                        constants=tuple(constants), history=tuple(history),
+                        match_types=tuple(match_types))
+
+
+def ev(event: str, t: int = 10) -> str:
+    return f"occurs_at({event},{t})"
+
+
+def check_well_formed(problem: FrameProblem, h: Hypothesis) -> None:
+    """Exactly one action per track and per detection; the cost vector has the five levels."""
+    assert tuple(p for p, _ in h.cost) == PRIORITIES
+    per_trk = {t.id: 0 for t in problem.tracks}
+    per_det = {d.id: 0 for d in problem.detections}
+    for atom in h.actions:
+        name, args = parse_action(atom)
+        if name in ("assign", "resume"):
+            per_trk[args[0]] += 1
+            per_det[args[1]] += 1
+        elif name in ("start", "ignore_det"):
+            per_det[args[0]] += 1
+        else:
+            per_trk[args[0]] += 1
+    assert set(per_trk.values()) <= {1} and set(per_det.values()) <= {1}
+    assert all(e.startswith("occurs_at(") and e.endswith(f",{problem.time})") for e in h.events)
+    assert " " not in "".join(h.answer)
+
+
+# =============================================================================================
+# 1-3. The paper's frames
+# =============================================================================================
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_bus_t235_car_hides_behind_bus(backend):
+    problem = read_problem(str(EXAMPLES / "bus_t235.lp"))
+    h = solve(backend, problem)
+    check_well_formed(problem, h)
+    assert h.optimal
+    # The paper's answer, plus start(det_5): det_5 is a traffic light that overlaps no track
+    # (no iou/3 fact), so it can be neither assigned nor resumed; conf 59 > conf_thresh_new_track
+    # = 40 and area 21*44 = 924 > size_threshold = 100 allow a start, and a start (5@2 plus
+    # enters_fov 1@1) is cheaper than ignore_det (10@3).
+    assert h.actions == tuple(sorted([
+        "halt(trk_13)", "assign(trk_15,det_0)", "assign(trk_12,det_1)", "assign(trk_8,det_2)",
+        "assign(trk_3,det_3)", "assign(trk_7,det_4)", "start(det_5)"]))
+    assert h.events == tuple(sorted([
+        "occurs_at(hides_behind(trk_13,trk_12),235)", "occurs_at(enters_fov(det_5),235)"]))
+    # @10: -(82426 + 88079 + 98532 + 94981 + 90457 + 5 assigns) = -(454475 + 5) = -454480
+    # @3:  nothing ignored                                      = 0
+    # @2:  start(det_5)                                         = 5
+    # @1:  hides_behind 1 + enters_fov 1                        = 2
+    # @0:  w of the assigned pairs in natural (trk, det) order: (trk_3,det_3) k=0 w=1,
+    #      (trk_7,det_4) k=1 w=4, (trk_8,det_2) k=2 w=9, (trk_12,det_1) k=3 w=16,
+    #      [(trk_13,det_1) k=4 w=25 not chosen], (trk_15,det_0) k=5 w=36: 1+4+9+16+36 = 66;
+    #      r(trk_13,trk_12) = 0 (the only track overlapping trk_13)          = 66
+    assert h.cost == ((10, -454480), (3, 0), (2, 5), (1, 2), (0, 66))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_bus_t268_car_unhides_from_behind_bus(backend):
+    problem = read_problem(str(EXAMPLES / "bus_t268.lp"))
+    h = solve(backend, problem)
+    check_well_formed(problem, h)
+    assert h.optimal
+    # exactly the paper's answer (Section 4.1.1)
+    assert h.actions == tuple(sorted([
+        "resume(trk_13,det_1)", "assign(trk_15,det_0)", "assign(trk_12,det_2)",
+        "assign(trk_7,det_3)", "assign(trk_8,det_4)", "assign(trk_3,det_5)"]))
+    assert h.events == ("occurs_at(unhides_from_behind(trk_13,trk_12),268)",)
+    # @10: -(89636 + 97815 + 95528 + 93506 + 94945 + 5) = -(471430 + 5) = -471435
+    # @2: one resume = 1; @1: unhides_from_behind = 1
+    # @0: w(trk_3,det_5)=1 + w(trk_7,det_3)=4 + w(trk_8,det_4)=9 + w(trk_12,det_2)=25
+    #     + w(trk_15,det_0)=64 + resume w(trk_13,det_1)=36 = 139
+    #     + k(trk_12)=3 (trk_3, trk_7, trk_8, trk_12 in natural order) for the unhides = 142
+    assert h.cost == ((10, -471435), (3, 0), (2, 1), (1, 1), (0, 142))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_kitti_0020_t79(backend):
+    problem = read_problem(str(EXAMPLES / "kitti_0020_t79.lp"))
+    h = solve(backend, problem)
+    check_well_formed(problem, h)
+    assert h.optimal
+    assert h.actions == tuple(sorted([
+        "assign(trk_1,det_1)", "assign(trk_4,det_7)", "assign(trk_5,det_4)", "assign(trk_6,det_2)",
+        "assign(trk_7,det_8)", "assign(trk_11,det_0)", "assign(trk_12,det_3)", "assign(trk_13,det_5)",
+        # trk_0 (halted, clipped since 70): its only candidate det_0 (resume IoU 0.35) is worth
+        # more assigned to trk_11 (IoU 0.83, @10). Ending (5@2) beats ignoring (10@3); its box
+        # starts at x=-42 (near the border), so leaves_fov (cost 1) explains it, cheaper than
+        # lost (79-70 = 9 >= lost_after_missing = 3, cost 3).
+        "end(trk_0)",
+        # trk_9 (halted, clipped since 69): resume IoU with det_2 is 0.076 <= 0.1; not near a
+        # border; lost is possible (79-69 = 10 >= 3), so it ends as lost.
+        "end(trk_9)",
+        # det_10 (conf 40), det_11 (25), det_12 (22): conf <= conf_thresh_new_track = 40 and no
+        # assignable track (IoUs <= 0.3), so they are ignored.
+        "ignore_det(det_10)", "ignore_det(det_11)", "ignore_det(det_12)",
+        # det_6 (conf 84; its IoU 0.307 with trk_7 loses to det_8's 0.863), det_9 (conf 46, area
+        # 154), det_13 and det_14 (trucks: no car track may take them) start new tracks.
+        "start(det_6)", "start(det_9)", "start(det_13)", "start(det_14)"]))
+    assert h.events == tuple(sorted([
+        "occurs_at(leaves_fov(trk_0),79)", "occurs_at(lost(trk_9),79)",
+        "occurs_at(enters_fov(det_6),79)", "occurs_at(enters_fov(det_9),79)",
+        "occurs_at(enters_fov(det_13),79)", "occurs_at(enters_fov(det_14),79)"]))
+    # @10: -(96879 + 84365 + 94824 + 71071 + 86273 + 83400 + 90971 + 84391 + 8) = -692182
+    # @3: 3 ignore_det * 10 = 30;  @2: 2 ends * 5 + 4 starts * 5 = 30
+    # @1: leaves_fov 1 + lost 3 + 4 enters_fov = 8
+    # @0: w in natural (trk, det) order of the 22 iou pairs: (trk_1,det_1)=4, (trk_4,det_7)=9,
+    #     (trk_5,det_4)=36, (trk_6,det_2)=49, (trk_7,det_8)=121, (trk_11,det_0)=196,
+    #     (trk_12,det_3)=256, (trk_13,det_5)=441: sum 1112
+    assert h.cost == ((10, -692182), (3, 30), (2, 30), (1, 8), (0, 1112))
+
+
+def test_bus_t268_file_is_canonical_and_its_ious_are_computed():
+    import numpy as np
+
+    from refimpl.geometry import iou_matrix, scale_iou
+
+    path = EXAMPLES / "bus_t268.lp"
+    text = path.read_text(encoding="utf-8")
+    problem = read_problem(str(path))
+    assert write_facts(problem) == text
+    m = scale_iou(iou_matrix(np.array([t.box for t in problem.tracks]),
+                             np.array([d.box for d in problem.detections])))
+    expected = tuple((t.id, d.id, int(m[i, j])) for j, d in enumerate(problem.detections)
+                     for i, t in enumerate(problem.tracks) if m[i, j] > 0)
+    assert problem.iou == expected
+    assert [str(h) for h in problem.history] == ["occurs_at(hides_behind(trk_13,trk_12),235)"]
+
+
+# =============================================================================================
+# 4. One frame per rule
+# =============================================================================================
+
+# --- assignment_constraints --------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("iou,assigned", [(29000, False), (30000, False), (30001, True)])
+def test_assign_needs_iou_above_threshold(backend, iou, assigned):
+    # assigning would raise @10 by iou+1, but iou must be > iou_thresh = 30000
+    p = frame([det(1)], [trk(1)], [("trk_1", "det_1", iou)])
+    h = solve(backend, p)
+    check_well_formed(p, h)
+    if assigned:
+        assert h.answer == ("assign(trk_1,det_1)",)
+        assert h.cost[0] == (10, -(iou + 1))
+    else:
+        assert h.answer == tuple(sorted([
+            "halt(trk_1)", ev("missing_detections(trk_1)"), "start(det_1)", ev("enters_fov(det_1)")]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_assign_needs_an_iou_fact(backend):
+    # without iou/3 the pair has likelihood 0; assigning would still gain the @10 count
+    p = frame([det(1)], [trk(1)])
+    h = solve(backend, p)
+    assert "assign(trk_1,det_1)" not in h.actions
+    assert h.answer == tuple(sorted([
+        "halt(trk_1)", ev("missing_detections(trk_1)"), "start(det_1)", ev("enters_fov(det_1)")]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_halted_track_is_not_assigned(backend):
+    # trk_1 halted (clipped at 9); det_1 has conf 20: no resume (<= 30), no start (<= 40);
+    # assigning would gain @10 and save two ignores, but assign needs an active track
+    p = frame([det(1, conf=20)], [trk(1, "halted")], [("trk_1", "det_1", 90000)],
+              [hist("missing_detections(trk_1)", 9)])
+    h = solve(backend, p)
+    check_well_formed(p, h)
+    assert h.answer == ("ignore_det(det_1)", "ignore_trk(trk_1)")
+    assert h.cost == ((10, 0), (3, 20), (2, 0), (1, 0), (0, 0))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_assign_needs_matching_types(backend):
+    p = frame([det(1, typ="person")], [trk(1, typ="car")], [("trk_1", "det_1", 90000)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted([
+        "halt(trk_1)", ev("missing_detections(trk_1)"), "start(det_1)", ev("enters_fov(det_1)")]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_match_type_fact_allows_other_types_one_way(backend):
+    p = frame([det(1, typ="truck")], [trk(1, typ="car")], [("trk_1", "det_1", 90000)],
+              match_types=[("car", "truck")])
+    assert solve(backend, p).answer == ("assign(trk_1,det_1)",)
+    # match_type(TrkType, DetType) is not symmetric
+    p = frame([det(1, typ="truck")], [trk(1, typ="car")], [("trk_1", "det_1", 90000)],
+              match_types=[("truck", "car")])
+    assert "assign(trk_1,det_1)" not in solve(backend, p).actions
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_assign_needs_confidence_above_threshold(backend):
+    # conf 0 is not > conf_thresh_assign = 0
+    p = frame([det(1, conf=0)], [trk(1)], [("trk_1", "det_1", 90000)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["halt(trk_1)", ev("missing_detections(trk_1)"), "ignore_det(det_1)"]))
+    p = frame([det(1, conf=1)], [trk(1)], [("trk_1", "det_1", 90000)])
+    assert solve(backend, p).answer == ("assign(trk_1,det_1)",)
+
+
+# --- resume_constraints -------------------------------------------------------------------------
+
+def _halted_clipped(det_conf=90, iou=50000, det_typ="car"):
+    # trk_1 halted at 9 by missing_detections (clipped; lost needs 10-9 >= 3: not yet)
+    return frame([det(1, typ=det_typ, conf=det_conf)], [trk(1, "halted")], [("trk_1", "det_1", iou)],
+                 [hist("missing_detections(trk_1)", 9)])
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
+    p = _halted_clipped()
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["resume(trk_1,det_1)", ev("recover(trk_1)")]))
+    # @2: resume 1; @1: recover 2; @0: w(trk_1,det_1) = 1
+    assert h.cost == ((10, 0), (3, 0), (2, 1), (1, 2), (0, 1))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("conf,resumed", [(30, False), (31, True)])
+def test_resume_needs_confidence_above_threshold(backend, conf, resumed):
+    # conf <= 40 also forbids a start, so without the resume both are ignored
+    h = solve(backend, _halted_clipped(det_conf=conf))
+    if resumed:
+        assert "resume(trk_1,det_1)" in h.actions
+    else:
+        assert h.answer == ("ignore_det(det_1)", "ignore_trk(trk_1)")
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("iou,resumed", [(10000, False), (10001, True)])
+def test_resume_needs_iou_above_threshold(backend, iou, resumed):
+    h = solve(backend, _halted_clipped(iou=iou))
+    if resumed:
+        assert h.answer == tuple(sorted(["resume(trk_1,det_1)", ev("recover(trk_1)")]))
+    else:
+        assert h.answer == tuple(sorted(["start(det_1)", ev("enters_fov(det_1)"), "ignore_trk(trk_1)"]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_resume_needs_matching_types(backend):
+    h = solve(backend, _halted_clipped(det_typ="person"))
+    assert h.answer == tuple(sorted(["start(det_1)", ev("enters_fov(det_1)"), "ignore_trk(trk_1)"]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_resume_needs_a_halted_track(backend):
+    # trk_1 is active but clipped by a (hand-written) history, so it cannot be halted
+    # (missing_detections needs clipped = false; nothing overlaps it for hides_behind).
+    # resume(trk_1,det_1) explained by recover would be the only answer, but resume needs a
+    # halted track and assign needs IoU > 0.3: no admissible hypothesis.
+    p = frame([det(1)], [trk(1)], [("trk_1", "det_1", 20000)], [hist("missing_detections(trk_1)", 5)])
+    with pytest.raises(NoAdmissibleHypothesis):
+        solve(backend, p)
+
+
+# --- start_constraints ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("conf,started", [(40, False), (41, True)])
+def test_start_needs_confidence_above_threshold(backend, conf, started):
+    p = frame([det(1, conf=conf)])
+    h = solve(backend, p)
+    if started:
+        assert h.answer == ("occurs_at(enters_fov(det_1),10)", "start(det_1)")
+        assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 1), (0, 0))
+    else:
+        assert h.answer == ("ignore_det(det_1)",)
+        assert h.cost == ((10, 0), (3, 10), (2, 0), (1, 0), (0, 0))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("box,started", [((300, 300, 10, 10), False), ((300, 300, 101, 1), True),
+                                         ((300, 300, 1, 100), False)])
+def test_start_needs_area_above_size_threshold(backend, box, started):
+    p = frame([det(1, box=box)])
+    h = solve(backend, p)
+    assert h.answer == (("occurs_at(enters_fov(det_1),10)", "start(det_1)") if started
+                        else ("ignore_det(det_1)",))
+
+
+# --- end_constraints, ignore_trk_constraints, halt_constraints -------------------------------------
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_active_track_is_neither_ended_nor_ignored(backend):
+    # trk_1 is active, clipped by history (cannot be halted: missing_detections needs
+    # clipped = false), near the left border (leaves_fov could explain an end) and has no
+    # detection. end + leaves_fov, or ignore_trk, would be admissible without end_constraints /
+    # ignore_trk_constraints; with them there is no admissible hypothesis.
+    p = frame([], [trk(1, box=(5, 300, 50, 50))], [], [hist("missing_detections(trk_1)", 5)])
+    with pytest.raises(NoAdmissibleHypothesis):
+        solve(backend, p)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_halted_track_is_not_halted_again(backend):
+    # halt + missing_detections (0@2, 2@1) would beat end + leaves_fov (5@2, 1@1)
+    p = frame([], [trk(1, "halted", box=(5, 300, 50, 50))])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
+    assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 1), (0, 0))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_unexplainable_end_does_not_happen_so_the_track_is_ignored(backend):
+    # halted, not near a border, never started or halted in the history: no leaves_fov, lost or
+    # noise can explain an end (5@2), so the track is ignored (10@3)
+    p = frame([], [trk(1, "halted")])
+    h = solve(backend, p)
+    assert h.answer == ("ignore_trk(trk_1)",)
+    assert h.cost == ((10, 0), (3, 10), (2, 0), (1, 0), (0, 0))
+
+
+# --- explain_halt, poss_hides_behind, poss_missing_detections -----------------------------------
+
+def _occlusion(front_box, history=(), constants=()):
+    # trk_1 has no detection; trk_2 (front_box) is assigned det_2
+    return frame([det(2, box=front_box)], [trk(1, box=(100, 100, 50, 50)), trk(2, box=front_box)],
+                 [("trk_2", "det_2", 90000)], history, constants)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_halt_is_explained_by_hides_behind_an_overlapping_top_track(backend):
+    # trk_2 (110,110,60,60) covers 40*40 = 1600 > 10% of trk_1's 2500 px^2, bottom 170 >= 150
+    p = _occlusion((110, 110, 60, 60))
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "halt(trk_1)",
+                                     ev("hides_behind(trk_1,trk_2)")]))
+    assert h.cost == ((10, -90001), (3, 0), (2, 0), (1, 1), (0, 1))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("front_box", [
+    (200, 200, 60, 60),   # no overlap
+    (110, 60, 60, 60),    # overlaps, but its bottom edge 120 is above trk_1's 150: it is behind
+    (145, 100, 50, 60),   # overlap 5*50 = 250: 100*250 = 25000 is not > 10*2500
+])
+def test_hides_behind_needs_overlapping_top(backend, front_box):
+    h = solve(backend, _occlusion(front_box))
+    assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "halt(trk_1)",
+                                     ev("missing_detections(trk_1)")]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_hides_behind_needs_a_visible_occluder(backend):
+    # trk_2 hid behind a track that no longer exists (history may name departed tracks): it is
+    # not_visible, so trk_1 cannot hide behind it
+    p = _occlusion((110, 110, 60, 60), [hist("hides_behind(trk_2,trk_9)", 5)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "halt(trk_1)",
+                                     ev("missing_detections(trk_1)")]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_missing_detections_needs_an_unclipped_track(backend):
+    # with cost_hides_behind = 5, missing_detections (2) would be the cheaper explanation...
+    p = _occlusion((110, 110, 60, 60), constants=[("cost_hides_behind", 5)])
+    assert ev("missing_detections(trk_1)") in solve(backend, p).events
+    # ...but not for a track clipped by the history
+    p = _occlusion((110, 110, 60, 60), [hist("missing_detections(trk_1)", 5)],
+                   constants=[("cost_hides_behind", 5)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "halt(trk_1)",
+                                     ev("hides_behind(trk_1,trk_2)")]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_hides_behind_prefers_the_occluder_covering_most(backend):
+    # trk_2 and trk_3 both overlap-top trk_1; trk_3 covers more of it (tie-break r = 0)
+    p = frame([det(2, box=(110, 110, 60, 60)), det(3, box=(90, 95, 70, 70))],
+              [trk(1, box=(100, 100, 50, 50)), trk(2, box=(110, 110, 60, 60)), trk(3, box=(90, 95, 70, 70))],
+              [("trk_2", "det_2", 90000), ("trk_3", "det_3", 90000)])
+    h = solve(backend, p)
+    assert h.events == (ev("hides_behind(trk_1,trk_3)"),)
+
+
+# --- explain_resume, poss_unhides_from_behind, poss_recover ---------------------------------------
+
+def _hidden(history, extra_tracks=()):
+    # trk_1 (halted) has det_1 (IoU 0.5); trk_2 and trk_3 are active with their own detections
+    tracks = [trk(1, "halted"), trk(2, box=(280, 290, 100, 100)), trk(3, box=(600, 600, 40, 40))]
+    dets = [det(1), det(2, box=(280, 290, 100, 100)), det(3, box=(600, 600, 40, 40))]
+    return frame(dets, tracks, [("trk_1", "det_1", 50000), ("trk_2", "det_2", 90000),
+                                ("trk_3", "det_3", 90000)], history)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_resume_after_hiding_is_explained_by_unhides_from_behind_the_occluder(backend):
+    h = solve(backend, _hidden([hist("hides_behind(trk_1,trk_2)", 5)]))
+    assert "resume(trk_1,det_1)" in h.actions
+    # hidden_by(trk_1,trk_2) = true: unhides (1) from trk_2, not from trk_3, rather than recover (2)
+    assert h.events == (ev("unhides_from_behind(trk_1,trk_2)"),)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_unhides_needs_hidden_by(backend):
+    # trk_1 was clipped, never hidden: the resume is explained by recover
+    h = solve(backend, _hidden([hist("missing_detections(trk_1)", 8)]))
+    assert "resume(trk_1,det_1)" in h.actions
+    assert h.events == (ev("recover(trk_1)"),)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_unhides_needs_a_visible_occluder(backend):
+    # trk_1 hid behind trk_2, then trk_2 hid behind trk_3: trk_2 is not_visible
+    h = solve(backend, _hidden([hist("hides_behind(trk_1,trk_2)", 5), hist("hides_behind(trk_2,trk_3)", 6)]))
+    assert "resume(trk_1,det_1)" in h.actions
+    assert h.events == (ev("recover(trk_1)"),)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_unhides_and_recover_reset_the_fluents(backend):
+    # hidden at 3, unhidden at 5, clipped at 7: hidden_by is false again, so only recover
+    h = solve(backend, _hidden([hist("hides_behind(trk_1,trk_2)", 3), hist("unhides_from_behind(trk_1,trk_2)", 5),
+                                hist("missing_detections(trk_1)", 7)]))
+    assert h.events == (ev("recover(trk_1)"),)
+    # hidden at 3, recovered at 5: visible, unclipped, not hidden_by: no explanation of a
+    # resume; det_1 starts a new track (it cannot be assigned: trk_1 is halted) and trk_1,
+    # halted at 3 and visible, is lost (10 - 3 >= lost_after_missing = 3)
+    h = solve(backend, _hidden([hist("hides_behind(trk_1,trk_2)", 3), hist("recover(trk_1)", 5)]))
+    assert "resume(trk_1,det_1)" not in h.actions
+    assert {"start(det_1)", "end(trk_1)"} <= set(h.actions)
+    assert set(h.events) == {ev("enters_fov(det_1)"), ev("lost(trk_1)")}
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_recover_needs_a_clipped_or_hidden_track(backend):
+    # a halted track with no history is neither clipped nor not_visible: the resume (1@2)
+    # cannot be explained, so det_1 starts (5@2) and trk_1 is ignored (10@3)
+    p = frame([det(1)], [trk(1, "halted")], [("trk_1", "det_1", 50000)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["start(det_1)", ev("enters_fov(det_1)"), "ignore_trk(trk_1)"]))
+
+
+# --- explain_end, poss_leaves_fov, poss_lost, poss_noise -------------------------------------------
+
+def _ended(box=MID, history=(), constants=(), time=10):
+    return frame([], [trk(1, "halted", box=box)], [], history, constants, time)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("box,constants,leaves", [
+    ((300, 300, 50, 50), (), False),
+    ((10, 300, 50, 50), (), True),        # x <= border_margin
+    ((300, 11, 50, 50), (), False),       # y = 11 > border_margin
+    ((300, 10, 50, 50), (), True),
+    ((1180, 300, 52, 50), (), False),     # image width unknown: the right border is not tested
+    ((1180, 300, 52, 50), (("img_width", 1242),), True),   # 1232 >= 1242 - 10
+    ((1180, 300, 51, 50), (("img_width", 1242),), False),  # 1231 < 1232
+    ((300, 300, 50, 50), (("img_height", 360),), True),    # 350 >= 360 - 10
+])
+def test_leaves_fov_needs_near_border(backend, box, constants, leaves):
+    h = solve(backend, _ended(box, constants=constants))
+    if leaves:
+        assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
+    else:
+        assert h.answer == ("ignore_trk(trk_1)",)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_leaves_fov_needs_in_fov(backend):
+    near = (5, 300, 50, 50)
+    h = solve(backend, _ended(near, [hist("leaves_fov(trk_1)", 4)]))
+    assert h.answer == ("ignore_trk(trk_1)",)
+    # entering again makes in_fov true (enters_fov at 7 also starts it: noise needs 10-7 <= 3,
+    # but leaves_fov is cheaper)
+    h = solve(backend, _ended(near, [hist("leaves_fov(trk_1)", 4), hist("enters_fov(trk_1)", 7)]))
+    assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("event,halted,lost", [
+    ("missing_detections(trk_1)", 37, True),   # 40 - 37 = 3 >= lost_after_missing = 3
+    ("missing_detections(trk_1)", 38, False),
+    ("hides_behind(trk_1,trk_2)", 37, False),  # not_visible: needs lost_after_hidden = 30
+    ("hides_behind(trk_1,trk_2)", 10, True),   # 40 - 10 = 30
+    ("hides_behind(trk_1,trk_2)", 11, False),
+])
+def test_lost_needs_enough_time_since_halting(backend, event, halted, lost):
+    # trk_2 is an active track far away, with its own detection
+    p = frame([det(2, box=(600, 600, 40, 40))], [trk(1, "halted"), trk(2, box=(600, 600, 40, 40))],
+              [("trk_2", "det_2", 90000)], [hist(event, halted)], time=40)
+    h = solve(backend, p)
+    if lost:
+        assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "end(trk_1)", ev("lost(trk_1)", 40)]))
+        assert h.cost[1:4] == ((3, 0), (2, 5), (1, 3))
+    else:
+        assert h.answer == ("assign(trk_2,det_2)", "ignore_trk(trk_1)")
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("halted,lost", [(-20, True), (-19, False)])
+def test_history_naming_a_departed_track_and_before_mintime_still_applies(backend, halted, lost):
+    # trk_1 hid behind trk_5, which no longer exists: visibility(trk_1) is still not_visible
+    # (so lost needs lost_after_hidden = 30), and an event at or before mintime = -1 still
+    # takes effect: 10 - (-20) = 30 >= 30, 10 - (-19) = 29 < 30
+    h = solve(backend, _ended(history=[hist("hides_behind(trk_1,trk_5)", halted)]))
+    if lost:
+        assert h.answer == tuple(sorted(["end(trk_1)", ev("lost(trk_1)")]))
+    else:
+        assert h.answer == ("ignore_trk(trk_1)",)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_lost_counts_from_the_latest_halt(backend):
+    # halted at 2, recovered at 3, halted again at 8: 10 - 8 = 2 < 3
+    h = solve(backend, _ended(history=[hist("missing_detections(trk_1)", 2), hist("recover(trk_1)", 3),
+                                       hist("missing_detections(trk_1)", 8)]))
+    assert h.answer == ("ignore_trk(trk_1)",)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("started,noise", [(7, True), (6, False)])
+def test_noise_only_for_young_tracks(backend, started, noise):
+    # started at `started`, clipped at 9 (too recent for lost)
+    history = [hist("enters_fov(trk_1)", started), hist("missing_detections(trk_1)", 9)]
+    h = solve(backend, _ended(history=history))
+    if noise:  # 10 - 7 = 3 <= noise_max_age = 3
+        assert h.answer == tuple(sorted(["end(trk_1)", ev("noise(trk_1)")]))
+        assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 2), (0, 0))
+    else:
+        assert h.answer == ("ignore_trk(trk_1)",)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_end_takes_the_cheapest_explanation(backend):
+    # leaves_fov (1), noise (2) and lost (3) are all possible
+    history = [hist("enters_fov(trk_1)", 8), hist("missing_detections(trk_1)", 8)]
+    p = _ended((5, 300, 50, 50), history, time=11)
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)", 11)]))
+    p = _ended(MID, history, time=11)
+    assert solve(backend, p).events == (ev("noise(trk_1)", 11),)
+
+
+# --- explain_start -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_every_start_is_explained_by_enters_fov(backend):
+    p = frame([det(i, box=(100 * i, 300, 50, 50)) for i in range(1, 4)])
+    h = solve(backend, p)
+    assert h.actions == ("start(det_1)", "start(det_2)", "start(det_3)")
+    assert h.events == tuple(ev(f"enters_fov(det_{i})") for i in range(1, 4))
+    assert h.cost == ((10, 0), (3, 0), (2, 15), (1, 3), (0, 0))
+
+
+# --- optimisation ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_iou_of_one_counts_likelihood_and_assignment_separately(backend):
+    # @10 = -(sum of IoU + number of assignments), the two terms never merged
+    p = frame([det(1)], [trk(1)], [("trk_1", "det_1", 100000)])
+    assert solve(backend, p).cost[0] == (10, -100001)
+    # a likelihood of exactly 1 (the weight of the count term) still counts twice: -(1 + 1)
+    p = frame([det(1)], [trk(1)], [("trk_1", "det_1", 1)], [], [("iou_thresh", 0)])
+    assert solve(backend, p).cost[0] == (10, -2)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_more_assignments_beat_a_higher_likelihood_sum_only_by_the_count(backend):
+    # two tracks, two detections: the diagonal (0.5 + 0.5 + 2) beats a single 0.99 + 1
+    p = frame([det(1), det(2)], [trk(1), trk(2)],
+              [("trk_1", "det_1", 50000), ("trk_2", "det_2", 50000), ("trk_1", "det_2", 99000)])
+    h = solve(backend, p)
+    assert h.actions == ("assign(trk_1,det_1)", "assign(trk_2,det_2)")
+    assert h.cost[0] == (10, -100002)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_empty_frame_reports_all_levels(backend):
+    h = solve(backend, frame())
+    assert h.answer == ()
+    assert h.cost == ((10, 0), (3, 0), (2, 0), (1, 0), (0, 0))
+    assert h.optimal
+
+
+# =============================================================================================
+# 5. Constants from the problem
+# =============================================================================================
+
+_OVERRIDE_FACTS = """\
+#const curr_time=10.
+det(det_1, car, 90).
+box2d(det_1, 300, 300, 50, 50).
+trk(trk_1, car).
+trk_state(trk_1, active).
+box2d(trk_1, 305, 300, 50, 50).
+iou(trk_1,det_1,25000).
+"""
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_const_in_the_fact_text_overrides_the_default(backend):
+    default = solve(backend, FrameProblem.from_facts(_OVERRIDE_FACTS))
+    assert "assign(trk_1,det_1)" not in default.actions  # 25000 <= 30000
+    lowered = FrameProblem.from_facts(_OVERRIDE_FACTS.replace(
+        "#const curr_time=10.\n", "#const curr_time=10.\n#const iou_thresh=20000.\n"))
+    h = solve(backend, lowered)
+    assert h.answer == ("assign(trk_1,det_1)",)
+    assert h.cost[0] == (10, -25001)
+
+
+# =============================================================================================
+# 6. Time limits and inadmissible problems
+# =============================================================================================
+
+def _crowded(n: int = 40, seed: int = 7) -> FrameProblem:
+    """n tracks and n detections in a tight crowd: many candidate pairs, many near-ties."""
+    rng = random.Random(seed)
+    tracks, dets, ious = [], [], []
+    for i in range(n):
+        x, y = 100 + rng.randrange(0, 400), 100 + rng.randrange(0, 200)
+        tracks.append(trk(i, "active" if i % 5 else "halted", (x, y, 60, 60)))
+        dets.append(det(i, (x + rng.randrange(-15, 16), y + rng.randrange(-15, 16), 60, 60),
+                        conf=rng.randrange(20, 100)))
+    from refimpl.geometry import intersection_area
+    for t in tracks:
+        for d in dets:
+            inter = intersection_area(t.box, d.box)
+            if inter > 0:
+                ious.append((t.id, d.id, inter * 100000 // (2 * 3600 - inter)))
+    history = [hist(f"missing_detections(trk_{i})", 5) for i in range(0, n, 5)]
+    return frame(dets, tracks, ious, history)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_time_limit_returns_best_so_far_or_a_proven_answer(backend):
+    p = _crowded()
+    # no time at all: the best answer found in no time (e.g. CP-SAT's), or, when none was
+    # found (clingo: grounding alone takes longer), NoAdmissibleHypothesis naming the limit
+    try:
+        h = solve(backend, p, time_limit=0.0)
+        check_well_formed(p, h)
+    except NoAdmissibleHypothesis as exc:
+        assert "time limit" in str(exc)
+    # 0.3 s is enough to find answers, not (for clingo) to prove one optimal
+    h = solve(backend, p, time_limit=0.3)
+    check_well_formed(p, h)
+    assert isinstance(h.optimal, bool)
+    assert h.solve_ms < 5000
+    # a smaller crowd is solved to proven optimality (a dense 40 x 40 crowd takes clingo's
+    # branch-and-bound some 30 s to prove, CP-SAT well under a second)
+    small = _crowded(25)
+    full = solve(backend, small, time_limit=60)
+    assert full.optimal
+    check_well_formed(small, full)
+
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+def test_unsatisfiable_problem_raises(backend):
+    # an active track clipped by the history, with no detection and nothing to hide behind:
+    # it cannot be assigned, halted (missing_detections needs clipped = false), ended or ignored
+    p = frame([], [trk(1)], [], [hist("missing_detections(trk_1)", 5)])
+    with pytest.raises(NoAdmissibleHypothesis) as info:
+        solve(backend, p)
+    assert "\n" not in str(info.value)
