@@ -163,6 +163,32 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_diff(args: argparse.Namespace) -> int:
+    from . import io
+    from .diff import DiffReport, diff_sequence
+    backends = tuple(b.strip() for b in args.backends.split(","))
+    if len(backends) != 2 or any(b not in ("cpsat", "clingo") for b in backends) or backends[0] == backends[1]:
+        raise UserError(f"--backends takes two different backends out of cpsat,clingo, got {args.backends!r}")
+    if args.benchmark:
+        seqs = [io.load_detections(s) for s in io.benchmark_sequences(args.benchmark, args.data)]
+    elif args.dets:
+        seqs = [_load_sequence(args)]
+    else:
+        raise UserError("give --dets PATH (one sequence) or --benchmark NAME (every sequence of a benchmark)")
+    total = DiffReport(backends)  # type: ignore[arg-type]
+    progress = Progress(len(seqs), f"diff {backends[0]},{backends[1]}", enabled=not args.quiet)
+    for seq in seqs:
+        report = diff_sequence(seq, backends)  # type: ignore[arg-type]
+        total.add(report)
+        print(f"{seq.name}: {report.summary()}")
+        if report.first_divergence:
+            print(report.first_divergence.describe())
+        progress.step(seq.name)
+    if len(seqs) > 1:
+        print(f"TOTAL: {total.summary()}")
+    return EXIT_OK if total.ok else EXIT_FAILURE
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table
@@ -232,6 +258,17 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     b.set_defaults(func=cmd_benchmark)
+
+    x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
+                                     "exit 1 on any cost disagreement")
+    x.add_argument("--dets", help="detections of one sequence")
+    x.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
+    x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
+    x.add_argument("--data", default="../shared/data", help="benchmark data root (with --benchmark)")
+    x.add_argument("--backends", default="cpsat,clingo", help="FIRST,SECOND (default cpsat,clingo)")
+    x.add_argument("--quiet", action="store_true", help="no progress bar")
+    x.set_defaults(func=cmd_diff)
 
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
     d.add_argument("--backends", default="baseline", help="comma-separated trackers to run (default baseline)")
