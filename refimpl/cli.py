@@ -6,12 +6,13 @@ import argparse
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Callable, Sequence
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 TRACKERS = ("baseline", "cpsat", "clingo")
-BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped")
+BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 
@@ -23,7 +24,8 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .io import InputFormatError
     from .solvers import NoAdmissibleHypothesis, SolverUnavailable
     from .spec import ProblemFormatError
-    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis)
+    from .scene import SceneError
+    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
 
 
 # ---------------------------------------------------------------------------------------
@@ -96,20 +98,20 @@ def _load_sequence(args: argparse.Namespace):
     return io.read_kitti_detections(args.dets, args.cls)
 
 
-def _run_tracker(seq, backend: str, progress: Progress | None = None, **options):
-    """Results rows (frame, id, x, y, w, h) and the event log (possibly empty) of one sequence."""
-    if backend == "baseline":
-        from .baseline import track_sequence
-        return track_sequence(seq), ()
-    from .tracker import track_sequence as abduce_sequence  # the paper's Algorithm 1
-    result = abduce_sequence(seq, backend=backend, **options)
-    return result.rows, result.events
+def _run_tracker(seq, backend: str):
+    from .table6 import run_tracker
+    return run_tracker(seq, backend)
 
 
 def cmd_track(args: argparse.Namespace) -> int:
     from . import io
     seq = _load_sequence(args)
-    rows, events = _run_tracker(seq, args.backend)
+    if args.scene:  # the whole tracking result goes into the scene file (refimpl.scene)
+        from .scene import track_and_save_scene
+        result = track_and_save_scene(seq, args.backend, args.scene)
+        rows, events = result.rows, result.events
+    else:
+        rows, events = _run_tracker(seq, args.backend)
     io.write_mot_results(args.out, rows, first_frame=seq.first_frame)
     print(f"{seq.name}: {len(seq.frames)} frames, {len(set(rows[:, 1].tolist())) if len(rows) else 0} tracks"
           f" -> {args.out}")
@@ -137,29 +139,31 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def run_benchmark(name: str, data_root: str, backend: str, show_progress: bool = True):
-    """Track and evaluate every sequence of a benchmark: (per_sequence, overall) metrics."""
-    from . import io
-    from .evaluate import evaluate_many
-    seqs = io.benchmark_sequences(name, data_root)
-    progress = Progress(len(seqs), f"{name}/{backend}", enabled=show_progress)
-    triples = []
-    for s in seqs:
-        dets = io.load_detections(s)
-        rows, _ = _run_tracker(dets, backend)
-        triples.append((s.name, io.load_ground_truth(s), rows))
-        progress.step(s.name)
-    return evaluate_many(triples)
-
-
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from .evaluate import format_table
-    per_seq, overall = run_benchmark(args.name, args.data, args.backend, show_progress=not args.quiet)
-    print(f"## {args.name} — {args.backend}\n")
-    print(format_table(per_seq, overall))
+    from .table6 import TITLES, load_dataset, run_benchmark
+    dataset = load_dataset(args.name, args.data)
+    progress = Progress(len(dataset), f"{args.name}/{args.backend}", enabled=not args.quiet)
+    run = run_benchmark(args.name, args.data, args.backend, progress.step, dataset=dataset)
+    print(f"## {TITLES[args.name]} — {args.backend}\n")
+    print(format_table(run.per_sequence, run.overall))
     if args.json:
         Path(args.json).write_text(json.dumps({"benchmark": args.name, "backend": args.backend,
-                                               "per_sequence": per_seq, "overall": overall}, indent=2))
+                                               "per_sequence": run.per_sequence, "overall": run.overall,
+                                               "events": run.events}, indent=2, default=float))
+    return EXIT_OK
+
+
+def cmd_table6(args: argparse.Namespace) -> int:
+    from .table6 import format_table6, run_table6
+    datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else None
+    kwargs = {"datasets": datasets} if datasets else {}
+    runs = run_table6(args.data, args.backend,
+                      step_factory=None if args.quiet else (lambda label, n: Progress(n, label).step), **kwargs)
+    text = format_table6(runs)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
     return EXIT_OK
 
 
@@ -187,6 +191,26 @@ def cmd_diff(args: argparse.Namespace) -> int:
     if len(seqs) > 1:
         print(f"TOTAL: {total.summary()}")
     return EXIT_OK if total.ok else EXIT_FAILURE
+
+
+def cmd_query(args: argparse.Namespace) -> int:
+    from .scene import load_scene, query, reasoning_config
+    config = reasoning_config(args.anticipation_threshold, args.ego_region)
+    answer = query(load_scene(args.scene), " ".join(args.query), config)
+    print(answer.to_json() if args.json else "\n".join(answer.lines))
+    return EXIT_OK
+
+
+def cmd_explain(args: argparse.Namespace) -> int:
+    from .scene import explain, load_scene
+    print("\n".join(explain(load_scene(args.scene), args.track)))
+    return EXIT_OK
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from .plots import plot_scene_file
+    print(plot_scene_file(args.scene, args.out, frame=args.frame, tracks=args.tracks, frames=args.frames))
+    return EXIT_OK
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -242,6 +266,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="results file (MOTChallenge format)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
+    t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
+                   "for query / explain / plot (cpsat or clingo backend)")
     t.set_defaults(func=cmd_track)
 
     e = sub.add_parser("eval", help="CLEAR MOT and IDF1 of a results file against ground truth")
@@ -252,12 +278,20 @@ def build_parser() -> argparse.ArgumentParser:
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
-    b.add_argument("name", choices=BENCHMARKS)
+    b.add_argument("name", choices=BENCHMARKS, help="*-sim datasets use simulated detections (refimpl.simulate)")
     b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     b.add_argument("--backend", choices=TRACKERS, default="baseline")
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     b.set_defaults(func=cmd_benchmark)
+
+    t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
+    t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    t6.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    t6.add_argument("--datasets", help="comma-separated subset of mot15,kitti-car,kitti-ped,mot17-sim,mot20-01-sim")
+    t6.add_argument("--out", help="also write the markdown table to this file")
+    t6.add_argument("--quiet", action="store_true", help="no progress bar")
+    t6.set_defaults(func=cmd_table6)
 
     x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
                                      "exit 1 on any cost disagreement")
@@ -271,14 +305,45 @@ def build_parser() -> argparse.ArgumentParser:
     x.set_defaults(func=cmd_diff)
 
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
-    d.add_argument("--backends", default="baseline", help="comma-separated trackers to run (default baseline)")
+    d.add_argument("--backends", default="baseline,cpsat",
+                   help="comma-separated trackers to run: baseline, cpsat, clingo (default baseline,cpsat)")
     d.set_defaults(func=cmd_demo)
+
+    q = sub.add_parser("query", help="ask a scene a question (docs/reasoning.md): tracks | track T | hidden_by T | "
+                                      "holds_at T FRAME | events FROM TO [T] | relation T REL | "
+                                      "anticipate T FRAME | situations")
+    q.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    q.add_argument("query", nargs="+", help="the query, e.g. hidden_by trk_12")
+    q.add_argument("--json", action="store_true", help="print the answer as JSON")
+    q.add_argument("--anticipation-threshold", type=int, default=None, metavar="FRAMES",
+                   help="warn when a hidden track reappears in front within this many frames (default 30)")
+    q.add_argument("--ego-region", default=None, metavar="X0,X1,Y0,Y1",
+                   help="the region in front of the ego vehicle, fractions of the image (default 0.333,0.667,0.5,1)")
+    q.set_defaults(func=cmd_query)
+
+    xp = sub.add_parser("explain", help="the event log of a scene as plain English sentences")
+    xp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    xp.add_argument("--track", help="only the episodes of this track (13 or trk_13)")
+    xp.set_defaults(func=cmd_explain)
+
+    pl = sub.add_parser("plot", help="a space-time picture of a scene, or its boxes and relations at one frame")
+    pl.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    pl.add_argument("--out", required=True, help="PNG file to write")
+    pl.add_argument("--frame", type=int, help="draw the boxes and relations of this frame instead")
+    pl.add_argument("--tracks", help="comma-separated tracks to draw (default: those observed in 3+ frames)")
+    pl.add_argument("--frames", metavar="FROM:TO", help="frame range of the space-time picture")
+    pl.set_defaults(func=cmd_plot)
     return p
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"refimpl: warning: {message}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    warnings.showwarning = _one_line_warning
     try:
         return args.func(args)
     except _user_errors() as exc:

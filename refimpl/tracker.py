@@ -54,6 +54,8 @@ class _Track:
     halted: dict[int, np.ndarray] = field(default_factory=dict)  # frame -> predicted box while halted
     ended_at: int | None = None
     predicted: np.ndarray | None = None
+    streak: int = 0  # consecutive observed frames, SORT's hit_streak (0 at birth)
+    confirmed: set[int] = field(default_factory=set)  # observed frames that are written
 
 
 @dataclass(frozen=True)
@@ -95,11 +97,14 @@ class AbductionTracker:
     """Algorithm 1 with one solver backend; deterministic for a deterministic backend."""
 
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
-                 min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None):
+                 min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
+                 max_gap_fill: int = 0, keep_confirmed: bool = False):
         self.solver = solver
         self.constants = tuple((constants or {}).items())
         self.min_hits = min_hits
         self.time_limit = time_limit
+        self.max_gap_fill = max_gap_fill
+        self.keep_confirmed = keep_confirmed
         self.tracks: dict[str, _Track] = {}
         self.finished: list[_Track] = []
         self.next_number = 1
@@ -164,7 +169,9 @@ class AbductionTracker:
                 if kind == "resume":
                     trk.gaps.append((max(trk.observed), frame))
                     trk.state = "active"
+                trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
                 trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
+                self._confirm(trk, frame)
             elif kind == "halt":
                 self.tracks[args[0]].state = "halted"
             elif kind == "end":
@@ -177,6 +184,7 @@ class AbductionTracker:
             kalman = BoxKalman(boxes[j])
             trk = _Track(trk_id, types[j], kalman)
             trk.observed[frame] = np.asarray(kalman.box, dtype=float)
+            self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
         for atom in hyp.events:
@@ -194,6 +202,12 @@ class AbductionTracker:
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
 
+    def _confirm(self, trk: _Track, frame: int) -> None:
+        """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
+        frames); a track written once stays confirmed through halts and resumes."""
+        if trk.streak >= self.min_hits or self.frames <= self.min_hits or (trk.confirmed and self.keep_confirmed):
+            trk.confirmed.add(frame)
+
     @staticmethod
     def _rename(event: Term, new_ids: Mapping[str, str]) -> Term:
         return Term(event.name, tuple(Term(new_ids.get(a.name, a.name)) for a in event.args))
@@ -202,12 +216,14 @@ class AbductionTracker:
     def result_rows(self) -> np.ndarray:
         rows: list[list[float]] = []
         for trk in sorted(self.finished + list(self.tracks.values()), key=lambda t: _trk_number(t.id)):
-            if len(trk.observed) < self.min_hits:
+            if not trk.confirmed:
                 continue
             number = _trk_number(trk.id)
-            for f, box in trk.observed.items():
-                rows.append([f, number, *box])
+            for f in sorted(trk.confirmed):
+                rows.append([f, number, *trk.observed[f]])
             for last, resumed in trk.gaps:
+                if resumed - last - 1 > self.max_gap_fill or last not in trk.confirmed or resumed not in trk.confirmed:
+                    continue
                 a, b = trk.observed[last], trk.observed[resumed]
                 for f in range(last + 1, resumed):
                     w = (f - last) / (resumed - last)
@@ -228,13 +244,15 @@ class AbductionTracker:
 
 def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | None = None,
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
-                   observer: FrameObserver | None = None, solver: Solver | None = None) -> TrackingResult:
+                   observer: FrameObserver | None = None, solver: Solver | None = None,
+                   max_gap_fill: int = 0, keep_confirmed: bool = False) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
         merged.setdefault("img_height", int(seq.image_size[1]))
-    tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit)
+    tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
+                               max_gap_fill, keep_confirmed)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     return tracker.result()
