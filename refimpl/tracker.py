@@ -36,6 +36,7 @@ from .solvers import Solver, get_solver
 from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, parse_term
 
 DEFAULT_MIN_HITS = 3
+DEFAULT_BRIDGE_GAP = 0
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
 
@@ -55,6 +56,7 @@ class _Track:
     ended_at: int | None = None
     predicted: np.ndarray | None = None
     streak: int = 0  # consecutive observed frames, SORT's hit_streak (0 at birth)
+    bridged: bool = False  # resumed after a short gap while confirmed: stays confirmed
     confirmed: set[int] = field(default_factory=set)  # observed frames that are written
 
 
@@ -98,13 +100,12 @@ class AbductionTracker:
 
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
-                 max_gap_fill: int = 0, keep_confirmed: bool = False):
+                 bridge_gap: int = DEFAULT_BRIDGE_GAP):
         self.solver = solver
         self.constants = tuple((constants or {}).items())
         self.min_hits = min_hits
         self.time_limit = time_limit
-        self.max_gap_fill = max_gap_fill
-        self.keep_confirmed = keep_confirmed
+        self.bridge_gap = bridge_gap
         self.tracks: dict[str, _Track] = {}
         self.finished: list[_Track] = []
         self.next_number = 1
@@ -167,7 +168,10 @@ class AbductionTracker:
                 box = boxes[int(args[1].rsplit("_", 1)[1])]
                 trk.kalman.update(box)
                 if kind == "resume":
-                    trk.gaps.append((max(trk.observed), frame))
+                    last = max(trk.observed)
+                    trk.bridged = frame - last - 1 <= self.bridge_gap and last in trk.confirmed
+                    if trk.bridged:
+                        trk.gaps.append((last, frame))
                     trk.state = "active"
                 trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
                 trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
@@ -204,8 +208,8 @@ class AbductionTracker:
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
-        frames); a track written once stays confirmed through halts and resumes."""
-        if trk.streak >= self.min_hits or self.frames <= self.min_hits or (trk.confirmed and self.keep_confirmed):
+        frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed."""
+        if trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged:
             trk.confirmed.add(frame)
 
     @staticmethod
@@ -221,9 +225,7 @@ class AbductionTracker:
             number = _trk_number(trk.id)
             for f in sorted(trk.confirmed):
                 rows.append([f, number, *trk.observed[f]])
-            for last, resumed in trk.gaps:
-                if resumed - last - 1 > self.max_gap_fill or last not in trk.confirmed or resumed not in trk.confirmed:
-                    continue
+            for last, resumed in trk.gaps:  # bridged gaps only
                 a, b = trk.observed[last], trk.observed[resumed]
                 for f in range(last + 1, resumed):
                     w = (f - last) / (resumed - last)
@@ -245,14 +247,14 @@ class AbductionTracker:
 def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | None = None,
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
-                   max_gap_fill: int = 0, keep_confirmed: bool = False) -> TrackingResult:
+                   bridge_gap: int = None) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
         merged.setdefault("img_height", int(seq.image_size[1]))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
-                               max_gap_fill, keep_confirmed)
+                               DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     return tracker.result()

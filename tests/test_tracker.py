@@ -56,8 +56,9 @@ def test_car_hidden_behind_bus_keeps_its_identity(backend):
     assert result.not_optimal_frames == 0
 
 
-def test_hidden_span_is_filled_by_interpolation_when_asked():
-    result = track_sequence(_occlusion_sequence(), backend="cpsat", max_gap_fill=30, keep_confirmed=True)
+def test_hidden_span_is_bridged_by_interpolation_when_asked():
+    # bridge_gap >= 19 (the car is hidden in frames 9..27): it stays confirmed through the resume
+    result = track_sequence(_occlusion_sequence(), backend="cpsat", bridge_gap=19)
     car = {int(f): b for f, i, *b in result.rows.tolist() if i == 2}
     assert sorted(car) == list(range(1, 33))
     # frame 18 lies 10/20 of the way from frame 8 to frame 28: x halfway between the two written boxes
@@ -124,3 +125,9 @@ def test_every_reappearance_follows_its_hiding_on_the_same_pair(shared_data):
                 pairs += 1
             hidden.pop(args[0], None)
     assert pairs > 10
+
+
+def test_a_gap_longer_than_bridge_gap_is_not_bridged():
+    result = track_sequence(_occlusion_sequence(), backend="cpsat", bridge_gap=18)
+    car = sorted(int(f) for f, i, *_ in result.rows.tolist() if i == 2)
+    assert car == list(range(1, 9)) + list(range(30, 33))
