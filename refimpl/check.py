@@ -29,6 +29,8 @@ _EXPLAINS = {  # action -> the events that may explain it (explain_* rules)
     "end": ("leaves_fov", "lost", "noise"),
 }
 _EXPLAINED_BY = {e: a for a, events in _EXPLAINS.items() for e in events}
+_EVENT_ARITY = {"hides_behind": 2, "unhides_from_behind": 2}  # the others name one track or detection
+_EVENT_ARITY.update({e: 1 for e in _EXPLAINED_BY if e not in _EVENT_ARITY})
 
 
 @dataclass(frozen=True)
@@ -93,10 +95,10 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
 
     for t in tracks:
         if len(per_track[t]) != 1:
-            bad.append(Violation("choose_track_action", f"{t} has {len(per_track[t])} actions: {per_track[t]}"))
+            bad.append(Violation("actions_per_track", f"{t} has {len(per_track[t])} actions: {per_track[t]}"))
     for d in dets:
         if len(per_det[d]) != 1:
-            bad.append(Violation("choose_det_action", f"{d} has {len(per_det[d])} actions: {per_det[d]}"))
+            bad.append(Violation("actions_per_detection", f"{d} has {len(per_det[d])} actions: {per_det[d]}"))
 
     for name, args in actions:
         atom = f"{name}({','.join(args)})"
@@ -133,6 +135,9 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
         if event.name not in _EXPLAINED_BY:
             bad.append(Violation("event_syntax", f"{atom}: unknown event {event.name}"))
             continue
+        if len(event.args) != _EVENT_ARITY[event.name] or any(a.args for a in event.args):
+            bad.append(Violation("event_syntax", f"{atom}: {event.name} takes {_EVENT_ARITY[event.name]} ids"))
+            continue
         event_names.append(event.name)
         if not poss(event, problem, state, c):
             bad.append(Violation(f"poss_{event.name}", f"{atom}: its precondition does not hold"))
@@ -150,7 +155,16 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
             bad.append(Violation(f"explain_{action}",
                                  f"{action} of {subject} needs exactly one explanation, has {found}"))
 
-    return CheckReport(tuple(bad), recompute_cost(problem, hyp.actions, event_names, hyp.events, c))
+    valid_events = [a for a in hyp.events if _well_formed_event(a)]
+    return CheckReport(tuple(bad), recompute_cost(problem, hyp.actions, event_names, valid_events, c))
+
+
+def _well_formed_event(atom: str) -> bool:
+    term = parse_term(atom)
+    if term.name != "occurs_at" or len(term.args) != 2:
+        return False
+    event = term.args[0]
+    return _EVENT_ARITY.get(event.name) == len(event.args)
 
 
 def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) -> Cost:
@@ -172,7 +186,7 @@ def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) 
         if event.name == "hides_behind":
             level0 += r.get((event.args[0].name, event.args[1].name), 0)
         elif event.name == "unhides_from_behind":
-            level0 += k[event.args[1].name]
+            level0 += k.get(event.args[1].name, 0)
     level3 = 10 * (kinds["ignore_det"] + kinds["ignore_trk"])
     level2 = kinds["resume"] + 5 * kinds["end"] + 5 * kinds["start"]
     level1 = sum(c[f"cost_{name}"] for name in event_names)

@@ -28,6 +28,7 @@ from ..constants import model_dir, resolve_constants
 from ..hypothesis import Hypothesis
 from ..spec import FrameProblem
 from . import NoAdmissibleHypothesis, SolverUnavailable
+from .fallback import obvious_hypothesis
 from .common import tiebreak_facts
 
 PRIORITIES = (10, 3, 2, 1, 0)
@@ -150,7 +151,11 @@ class ClingoSolver:
         solve_ms = (time.perf_counter() - t0) * 1000.0
 
         if best.atoms is None:
-            if result.unsatisfiable:
+            # an interrupted search says nothing about satisfiability: use the fallback answer
+            fallback = obvious_hypothesis(problem, self.name, solve_ms) if timed_out else None
+            if fallback is not None:
+                return fallback
+            if result.unsatisfiable and not timed_out:
                 raise NoAdmissibleHypothesis(
                     f"no admissible hypothesis at t={problem.time}: every candidate answer breaks a rule of the model")
             limit = f"{time_limit:g} s" if time_limit is not None else "none"

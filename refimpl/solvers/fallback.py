@@ -1,0 +1,28 @@
+"""The answer of last resort when a solver's time runs out before it found any answer.
+
+Every detection is ignored, every halted track is ignored and every active track is halted,
+explained by missing_detections.  For every problem the tracker builds this answer is admissible
+(docs/model-spec.md section 4), so a frame whose solver ran out of time still gets an answer,
+flagged not optimal; where it is not admissible, the caller reports the frame instead.
+"""
+
+from __future__ import annotations
+
+from ..hypothesis import Hypothesis
+from ..spec import FrameProblem
+
+
+def obvious_hypothesis(problem: FrameProblem, backend: str, solve_ms: float = 0.0) -> Hypothesis | None:
+    """The ignore-and-halt answer with its real cost vector, or None if it breaks a rule."""
+    from ..check import check_answer  # the checker decides admissibility and the cost
+
+    t = problem.time
+    actions = [f"ignore_det({d.id})" for d in problem.detections]
+    actions += [f"ignore_trk({x.id})" if x.state == "halted" else f"halt({x.id})" for x in problem.tracks]
+    events = [f"occurs_at(missing_detections({x.id}),{t})" for x in problem.tracks if x.state == "active"]
+    draft = Hypothesis(t, tuple(actions), tuple(events), (), optimal=False, backend=backend, solve_ms=solve_ms)
+    report = check_answer(problem, draft)
+    if not report.ok:
+        return None
+    return Hypothesis(t, tuple(actions), tuple(events), report.cost, optimal=False, backend=backend,
+                      solve_ms=solve_ms)
