@@ -230,6 +230,31 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_bench_scale(args: argparse.Namespace) -> int:
+    from . import benchmarks as bm
+    try:
+        sizes = bm.parse_list(args.sizes, int)
+        overlaps = bm.parse_list(args.overlaps, float)
+    except ValueError as exc:
+        raise UserError(f"--sizes takes integers and --overlaps numbers, comma-separated ({exc})") from None
+    backends = bm.parse_list(args.backends, str)
+    trackers = bm.parse_list(args.trackers, str)
+    for name, given, known in (("--backends", backends, bm.SCALE_BACKENDS),
+                               ("--trackers", trackers, bm.THROUGHPUT_TRACKERS)):
+        unknown = [b for b in given if b not in known]
+        if unknown or not given:
+            raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
+    if args.seeds < 1 or args.time_limit <= 0 or not sizes or not overlaps:
+        raise UserError("--seeds must be >= 1, --time-limit > 0, --sizes and --overlaps not empty")
+    progress = lambda total, label: Progress(total, label, enabled=not args.quiet)  # noqa: E731
+    print(bm.run_bench_scale(
+        sizes=sizes, overlaps=overlaps, seeds=args.seeds, backends=backends, time_limit=args.time_limit,
+        out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
+        from_json=args.from_json, throughput=args.throughput, trackers=trackers, data=args.data,
+        command=bm.format_command(sys.argv[1:]), progress=progress))
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------------------------------
 # Parser
 # ---------------------------------------------------------------------------------------
@@ -309,6 +334,28 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated trackers to run: baseline, cpsat, clingo (default baseline,cpsat)")
     d.set_defaults(func=cmd_demo)
 
+    sc = sub.add_parser("bench-scale", help="time the backends on synthetic frames (or, with --throughput, "
+                                             "the tracking loop on MOT15 and KITTI Car); writes docs/benchmarks.md")
+    sc.add_argument("--sizes", default="5,10,20,50,100,200", help="tracks per frame (default 5,10,20,50,100,200)")
+    sc.add_argument("--overlaps", default="0.2,0.5,0.8", help="overlap shares (default 0.2,0.5,0.8)")
+    sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
+    sc.add_argument("--backends", default="cpsat,cpsat-full,clingo",
+                    help="solvers to time (default cpsat,cpsat-full,clingo; cpsat-full = CP-SAT without the fast path)")
+    sc.add_argument("--time-limit", type=float, default=20.0, metavar="SECONDS",
+                    help="per-frame time limit of every backend (default 20)")
+    sc.add_argument("--out", default="docs/benchmarks.md",
+                    help="markdown file whose generated section is replaced (default docs/benchmarks.md; - for none)")
+    sc.add_argument("--plot", help="PNG plot of a scalability run (default scalability.png beside --out)")
+    sc.add_argument("--json", help="also save the raw per-frame (per-sequence) results as JSON")
+    sc.add_argument("--from-json", metavar="PATH", help="redraw tables and plot from saved JSON, solving nothing")
+    sc.add_argument("--throughput", action="store_true",
+                    help="instead: frames/s of the tracking loop per tracker on MOT15 and KITTI Car")
+    sc.add_argument("--trackers", default="baseline,cpsat,clingo",
+                    help="trackers for --throughput (default baseline,cpsat,clingo; also cpsat-full)")
+    sc.add_argument("--data", default="../shared/data", help="benchmark data root for --throughput")
+    sc.add_argument("--quiet", action="store_true", help="no progress bar")
+    sc.set_defaults(func=cmd_bench_scale)
+
     q = sub.add_parser("query", help="ask a scene a question (docs/reasoning.md): tracks | track T | hidden_by T | "
                                       "holds_at T FRAME | events FROM TO [T] | relation T REL | "
                                       "anticipate T FRAME | situations")
@@ -349,6 +396,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _user_errors() as exc:
         print(f"refimpl {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:
+        sys.stderr.close()  # the reader went away (e.g. `| head`): not an error of ours
+        return EXIT_OK
     except OSError as exc:
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         print(f"refimpl {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
