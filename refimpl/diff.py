@@ -44,7 +44,9 @@ class DiffReport:
     """Frames whose answers differ but have equal costs and both pass the checker."""
     not_optimal: int = 0
     violations: int = 0
-    """Answers (of either backend) that break a rule of the model, per the checker."""
+    """Rule violations the independent checker finds in either backend's answers (every frame)."""
+    checked: int = 0
+    """Answers passed through the checker (two per frame)."""
     first_divergence: Divergence | None = None
     divergences: list[int] = field(default_factory=list)
 
@@ -53,7 +55,7 @@ class DiffReport:
         return self.cost_equal == self.frames and self.violations == 0
 
     def add(self, other: "DiffReport") -> None:
-        for name in ("frames", "cost_equal", "answer_equal", "ties", "not_optimal", "violations"):
+        for name in ("frames", "cost_equal", "answer_equal", "ties", "not_optimal", "violations", "checked"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.divergences += other.divergences
         self.first_divergence = self.first_divergence or other.first_divergence
@@ -62,7 +64,8 @@ class DiffReport:
         a, b = self.backends
         return (f"{a} vs {b}: {self.frames} frames compared, {self.cost_equal} equal cost vectors, "
                 f"{self.answer_equal} equal answers, {self.ties} ties (different answers, equal cost, "
-                f"both valid), {self.violations} rule violations, {self.not_optimal} not proven optimal")
+                f"both valid), {self.violations} rule violations in {self.checked} checked answers, "
+                f"{self.not_optimal} not proven optimal")
 
 
 def _explain(problem: FrameProblem, first: Hypothesis, second: Hypothesis) -> tuple[str, int]:
@@ -93,10 +96,13 @@ def diff_sequence(seq, backends: tuple[str, str] = ("cpsat", "clingo"), constant
         same_answer = hyp.answer == other.answer
         report.cost_equal += same_cost
         report.answer_equal += same_answer
-        if same_answer:
-            return
-        explanation, violations = _explain(problem, hyp, other)
+        checks = [check_answer(problem, h) for h in (hyp, other)]
+        report.checked += 2
+        violations = sum(len(c.violations) + (c.cost != h.cost) for c, h in zip(checks, (hyp, other)))
         report.violations += violations
+        if same_answer and not violations:
+            return
+        explanation, _ = _explain(problem, hyp, other)
         if same_cost and not violations:
             report.ties += 1
         report.divergences.append(problem.time)

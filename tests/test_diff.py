@@ -1,0 +1,60 @@
+"""Frame-by-frame backend diff (refimpl.diff) and its command."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+from pathlib import Path
+
+from refimpl import io
+from refimpl.cli import main
+from refimpl.diff import diff_sequence
+from refimpl.solvers import get_solver
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _campus(shared_data):
+    return io.load_detections(next(s for s in io.benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus"))
+
+
+def test_backends_agree_on_every_frame_of_a_real_sequence(shared_data):
+    pytest.importorskip("clingo")
+    report = diff_sequence(_campus(shared_data))
+    assert report.frames == 71
+    assert report.cost_equal == report.answer_equal == 71
+    assert report.violations == 0 and report.checked == 142 and report.ok
+
+
+class _DropsHideEvents:
+    """A deliberately broken backend: it forgets every hides_behind explanation."""
+
+    name = "broken"
+
+    def __init__(self):
+        self.inner = get_solver("cpsat")
+
+    def solve(self, problem, time_limit=None):
+        h = self.inner.solve(problem, time_limit)
+        events = tuple(e for e in h.events if "hides_behind" not in e)
+        return dataclasses.replace(h, events=events, backend="broken")
+
+
+def test_a_broken_backend_is_caught_and_the_rule_named(shared_data):
+    report = diff_sequence(_campus(shared_data), ("cpsat", "broken"),
+                           solvers=(get_solver("cpsat"), _DropsHideEvents()))
+    assert report.violations > 0 and not report.ok
+    assert "broken breaks explain_halt" in report.first_divergence.explanation
+    assert "occurs_at(hides_behind(" in report.first_divergence.describe()
+
+
+def test_diff_command_exits_zero_when_backends_agree(capsys):
+    pytest.importorskip("clingo")
+    assert main(["diff", "--dets", str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--quiet"]) == 0
+    assert "71 equal answers" in capsys.readouterr().out
+
+
+def test_diff_command_rejects_a_bad_backend_list(capsys):
+    assert main(["diff", "--dets", "x", "--backends", "cpsat"]) == 2
+    assert "two different backends" in capsys.readouterr().err
