@@ -40,6 +40,8 @@ from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, 
 DEFAULT_MIN_HITS = 3
 DEFAULT_BRIDGE_GAP = 2
 DEFAULT_BRIDGE_CONF = 90
+MAX_BOX_AREA = 20_000_000
+"""px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
 
@@ -106,6 +108,7 @@ class AbductionTracker:
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF):
         self.solver = solver
         self.constants = tuple((constants or {}).items())
+        self.constant_map = dict(self.constants)
         self.min_hits = min_hits
         self.time_limit = time_limit
         self.bridge_gap = bridge_gap
@@ -123,7 +126,7 @@ class AbductionTracker:
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        predicted = np.array([self._predict(t) for t in tracks]).reshape(-1, 4)
+        predicted = np.array([self._bounded(self._predict(t)) for t in tracks]).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         detections = tuple(
@@ -138,6 +141,22 @@ class AbductionTracker:
         history = tuple(e for t in tracks for e in t.history)
         return FrameProblem(time=frame, detections=detections, tracks=predictions, iou=iou,
                             constants=self.constants, history=history)
+
+    def _bounded(self, box: np.ndarray) -> np.ndarray:
+        """A prediction clipped to the image extended by one image size on every side, its area
+        capped at MAX_BOX_AREA: a long-halted track's area velocity cannot blow it past the ASP
+        model's 32-bit integer arithmetic (the relations compute 100 * area)."""
+        w = self.constant_map.get("img_width", 0) or 1500
+        h = self.constant_map.get("img_height", 0) or 1500
+        x1, y1 = np.clip(box[0], -w, 2 * w), np.clip(box[1], -h, 2 * h)
+        x2, y2 = np.clip(box[0] + box[2], -w, 2 * w), np.clip(box[1] + box[3], -h, 2 * h)
+        bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
+        if bw * bh > MAX_BOX_AREA:
+            shrink = float(np.sqrt(MAX_BOX_AREA / (bw * bh)))
+            cx, cy = x1 + bw / 2, y1 + bh / 2
+            bw, bh = bw * shrink, bh * shrink
+            x1, y1 = cx - bw / 2, cy - bh / 2
+        return np.array([x1, y1, bw, bh])
 
     @staticmethod
     def _predict(trk: _Track) -> np.ndarray:
