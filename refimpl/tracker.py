@@ -105,7 +105,8 @@ class AbductionTracker:
 
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
-                 bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF):
+                 bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
+                 compact_history: bool = True):
         self.solver = solver
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
@@ -113,6 +114,7 @@ class AbductionTracker:
         self.time_limit = time_limit
         self.bridge_gap = bridge_gap
         self.bridge_conf = bridge_conf
+        self.compact_history = compact_history
         self.tracks: dict[str, _Track] = {}
         self.finished: list[_Track] = []
         self.next_number = 1
@@ -223,7 +225,13 @@ class AbductionTracker:
             self.events.append(logged)
             owner = event.args[0].name
             if owner in self.tracks:
-                self.tracks[owner].history.append(logged)
+                trk = self.tracks[owner]
+                if self.compact_history and event.name in ("unhides_from_behind", "recover"):
+                    # a resume leaves every fluent of the track at its initial value (visible,
+                    # unclipped, hidden by none, in view): only its start event still matters
+                    trk.history = [e for e in trk.history if e.event.name == "enters_fov"]
+                else:
+                    trk.history.append(logged)
         for trk_id in ended:
             trk = self.tracks.pop(trk_id)
             trk.ended_at = frame
@@ -273,7 +281,8 @@ class AbductionTracker:
 def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | None = None,
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
-                   bridge_gap: int | None = None, bridge_conf: int = None) -> TrackingResult:
+                   bridge_gap: int | None = None, bridge_conf: int | None = None,
+                   compact_history: bool = True) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border."""
     merged = dict(constants or {})
     if seq.image_size is not None:
@@ -281,7 +290,7 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
         merged.setdefault("img_height", int(seq.image_size[1]))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
-                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf)
+                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     return tracker.result()

@@ -142,3 +142,22 @@ def test_predictions_stay_inside_the_asp_integer_range():
     x, y, w, h = tracker._bounded(np.array([-1e6, -1e6, 1e7, 1e7]))
     assert w * h <= MAX_BOX_AREA * (1 + 1e-9) and 100 * MAX_BOX_AREA < 2**31
     assert (x + w / 2, y + h / 2) == pytest.approx((2000.0, 1500.0))
+
+
+@pytest.mark.parametrize("name", ["TUD-Campus", "KITTI-17", "PETS09-S2L1"])
+def test_compacted_history_gives_the_same_answers_as_the_full_one(shared_data, name):
+    seq = _real_sequence(shared_data, name)
+    sizes = []
+
+    def observe(problem, hyp):
+        per_track = {}
+        for e in problem.history:
+            per_track[e.event.args[0].name] = per_track.get(e.event.args[0].name, 0) + 1
+        sizes.append(max(per_track.values(), default=0))
+
+    full = track_sequence(seq, backend="cpsat", compact_history=False)
+    compact = track_sequence(seq, backend="cpsat", observer=observe)
+    assert compact.events == full.events
+    assert compact.rows.tobytes() == full.rows.tobytes()
+    # a track keeps at most its start event and the (one) halting event since its last resume
+    assert max(sizes) <= 2
