@@ -59,8 +59,14 @@ decimals, written atomically (temporary file in the same folder, then ``os.repla
 numbers are written as the tracker numbered them, so KITTI results stay 0-based: pass
 ``first_frame=0`` to ``write_mot_results`` / ``read_mot_results`` for them.
 
-Frame numbers above ``MAX_FRAME`` (10 million) are rejected as typos everywhere, since a
-sequence is materialised frame by frame.
+Frame numbers above ``MAX_FRAME`` (100 000) are rejected as typos everywhere, since a
+sequence is materialised and tracked frame by frame (the longest MOTChallenge / KITTI
+sequences have a few thousand frames; 100 000 empty frames already take about 10 s to track).
+Box coordinates and sizes beyond ``MAX_COORD`` (1 000 000 pixels in magnitude) are rejected as
+typos too: the solvers work on integer pixel boxes (32-bit integers in the fact format).  A
+detection box narrower or lower than ``MIN_DET_SIZE`` (0.01 pixels, the precision of a results
+file) is an error in MOTChallenge files and a degenerate box (dropped and recorded like a
+zero-area box) in KITTI files: the trackers' boxes could not be written back.
 """
 
 from __future__ import annotations
@@ -95,8 +101,12 @@ _KITTI_TARGETS = {
 _MOT_PEDESTRIAN = 1
 _MOT_DISTRACTORS = (2, 7, 8, 12)
 _MOT_NUM_CLASSES = 13
-MAX_FRAME = 10_000_000
-"""Frame numbers above this are rejected as typos (sequences are built frame by frame)."""
+MAX_FRAME = 100_000
+"""Frame numbers above this are rejected as typos (sequences are built and tracked frame by frame)."""
+MAX_COORD = 1_000_000.0
+"""Box coordinates and sizes beyond this (in magnitude, pixels) are rejected as typos."""
+MIN_DET_SIZE = 0.01
+"""Detection boxes must be at least this wide and high (results files keep two decimals)."""
 
 
 # ---------------------------------------------------------------------------------------
@@ -233,7 +243,9 @@ def _read_lines(path: Path) -> list[tuple[int, str]]:
         raise InputFormatError(f"not a UTF-8 text file ({exc.reason} at byte {exc.start})", path) from None
     except OSError as exc:
         raise InputFormatError(f"cannot read file ({exc.strerror or exc})", path) from None
-    lines = [(i, s.strip()) for i, s in enumerate(text.splitlines(), start=1)]
+    # read_text turned \r\n and \r into \n; str.splitlines would also split at \f, \v, \x85, U+2028 ...
+    # and so name the wrong line numbers
+    lines = [(i, s.strip()) for i, s in enumerate(text.split("\n"), start=1)]
     lines = [(i, s) for i, s in lines if s]
     if not lines:
         raise InputFormatError("empty file (no data lines)", path)
@@ -309,6 +321,16 @@ def _check_max_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, las
     if bad is not None:
         raise InputFormatError(f"frame {frames[bad]} is after the last frame {last} ({what})",
                                path, linenos[bad])
+
+
+def _check_coordinates(path: Path, linenos: Sequence[int], values: np.ndarray, names: Sequence[str]) -> None:
+    """Box columns within +-MAX_COORD: a huge coordinate would overflow the solvers' integer boxes."""
+    bad = np.argwhere(np.abs(values) > MAX_COORD)
+    if len(bad):
+        r, c = (int(v) for v in bad[0])
+        raise InputFormatError(f"{names[c]} {values[r, c]:g} is implausibly large "
+                               f"(box coordinates are pixels, at most {MAX_COORD:g} in magnitude)",
+                               path, linenos[r])
 
 
 def _check_positive_size(path: Path, linenos: Sequence[int], boxes: np.ndarray) -> None:
@@ -401,7 +423,8 @@ def read_seqinfo(path: str | os.PathLike) -> dict:
         except ValueError:
             raise InputFormatError(f"{key} is not {'an integer' if kind is int else 'a number'}: {text!r}",
                                    path, line_of.get(key.lower())) from None
-        if kind is not str and not (np.isfinite(value) and value > 0):
+        # (an int may exceed the float range: np.isfinite would raise TypeError)
+        if kind is not str and not (value > 0 and (kind is int or np.isfinite(value))):
             raise InputFormatError(f"{key} must be > 0, got {text!r}", path, line_of.get(key.lower()))
         if kind is str and not value:
             raise InputFormatError(f"{key} is empty", path, line_of.get(key.lower()))
@@ -448,12 +471,17 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     if info is not None:
         _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
     boxes = a[:, 2:6]
+    _check_coordinates(path, linenos, boxes, ("x", "y", "w", "h"))
     _check_positive_size(path, linenos, boxes)
+    tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
+    if tiny is not None:
+        raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
+                               f"w={boxes[tiny, 2]:g} h={boxes[tiny, 3]:g}", path, linenos[tiny])
     scores = a[:, 6]
     if np.all((scores >= 0.0) & (scores <= 1.0)):
         conf = _round_half_up(100.0 * scores)
     else:
-        conf = np.clip(_round_half_up(scores), 0, 100)
+        conf = _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
     count = int(info["seqLength"]) if info is not None else int(frames.max())
     return DetectionSequence(
         name=_mot_sequence_name(path, info),
@@ -489,6 +517,7 @@ def read_mot_ground_truth(path: str | os.PathLike, seqinfo=None) -> GroundTruth:
     if info is not None:
         _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
     boxes = a[:, 2:6]
+    _check_coordinates(path, linenos, boxes, ("x", "y", "w", "h"))
     _check_positive_size(path, linenos, boxes)
     _check_unique(path, linenos, frames, ids)
     flag = a[:, 6] != 0
@@ -529,6 +558,7 @@ def _results_array(path: Path, lines: list[tuple[int, str]], first_frame: int) -
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     ids = _check_integral(path, linenos, a[:, 1], "id")
     _check_min_frame(path, linenos, frames, first_frame)
+    _check_coordinates(path, linenos, a[:, 2:6], ("x", "y", "w", "h"))
     _check_positive_size(path, linenos, a[:, 2:6])
     _check_unique(path, linenos, frames, ids)
     return a
@@ -647,6 +677,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     elif num_frames < 1:
         raise ValueError("num_frames must be >= 1")
     _check_max_frame(path, linenos, frames, num_frames - 1, f"num_frames={num_frames}")
+    _check_coordinates(path, linenos, a[:, 2:6], ("x1", "y1", "x2", "y2"))
     w = a[:, 4] - a[:, 2]
     h = a[:, 5] - a[:, 3]
     neg = _first_bad((w < 0) | (h < 0))
@@ -654,19 +685,22 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
         raise InputFormatError(
             f"box has negative size: x2-x1={w[neg]:g}, y2-y1={h[neg]:g}", path, linenos[neg])
     keep = types == _KITTI_DET_TYPE[otype]
-    zero = keep & ((w == 0) | (h == 0))
+    zero = keep & ((w < MIN_DET_SIZE) | (h < MIN_DET_SIZE))  # zero-area, or too thin for a results file
     dropped: list[tuple[int, str]] = []
     if zero.any():
         first = int(np.flatnonzero(zero)[0])
         if on_degenerate == "error":
             raise InputFormatError(
-                f"box width and height must be > 0, got w={w[first]:g} h={h[first]:g}",
+                f"box width and height must be > 0, got w={w[first]:g} h={h[first]:g}" if
+                w[first] == 0 or h[first] == 0 else
+                f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got w={w[first]:g} h={h[first]:g}",
                 path, linenos[first])
         for i in np.flatnonzero(zero):
-            dropped.append((linenos[i], f"zero-area box w={w[i]:g} h={h[i]:g}"))
+            kind = "zero-area" if w[i] == 0 or h[i] == 0 else f"below {MIN_DET_SIZE:g} px"
+            dropped.append((linenos[i], f"{kind} box w={w[i]:g} h={h[i]:g}"))
         warnings.warn(
-            f"{path}: dropped {len(dropped)} zero-area detection box(es) on line(s) "
-            f"{', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=2)
+            f"{path}: dropped {len(dropped)} zero-area (or thinner than {MIN_DET_SIZE:g} px) detection "
+            f"box(es) on line(s) {', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=2)
         keep &= ~zero
     boxes = np.column_stack([a[:, 2], a[:, 3], w, h])[keep]
     scores = a[keep, 6]
@@ -702,6 +736,7 @@ def read_kitti_ground_truth(path: str | os.PathLike, object_class: str) -> Groun
             raise InputFormatError(
                 f"unknown object type {t!r} (KITTI types: {', '.join(_KITTI_LABEL_TYPES)})",
                 path, lineno)
+    _check_coordinates(path, linenos, a[:, 5:9], ("x1", "y1", "x2", "y2"))
     x1, y1, x2, y2 = a[:, 5], a[:, 6], a[:, 7], a[:, 8]
     boxes = np.column_stack([x1, y1, x2 - x1, y2 - y1])
     _check_positive_size(path, linenos, boxes)

@@ -28,6 +28,12 @@ IOU_SCALE = 100_000
 
 TRACK_STATES = ("active", "halted")
 
+ASP_INT_MIN, ASP_INT_MAX = -2 ** 31, 2 ** 31 - 1
+"""Integers in a fact file must fit clingo's 32-bit integers."""
+
+MAX_TERM_DEPTH = 100
+"""Deeper nested terms are an error (events nest two levels; the parser and str() recurse per level)."""
+
 Box = tuple[int, int, int, int]
 """An integer box (x, y, w, h) in pixels: top-left corner, width, height; x, y may be negative."""
 
@@ -57,7 +63,7 @@ class Term:
 
     @property
     def is_int(self) -> bool:
-        return not self.args and re.fullmatch(r"-?\d+", self.name) is not None
+        return not self.args and re.fullmatch(r"-?[0-9]+", self.name) is not None
 
     def as_int(self) -> int:
         if not self.is_int:
@@ -213,8 +219,22 @@ def write_facts(p: FrameProblem) -> str:
 # Reading
 # ---------------------------------------------------------------------------------------
 
-_TOKEN = re.compile(r"\s*(?:(?P<num>-?\d+)|(?P<name>[a-z_][A-Za-z0-9_]*)|(?P<punct>[(),.]))")
-_CONST = re.compile(r"#const\s+([a-z_][A-Za-z0-9_]*)\s*=\s*(-?\d+)\s*\.")
+_TOKEN = re.compile(r"\s*(?:(?P<num>-?[0-9]+)|(?P<name>[a-z_][A-Za-z0-9_]*)|(?P<punct>[(),.]))")
+_CONST = re.compile(r"#const\s+([a-z_][A-Za-z0-9_]*)\s*=\s*(-?[0-9]+)\s*\.")
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")  # not str.splitlines: \f, \v, \x85, U+2028 ... are no line ends
+
+
+def _asp_int(text: str) -> int | None:
+    """The value of an integer token, or None outside clingo's 32-bit range (a huge token is not converted)."""
+    if len(text.lstrip("-").lstrip("0")) > 10:
+        return None
+    value = int(text)
+    return value if ASP_INT_MIN <= value <= ASP_INT_MAX else None
+
+
+def _int_range_error(text: str) -> str:
+    shown = text if len(text) <= 40 else f"{text[:12]}...({len(text.lstrip('-'))} digits)"
+    return f"integer {shown} is outside the 32-bit range {ASP_INT_MIN}..{ASP_INT_MAX} of ASP integers"
 
 
 class _Cursor:
@@ -252,23 +272,28 @@ class _Cursor:
     def at_end(self) -> bool:
         return self.text[self.pos:].strip() == ""
 
-    def term(self) -> Term:
+    def term(self, depth: int = 0) -> Term:
+        if depth > MAX_TERM_DEPTH:
+            raise self.fail(f"term nested deeper than {MAX_TERM_DEPTH} levels")
         kind, val = self.next()
         if kind == "num":
-            return Term(str(int(val)))
+            value = _asp_int(val)
+            if value is None:
+                raise self.fail(_int_range_error(val))
+            return Term(str(value))
         if kind != "name":
             raise self.fail(f"expected a term, got {val!r}")
         nxt = self.peek()
         if nxt and nxt[1] == "(":
             self.next()
-            args = [self.term()]
+            args = [self.term(depth + 1)]
             while True:
                 _, sep = self.next()
                 if sep == ")":
                     break
                 if sep != ",":
                     raise self.fail(f"expected ',' or ')', got {sep!r}")
-                args.append(self.term())
+                args.append(self.term(depth + 1))
             return Term(val, tuple(args))
         return Term(val)
 
@@ -296,14 +321,14 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
     curr_time: int | None = None
     dets: dict[str, tuple[str, int, int]] = {}
     trks: dict[str, tuple[str, int]] = {}
-    states: dict[str, str] = {}
+    states: dict[str, tuple[str, int]] = {}
     boxes: dict[str, tuple[Box, int]] = {}
     ious: list[tuple[str, str, int]] = []
     iou_seen: set[tuple[str, str]] = set()
     history: list[tuple[HistoryEvent, int]] = []
     match_types: list[tuple[str, str]] = []
 
-    for lineno, raw in enumerate(text.splitlines(), start=1):
+    for lineno, raw in enumerate(_LINE_BREAK.split(text), start=1):
         line = _strip_comment(raw).strip()
         if not line:
             continue
@@ -312,7 +337,9 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
                 m = _CONST.match(line)
                 if not m:
                     raise ProblemFormatError(f"malformed #const: {line[:40]!r}", source, lineno)
-                name, value = m.group(1), int(m.group(2))
+                name, value = m.group(1), _asp_int(m.group(2))
+                if value is None:
+                    raise ProblemFormatError(f"#const {name}: {_int_range_error(m.group(2))}", source, lineno)
                 if name == "curr_time":
                     if curr_time is not None:
                         raise ProblemFormatError("curr_time defined twice", source, lineno)
@@ -365,7 +392,7 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
                     raise dup(vals[0], "trk_state")
                 if vals[1] not in TRACK_STATES:
                     raise ProblemFormatError(f"{fact}: state must be active or halted", source, lineno)
-                states[vals[0]] = vals[1]
+                states[vals[0]] = (vals[1], lineno)
             elif name == "box2d":
                 if vals[0] in boxes:
                     raise dup(vals[0], "box2d")
@@ -397,9 +424,9 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
             raise ProblemFormatError(f"track {ident} has no box2d", source, lineno)
         if ident not in states:
             raise ProblemFormatError(f"track {ident} has no trk_state", source, lineno)
-    for ident in states:
+    for ident, (_, lineno) in states.items():
         if ident not in trks:
-            raise ProblemFormatError(f"trk_state for unknown track {ident}", source)
+            raise ProblemFormatError(f"trk_state for unknown track {ident}", source, lineno)
     for t, d, v, lineno in ious:  # type: ignore[misc]
         if t not in trks or d not in dets:
             unknown = t if t not in trks else d
@@ -411,7 +438,7 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
     return FrameProblem(
         time=curr_time,
         detections=tuple(Detection(i, ty, c, boxes[i][0]) for i, (ty, c, _) in dets.items()),
-        tracks=tuple(TrackPrediction(i, ty, states[i], boxes[i][0]) for i, (ty, _) in trks.items()),
+        tracks=tuple(TrackPrediction(i, ty, states[i][0], boxes[i][0]) for i, (ty, _) in trks.items()),
         iou=tuple((t, d, v) for t, d, v, _ in ious),  # type: ignore[misc]
         constants=tuple(consts),
         history=tuple(h for h, _ in history),
@@ -422,7 +449,7 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
 def read_problem(path: str) -> FrameProblem:
     """Read a fact file; a missing or undecodable file is a ProblemFormatError too."""
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:  # -sig: a leading BOM is not part of the text
             text = fh.read()
     except OSError as exc:
         raise ProblemFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
