@@ -72,11 +72,16 @@ def _parse_const(text: str) -> tuple[str, int]:
 
 def cmd_solve(args: argparse.Namespace) -> int:
     from .solvers import get_solver
-    from .spec import read_problem, with_constants
+    from .spec import ProblemFormatError, read_problem, with_constants
 
+    from .constants import resolve_constants
     problem = read_problem(args.file)
     if args.const:
         problem = with_constants(problem, dict(args.const))
+    try:
+        resolve_constants(problem)  # an unknown #const name is the file's (or --const's) mistake
+    except ProblemFormatError as exc:
+        raise ProblemFormatError(exc.reason, args.file) from None
     hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
     if args.json:
         print(hyp.to_json())
@@ -148,9 +153,10 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     print(f"## {TITLES[args.name]} — {args.backend}\n")
     print(format_table(run.per_sequence, run.overall))
     if args.json:
-        Path(args.json).write_text(json.dumps({"benchmark": args.name, "backend": args.backend,
-                                               "per_sequence": run.per_sequence, "overall": run.overall,
-                                               "events": run.events}, indent=2, default=float))
+        from .io import write_text_atomic
+        write_text_atomic(args.json, json.dumps({"benchmark": args.name, "backend": args.backend,
+                                            "per_sequence": run.per_sequence, "overall": run.overall,
+                                            "events": run.events}, indent=2, default=float))
     return EXIT_OK
 
 
@@ -163,7 +169,8 @@ def cmd_table6(args: argparse.Namespace) -> int:
     text = format_table6(runs)
     print(text)
     if args.out:
-        Path(args.out).write_text(text + "\n")
+        from .io import write_text_atomic
+        write_text_atomic(args.out, text + "\n")
     return EXIT_OK
 
 

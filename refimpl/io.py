@@ -584,6 +584,26 @@ def _fmt2(v: float) -> str:
     return f"{round(float(v), 2) + 0.0:.2f}"  # + 0.0 turns -0.0 into 0.0
 
 
+def write_text_atomic(path, text: str) -> None:
+    """Write text via a temporary file in the same folder, fsync, rename: never a partial file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; outputs are meant to be shared
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
 def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> None:
     """Write (n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results, sorted, atomically.
 
@@ -615,21 +635,7 @@ def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> No
     text = "".join(
         f"{f},{i},{_fmt2(r[2])},{_fmt2(r[3])},{_fmt2(r[4])},{_fmt2(r[5])},1,-1,-1,-1\n"
         for f, i, r in zip(frames, ids, a))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; results are meant to be shared
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    write_text_atomic(path, text)
 
 
 # ---------------------------------------------------------------------------------------

@@ -30,7 +30,6 @@ import math
 import os
 import statistics
 import sys
-import tempfile
 from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, Mapping, Sequence
 
@@ -355,21 +354,8 @@ def scene_from_json(data) -> Scene:
 
 def save_scene(path: str | os.PathLike, scene: Scene) -> None:
     """Write the scene as JSON, atomically (a temporary file in the same folder, then a rename)."""
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".refimpl-scene-", suffix=".json", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(scene_to_json(scene), fh, separators=(",", ":"))
-            fh.write("\n")
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes it private; a scene file is an ordinary file
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    from .io import write_text_atomic
+    write_text_atomic(path, json.dumps(scene_to_json(scene), separators=(",", ":")) + "\n")
 
 
 def load_scene(path: str | os.PathLike) -> Scene:

@@ -24,13 +24,12 @@ defaults are this conservative.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from typing import Callable, Iterable, Mapping
 
 import numpy as np
 
+from .io import write_text_atomic
 from .geometry import integer_box, iou_matrix, scale_iou
 from .hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, InvalidPrediction
@@ -300,27 +299,13 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
 # Event log files
 # ---------------------------------------------------------------------------------------
 
-def _atomic_write(path: str, text: str) -> None:
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".refimpl-", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def write_event_log(path: str, events: Iterable[HistoryEvent]) -> None:
     """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
-    _atomic_write(path, "".join(f"{e}.\n" for e in events))
+    write_text_atomic(path, "".join(f"{e}.\n" for e in events))
 
 
 def write_event_log_json(path: str, events: Iterable[HistoryEvent]) -> None:
     """The event sequence as JSON lines: time, event name, arguments and the atom."""
     lines = [json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
                          "atom": str(e)}) for e in events]
-    _atomic_write(path, "".join(line + "\n" for line in lines))
+    write_text_atomic(path, "".join(line + "\n" for line in lines))
