@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import re
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import Mapping
 
@@ -18,10 +17,11 @@ _CONST_LINE = re.compile(r"^\s*#const\s+([a-z_][A-Za-z0-9_]*)\s*=\s*(-?\d+)\s*\.
 
 def model_dir() -> Path:
     """The folder holding the ASP encoding (model/*.lp), from a checkout or an installed package."""
-    here = Path(__file__).resolve().parent.parent / "model"
-    if (here / "constants.lp").is_file():
-        return here
-    return Path(str(resources.files("refimpl.model")))
+    checkout = Path(__file__).resolve().parent.parent / "model"
+    if (checkout / "constants.lp").is_file():
+        return checkout
+    # an installed package holds model/ as refimpl/model/ (pyproject: package-dir refimpl.model)
+    return Path(__file__).resolve().parent / "model"
 
 
 @lru_cache(maxsize=1)

@@ -867,11 +867,8 @@ def demo_sequence_paths() -> BenchmarkSequence:
     found = _demo_in(checkout)
     if found is not None:
         return found
-    try:
-        installed = Path(str(resources.files("refimpl.data") / "demo"))
-    except (ModuleNotFoundError, TypeError):
-        installed = None
-    found = _demo_in(installed) if installed is not None else None
+    # an installed package holds data/ as refimpl/data/ (pyproject: package-dir refimpl.data)
+    found = _demo_in(Path(__file__).resolve().parent / "data" / "demo")
     if found is None:
         raise InputFormatError("bundled demo sequence not found (expected data/demo/TUD-Campus in "
                                "the checkout or the refimpl.data package)", checkout)
