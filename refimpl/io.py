@@ -76,7 +76,6 @@ import os
 import tempfile
 import warnings
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Mapping, Sequence
 
