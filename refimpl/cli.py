@@ -83,6 +83,13 @@ def cmd_solve(args: argparse.Namespace) -> int:
     except ProblemFormatError as exc:
         raise ProblemFormatError(exc.reason, args.file) from None
     hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
+    violations = ()
+    if args.check:
+        from .check import check_answer
+        report = check_answer(problem, hyp)
+        violations = tuple(str(v) for v in report.violations)
+        if report.cost != hyp.cost:
+            violations += (f"[cost_vector] the answer's cost is {list(report.cost)}, not {list(hyp.cost)}",)
     if args.json:
         print(hyp.to_json())
     else:
@@ -91,7 +98,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print("actions: " + " ".join(hyp.actions))
         print("events:  " + (" ".join(hyp.events) or "-"))
         print("cost:    " + " ".join(f"{v}@{p}" for p, v in hyp.cost))
-    return EXIT_OK
+    if args.check:
+        print("check:   " + ("; ".join(violations) if violations else "every rule holds, cost vector confirmed"),
+              file=sys.stderr if args.json else sys.stdout)
+    return EXIT_FAILURE if violations else EXIT_OK
 
 
 def _load_sequence(args: argparse.Namespace):
@@ -111,12 +121,12 @@ def _run_tracker(seq, backend: str):
 def cmd_track(args: argparse.Namespace) -> int:
     from . import io
     seq = _load_sequence(args)
-    if args.scene:  # the whole tracking result goes into the scene file (refimpl.scene)
-        from .scene import track_and_save_scene
-        result = track_and_save_scene(seq, args.backend, args.scene)
-        rows, events = result.rows, result.events
-    else:
+    if args.backend == "baseline":
+        if args.check or args.time_limit is not None or args.scene:
+            raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo)")
         rows, events = _run_tracker(seq, args.backend)
+    else:
+        rows, events = _track_abduction(seq, args)
     io.write_mot_results(args.out, rows, first_frame=seq.first_frame)
     print(f"{seq.name}: {len(seq.frames)} frames, {len(set(rows[:, 1].tolist())) if len(rows) else 0} tracks"
           f" -> {args.out}")
@@ -127,6 +137,40 @@ def cmd_track(args: argparse.Namespace) -> int:
         from .tracker import write_event_log_json
         write_event_log_json(args.events_json, events)
     return EXIT_OK
+
+
+def _track_abduction(seq, args: argparse.Namespace):
+    """Algorithm 1 with the chosen backend, optionally checking every frame's answer."""
+    from .tracker import track_sequence
+    checked = violations = 0
+
+    def check(problem, hyp) -> None:
+        nonlocal checked, violations
+        from .check import check_answer
+        report = check_answer(problem, hyp)
+        checked += 1
+        if report.violations or report.cost != hyp.cost:
+            violations += 1
+            found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
+            print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
+
+    result = track_sequence(seq, backend=args.backend, time_limit=args.time_limit,
+                            observer=check if args.check else None)
+    if result.not_optimal_frames:
+        print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
+              f"within the time limit (best answer found used)", file=sys.stderr)
+    if args.check:
+        print(f"check: {checked} answers checked, {violations} with violations")
+        if violations:
+            raise CheckFailed(f"{violations} answers break a rule of the model")
+    if args.scene:
+        from .scene import save_scene, scene_from_result
+        save_scene(args.scene, scene_from_result(seq, result))
+    return result.rows, result.events
+
+
+class CheckFailed(Exception):
+    """The independent checker found answers that break the model (a backend bug): exit 1."""
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
@@ -288,6 +332,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--time-limit", type=float, default=None, metavar="SECONDS")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant (repeatable)")
+    s.add_argument("--check", action="store_true",
+                   help="verify the answer with the independent checker; exit 1 on any violation")
     s.set_defaults(func=cmd_solve)
 
     t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
@@ -298,6 +344,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="results file (MOTChallenge format)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
+    t.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+                   help="per-frame solver limit; the best answer found in time is used and counted")
+    t.add_argument("--check", action="store_true",
+                   help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (cpsat or clingo backend)")
     t.set_defaults(func=cmd_track)
@@ -410,6 +460,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         print(f"refimpl {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return EXIT_USAGE
+    except CheckFailed as exc:
+        print(f"refimpl {args.command}: check failed: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
     except KeyboardInterrupt:
         print("refimpl: interrupted", file=sys.stderr)
         return 130

@@ -84,3 +84,24 @@ def test_track_then_eval_round_trip(tmp_path, capsys):
     assert main(["eval", str(out), "--gt", str(DEMO_GT)]) == 0
     # SORT's published TUD-Campus MOTA is 62.7 (the baseline reproduces it)
     assert "| TUD-Campus | 62.7 |" in capsys.readouterr().out
+
+
+def test_solve_check_confirms_the_answer(capsys):
+    assert main(["solve", str(REPO / "data/examples/kitti_0020_t79.lp"), "--check"]) == 0
+    assert "check:   every rule holds, cost vector confirmed" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("backend", ["cpsat", "clingo"])
+def test_track_check_verifies_every_frame_and_writes_the_scene(backend, tmp_path, capsys):
+    if backend == "clingo":
+        pytest.importorskip("clingo")
+    argv = ["track", "--dets", str(DEMO_DETS), "--backend", backend, "--check", "--time-limit", "30",
+            "--out", str(tmp_path / "r.txt"), "--scene", str(tmp_path / "s.json")]
+    assert main(argv) == 0
+    assert "check: 71 answers checked, 0 with violations" in capsys.readouterr().out
+    assert (tmp_path / "s.json").stat().st_size > 0
+
+
+def test_baseline_refuses_abduction_only_options(capsys):
+    assert main(["track", "--dets", str(DEMO_DETS), "--check", "--out", "unused.txt"]) == 2
+    assert "need an abduction backend" in capsys.readouterr().err
