@@ -123,7 +123,8 @@ def cmd_track(args: argparse.Namespace) -> int:
     seq = _load_sequence(args)
     if args.backend == "baseline":
         if args.check or args.time_limit is not None or args.scene:
-            raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo)")
+            raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo); "
+                            "the baseline abduces no events")
         rows, events = _run_tracker(seq, args.backend)
     else:
         rows, events = _track_abduction(seq, args)
