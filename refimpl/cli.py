@@ -192,16 +192,19 @@ def cmd_eval(args: argparse.Namespace) -> int:
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from .evaluate import format_table
     from .table6 import TITLES, load_dataset, run_benchmark
-    dataset = load_dataset(args.name, args.data)
-    progress = Progress(len(dataset), f"{args.name}/{args.backend}", enabled=not args.quiet)
-    run = run_benchmark(args.name, args.data, args.backend, progress.step, dataset=dataset)
-    print(f"## {TITLES[args.name]} — {args.backend}\n")
-    print(format_table(run.per_sequence, run.overall))
+    report = {}
+    for name in args.names:
+        dataset = load_dataset(name, args.data)
+        progress = Progress(len(dataset), f"{name}/{args.backend}", enabled=not args.quiet)
+        run = run_benchmark(name, args.data, args.backend, progress.step, dataset=dataset)
+        print(f"## {TITLES[name]} — {args.backend}\n")
+        print(format_table(run.per_sequence, run.overall))
+        print()
+        report[name] = {"per_sequence": run.per_sequence, "overall": run.overall, "events": run.events}
     if args.json:
         from .io import write_text_atomic
-        write_text_atomic(args.json, json.dumps({"benchmark": args.name, "backend": args.backend,
-                                            "per_sequence": run.per_sequence, "overall": run.overall,
-                                            "events": run.events}, indent=2, default=float))
+        write_text_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
+                                                default=float))
     return EXIT_OK
 
 
@@ -361,7 +364,8 @@ def build_parser() -> argparse.ArgumentParser:
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
-    b.add_argument("name", choices=BENCHMARKS, help="*-sim datasets use simulated detections (refimpl.simulate)")
+    b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
+                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate)")
     b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     b.add_argument("--backend", choices=TRACKERS, default="baseline")
     b.add_argument("--json", help="also write the metrics as JSON")
