@@ -105,3 +105,12 @@ def test_track_check_verifies_every_frame_and_writes_the_scene(backend, tmp_path
 def test_baseline_refuses_abduction_only_options(capsys):
     assert main(["track", "--dets", str(DEMO_DETS), "--check", "--out", "unused.txt"]) == 2
     assert "need an abduction backend" in capsys.readouterr().err
+
+
+def test_benchmark_command_reproduces_sorts_published_mota(shared_data, capsys, tmp_path):
+    out = tmp_path / "b.json"
+    assert main(["benchmark", "mot15-sort6", "--data", str(shared_data), "--quiet", "--json", str(out)]) == 0
+    # SORT's published overall MOTA on its six MOT15 sequences is 34.0 (FP 3311, FN 11660)
+    assert "| OVERALL | 34.0 |" in capsys.readouterr().out
+    overall = json.loads(out.read_text())["benchmarks"]["mot15-sort6"]["overall"]
+    assert (overall["fp"], overall["fn"]) == (3311, 11660)
