@@ -455,6 +455,18 @@ def _mot_sequence_name(path: Path, info: dict | None) -> str:
     return path.stem
 
 
+def _mot_frames_and_boxes(path: Path, linenos: Sequence[int], a: np.ndarray, info: dict | None):
+    """The frame column (integral, 1..seqLength) and the xywh boxes (plausible, positive) of a MOT file."""
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    _check_min_frame(path, linenos, frames, 1)
+    if info is not None:
+        _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
+    boxes = a[:, 2:6]
+    _check_coordinates(path, linenos, boxes, ("x", "y", "w", "h"))
+    _check_positive_size(path, linenos, boxes)
+    return frames, boxes
+
+
 def read_mot_detections(path: str | os.PathLike, seqinfo=None,
                         object_type: str = "pedestrian") -> DetectionSequence:
     """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
@@ -465,13 +477,7 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     rows = _split(path, lines, ",", 7, 10, "frame,id,x,y,w,h,score,...")
     linenos = [n for n, _ in lines]
     a = _numbers(path, linenos, rows, range(7), ("frame", "id", "x", "y", "w", "h", "score"))
-    frames = _check_integral(path, linenos, a[:, 0], "frame")
-    _check_min_frame(path, linenos, frames, 1)
-    if info is not None:
-        _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
-    boxes = a[:, 2:6]
-    _check_coordinates(path, linenos, boxes, ("x", "y", "w", "h"))
-    _check_positive_size(path, linenos, boxes)
+    frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
     tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
     if tiny is not None:
         raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
@@ -510,14 +516,8 @@ def read_mot_ground_truth(path: str | os.PathLike, seqinfo=None) -> GroundTruth:
     else:
         a = _numbers(path, linenos, rows, range(9),
                      ("frame", "id", "x", "y", "w", "h", "flag", "class", "visibility"))
-    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
     ids = _check_integral(path, linenos, a[:, 1], "id")
-    _check_min_frame(path, linenos, frames, 1)
-    if info is not None:
-        _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
-    boxes = a[:, 2:6]
-    _check_coordinates(path, linenos, boxes, ("x", "y", "w", "h"))
-    _check_positive_size(path, linenos, boxes)
     _check_unique(path, linenos, frames, ids)
     flag = a[:, 6] != 0
     if mot15:

@@ -248,16 +248,6 @@ def scene_from_result(seq, result) -> Scene:
     return make_scene(seq.name, tracks, result.events, first, last, seq.image_size, seq.fps)
 
 
-def track_and_save_scene(seq, backend: str, path: str, **options):
-    """Track a sequence with an abduction backend and write its scene to path; the TrackingResult."""
-    if backend not in ("cpsat", "clingo"):
-        raise SceneError(f"--scene needs an abduction backend (cpsat or clingo): {backend!r} abduces no events")
-    from .tracker import track_sequence
-    result = track_sequence(seq, backend=backend, **options)
-    save_scene(path, scene_from_result(seq, result))
-    return result
-
-
 # ---------------------------------------------------------------------------------------
 # JSON
 # ---------------------------------------------------------------------------------------
