@@ -340,7 +340,7 @@ def cmd_detectors(args: argparse.Namespace) -> int:
             data=args.data, backend=args.backend, do_sweep=args.sweep, benchmarks=benches, sequences=sequences,
             max_frames=args.max_frames, sweep_datasets=datasets, p_max=p_max, fp_per_frame=fp, noise=noise,
             seed=args.seed, out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
-            command=bm.format_command(sys.argv[1:]), progress=progress))
+            command=bm.format_command(sys.argv[1:]), with_ungated=args.ungated, progress=progress))
     except ValueError as exc:  # an unknown sequence name, a parameter out of range
         raise UserError(str(exc)) from None
     return EXIT_OK
@@ -461,6 +461,8 @@ def build_parser() -> argparse.ArgumentParser:
     dt.add_argument("--benchmarks", default="mot15,kitti-car", help="real-detector benchmarks (default mot15,kitti-car)")
     dt.add_argument("--sequences", help="comma-separated subset of sequences (one benchmark or sweep dataset)")
     dt.add_argument("--max-frames", type=int, help="only the first N frames of every sequence")
+    dt.add_argument("--ungated", action="store_true",
+                    help="also track every detector's boxes by abduction with every confidence set to 100")
     dt.add_argument("--sweep", action="store_true", help="instead: the simulated detector-quality sweep")
     dt.add_argument("--sweep-datasets", default="mot17,kitti-car", help="sweep ground truth (default mot17,kitti-car)")
     dt.add_argument("--p-max", default="0.5,0.7,0.9", help="sweep: detection probabilities (default 0.5,0.7,0.9)")

@@ -241,10 +241,19 @@ def common_sequences(benchmark: str, data_root: str | os.PathLike,
     return names
 
 
+def ungated(dets: io.DetectionSequence) -> io.DetectionSequence:
+    """The same detections with every confidence set to 100: abduction without confidence gating."""
+    return dataclasses.replace(dets, frames=tuple(
+        dataclasses.replace(f, confidences=np.full(len(f), 100, dtype=np.int64)) for f in dets.frames))
+
+
 def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str = "cpsat",
                       sequences: Sequence[str] | None = None, max_frames: int | None = None,
-                      step: ProgressStep | None = None) -> list[DetectorResult]:
-    """Every registered detector of a benchmark on the common sequences: quality + both trackers."""
+                      step: ProgressStep | None = None, with_ungated: bool = False) -> list[DetectorResult]:
+    """Every registered detector of a benchmark on the common sequences: quality + both trackers.
+
+    with_ungated: also, per detector, abduction on the same boxes with every confidence 100 (a
+    diagnostic: how much of the result the confidence thresholds decide; SORT ignores confidences)."""
     names = common_sequences(benchmark, data_root, sequences)
     out = []
     for key, label, seqs in _detector_files(benchmark, data_root):
@@ -263,8 +272,14 @@ def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str
         for t in ("baseline", backend):  # imports and solver set-up must not count against the first timing
             warm_up(triples, t)
         runs = tuple(track_and_evaluate(triples, t, step) for t in ("baseline", backend))
-        out.append(DetectorResult(benchmark, key, label, tuple(names), sum(len(d.frames) for _, d, _ in triples),
-                                  quality, runs, (lo, hi)))
+        frames = sum(len(d.frames) for _, d, _ in triples)
+        out.append(DetectorResult(benchmark, key, label, tuple(names), frames, quality, runs, (lo, hi)))
+        if with_ungated:
+            flat = [(n, ungated(d), g) for n, d, g in triples]
+            q100 = dataclasses.replace(quality, matches_startable=quality.matches)
+            out.append(DetectorResult(benchmark, f"{key}, conf=100", f"{label} with every confidence set to 100",
+                                      tuple(names), frames, q100, (track_and_evaluate(flat, backend, step),),
+                                      (lo, hi)))
     return out
 
 
@@ -298,8 +313,11 @@ def detectors_table(results: Sequence[DetectorResult]) -> str:
                 lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
         lines.append("Detectors: " + "; ".join(
-            f"{r.detector} = {r.label}, raw scores {r.score_range[0]:.2f} .. {r.score_range[1]:.2f}" for r in mine)
-            + ".")
+            f"{r.detector} = {r.label}, raw scores {r.score_range[0]:.2f} .. {r.score_range[1]:.2f}" for r in mine
+            if ", conf=100" not in r.detector) + ".")
+        if any(", conf=100" in r.detector for r in mine):
+            lines.append("'<detector>, conf=100': the same boxes with every confidence set to 100, tracked by "
+                         "abduction only (SORT ignores confidences): what the confidence thresholds decide.")
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks) + "\n"
 
@@ -550,6 +568,7 @@ def run_detectors(*, data: str = "../shared/data", backend: str = "cpsat", do_sw
                   p_max: Sequence[float] = DEFAULT_P_MAX, fp_per_frame: Sequence[float] = DEFAULT_FP_PER_FRAME,
                   noise: Sequence[float] = DEFAULT_NOISE, seed: int = 0, out: str | None = None,
                   plot: str | None = None, json_path: str | None = None, command: str = "refimpl detectors",
+                  with_ungated: bool = False,
                   progress: Callable[[int, str], object] | None = None) -> str:
     """Run one of the two reports; write its section of ``out`` (and the sweep's plot); return the text."""
     started = time.perf_counter()
@@ -557,9 +576,10 @@ def run_detectors(*, data: str = "../shared/data", backend: str = "cpsat", do_sw
     points: list[SweepPoint] = []
     if not do_sweep:
         for bench in benchmarks:
-            n = len(common_sequences(bench, data, sequences)) * len(REAL_DETECTORS[bench]) * 2
+            n = len(common_sequences(bench, data, sequences)) * len(REAL_DETECTORS[bench]) * (3 if with_ungated else 2)
             bar = progress(n, f"detectors {bench}") if progress else None
-            real += compare_detectors(bench, data, backend, sequences, max_frames, bar.step if bar else None)
+            real += compare_detectors(bench, data, backend, sequences, max_frames, bar.step if bar else None,
+                                      with_ungated)
         report = real_report(real, command, time.perf_counter() - started)
         if out:
             write_section(out, REAL_BEGIN, REAL_END, report)
