@@ -276,12 +276,13 @@ def _pct(v: float) -> str:
 
 
 def format_table(per_sequence: dict[str, dict], overall: dict) -> str:
-    """A markdown table: one row per sequence plus OVERALL; MOTA/MOTP/IDF1 in percent."""
-    head = "| Sequence | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
-    rule = "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    """A markdown table: one row per sequence plus OVERALL; HOTA .. IDF1 in percent."""
+    head = "| Sequence | HOTA | DetA | AssA | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
+    rule = "|---|" + "---:|" * 12
 
     def row(name: str, r: dict) -> str:
-        cells = [name, _pct(r["mota"]), _pct(r["motp"]), _pct(r["idf1"]),
+        cells = [name, *(_pct(r[k]) for k in ("hota", "deta", "assa")),
+                 _pct(r["mota"]), _pct(r["motp"]), _pct(r["idf1"]),
                  *(str(int(r[k])) for k in ("mt", "ml", "fp", "fn", "idsw", "frag"))]
         return "| " + " | ".join(cells) + " |"
 
