@@ -177,15 +177,24 @@ class CheckFailed(Exception):
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table
-    if args.format == "mot":
-        gt = io.read_mot_ground_truth(args.gt)
+    from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
+    if args.format == "kitti" and args.cls is None:
+        raise UserError("--format kitti needs --class Car|Pedestrian")
+    if Path(args.results).is_dir():
+        run = evaluate_folder(args.results, args.gt, args.format, args.cls)
+        per_seq, overall = run.per_sequence, run.overall
+        if run.unscored:
+            print(f"refimpl eval: note: {len(run.unscored)} ground-truth sequence(s) without a results file "
+                  f"not scored: {', '.join(run.unscored)}", file=sys.stderr)
     else:
-        if args.cls is None:
-            raise UserError("--format kitti needs --class Car|Pedestrian")
-        gt = io.read_kitti_ground_truth(args.gt, args.cls)
-    results = io.read_mot_results(args.results, first_frame=gt.first_frame)
-    per_seq, overall = evaluate_many([(gt.name, gt, results)])
+        if Path(args.gt).is_dir():
+            raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
+        gt = read_ground_truth(args.gt, args.format, args.cls)
+        results = io.read_results(args.results, args.format, args.cls)
+        per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
+    if args.json:
+        io.write_text_atomic(args.json, json.dumps(metrics_json(per_seq, overall), indent=2) + "\n")
     return EXIT_OK
 
 
@@ -392,11 +401,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "for query / explain / plot (cpsat or clingo backend)")
     t.set_defaults(func=cmd_track)
 
-    e = sub.add_parser("eval", help="CLEAR MOT and IDF1 of a results file against ground truth")
-    e.add_argument("results", help="results file (MOTChallenge format)")
-    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file")
+    e = sub.add_parser("eval", help="HOTA, CLEAR MOT and IDF1 of a results file, or of a folder of them "
+                                     "(one <SEQ>.txt per sequence), against ground truth")
+    e.add_argument("results", help="results file, or folder of <SEQ>.txt results files (MOTChallenge lines; "
+                                   "for --format kitti also the KITTI tracking format)")
+    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
+                   "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
     e.add_argument("--format", choices=("mot", "kitti"), default="mot")
     e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
+    e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
+                                  "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
