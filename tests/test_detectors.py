@@ -101,7 +101,8 @@ def test_sweep_two_points_on_a_few_mot17_frames(shared_data, tmp_path, capsys):
     cells = [[c.strip() for c in line.split("|")[1:-1]] for line in lines]
     # p_max 0, no false positives: no detections at all -> recall 0, precision undefined, both trackers
     # output nothing -> MOTA = 1 - FN / num_gt = 0, and no identity switches or fragmentations
-    assert cells[0][3:5] == ["0.000", "-"] and cells[0][6] == "0.0 / 0.0" and cells[0][10] == "0 / 0"
+    # (and HOTA 0: no true positives at any alpha)
+    assert cells[0][3:7] == ["0.000", "-", "0.0 / 0.0", "0.0 / 0.0"] and cells[0][10] == "0 / 0"
     # p_max 1, no noise, no false positives: every detection is an unmoved considered ground-truth box,
     # clipped to the 1920x1080 image.  A box B clipped to C has IoU(B, C) = area(C) / area(B), so a
     # detection counts as matched iff at least half of its source box lies inside the image.  Derive
