@@ -521,14 +521,19 @@ def _quality_json(q: DetectionQuality) -> dict:
     return {**dataclasses.asdict(q), "recall": q.recall, "precision": q.precision}
 
 
+def _scores_json(overall: dict) -> dict:
+    """The overall scores without the per-alpha HOTA fields (they only serve to combine sequences)."""
+    return {k: v for k, v in overall.items() if not isinstance(v, (dict, list))}
+
+
 def results_json(real: Sequence[DetectorResult], points: Sequence[SweepPoint]) -> str:
     return json.dumps({
         "real": [{"benchmark": r.benchmark, "detector": r.detector, "sequences": list(r.sequences),
                   "frames": r.frames, "quality": _quality_json(r.quality), "score_range": list(r.score_range),
-                  "runs": [{"tracker": t.tracker, "fps": t.fps, "seconds": t.seconds, "overall": t.overall}
+                  "runs": [{"tracker": t.tracker, "fps": t.fps, "seconds": t.seconds, "overall": _scores_json(t.overall)}
                            for t in r.runs]} for r in real],
         "sweep": [{"dataset": p.dataset, "p_max": p.p_max, "fp_per_frame": p.fp_per_frame, "noise": p.noise,
-                   "quality": _quality_json(p.quality), "baseline": p.baseline, "abduction": p.abduction}
+                   "quality": _quality_json(p.quality), "baseline": _scores_json(p.baseline), "abduction": _scores_json(p.abduction)}
                   for p in points]}, indent=1, default=float)
 
 
