@@ -321,6 +321,7 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
 
 def cmd_detectors(args: argparse.Namespace) -> int:
     from . import benchmarks as bm
+    from . import detector_sweep as sw
     from . import detectors as dt
     from .solvers import BACKENDS
     if args.backend not in BACKENDS:
@@ -333,7 +334,7 @@ def cmd_detectors(args: argparse.Namespace) -> int:
     datasets = bm.parse_list(args.sweep_datasets, str)
     sequences = bm.parse_list(args.sequences, str) if args.sequences else None
     for name, given, known in (("--benchmarks", benches, tuple(dt.REAL_DETECTORS)),
-                               ("--sweep-datasets", datasets, dt.SWEEP_DATASETS)):
+                               ("--sweep-datasets", datasets, sw.SWEEP_DATASETS)):
         unknown = [b for b in given if b not in known]
         if unknown or not given:
             raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")

@@ -8,10 +8,10 @@ R-CNN ``det/det_sort_frcnn.txt`` in all 11; KITTI Car has PointRCNN), on the seq
 *every* compared detector exists: recall and precision of the raw detections, then the SORT
 baseline and the abduction tracker on them (HOTA, MOTA, MOTP, IDF1, IDs, tracking fps).
 
-**Detector-quality sweep** (``sweep``).  refimpl's simulated detector (refimpl.simulate) on
-ground truth, over a seeded grid of detection probability (``p_max``: 1 - miss rate of a fully
-visible object), false positives per frame and localisation noise; baseline vs abduction at
-every point.
+**Detector-quality sweep** (refimpl.detector_sweep, ``--sweep``).  refimpl's simulated detector
+(refimpl.simulate) on ground truth, over a seeded grid of detection probability, false positives
+per frame and localisation noise; baseline vs abduction at every point.  This module holds what
+both share: the raw-detection counts, tracking and evaluating a detection set, the docs section.
 
 Raw-detection recall and precision count the rows refimpl's evaluator counts
 (``refimpl.evaluate``'s own preprocessing, not a copy of it): detections matched (IoU >= 0.5)
@@ -32,7 +32,6 @@ import dataclasses
 import json
 import math
 import os
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass
@@ -283,11 +282,11 @@ def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str
     return out
 
 
-def _pct(v) -> str:
+def fmt_pct(v) -> str:
     return "-" if v is None or not np.isfinite(v) else f"{100.0 * v:.1f}"
 
 
-def _ratio(v: float) -> str:
+def fmt_ratio(v: float) -> str:
     return "-" if not np.isfinite(v) else f"{v:.3f}"
 
 
@@ -305,10 +304,10 @@ def detectors_table(results: Sequence[DetectorResult]) -> str:
             q = r.quality
             for k, run in enumerate(r.runs):
                 o = run.overall
-                det = ([f"{r.detector}", str(q.num_dets), _ratio(q.recall), _ratio(q.precision), _pct(q.startable)]
+                det = ([f"{r.detector}", str(q.num_dets), fmt_ratio(q.recall), fmt_ratio(q.precision), fmt_pct(q.startable)]
                        if k == 0 else ["", "", "", "", ""])
                 tracker = "baseline (SORT)" if run.tracker == "baseline" else f"abduction ({run.tracker})"
-                cells = det + [tracker, _pct(o.get("hota")), _pct(o["mota"]), _pct(o["motp"]), _pct(o["idf1"]),
+                cells = det + [tracker, fmt_pct(o.get("hota")), fmt_pct(o["mota"]), fmt_pct(o["motp"]), fmt_pct(o["idf1"]),
                                str(o["fp"]), str(o["fn"]), str(o["idsw"]), f"{run.fps:.0f}"]
                 lines.append("| " + " | ".join(cells) + " |")
         lines.append("")
@@ -320,179 +319,6 @@ def detectors_table(results: Sequence[DetectorResult]) -> str:
                          "abduction only (SORT ignores confidences): what the confidence thresholds decide.")
         blocks.append("\n".join(lines))
     return "\n\n".join(blocks) + "\n"
-
-
-# ---------------------------------------------------------------------------------------
-# The simulated detector-quality sweep
-
-
-SWEEP_DATASETS = ("mot17", "kitti-car")
-SWEEP_SUBSETS = {
-    "mot17": ("MOT17-05", "MOT17-09", "MOT17-11"),
-    "kitti-car": ("0001", "0006", "0008", "0010", "0018"),
-}
-"""Default sequences of the sweep (minutes on 2 cores): three MOT17 train sequences of different
-kinds (moving low camera 640x480, static camera, moving camera), and five KITTI Car sequences of
-the validation split (evaluate_tracking.seqmap.val) holding most of its cars."""
-DEFAULT_P_MAX = (0.5, 0.7, 0.9)
-DEFAULT_FP_PER_FRAME = (0.5, 2.0, 5.0)
-DEFAULT_NOISE = (0.03, 0.10)
-KITTI_CAR_FALSE_POSITIVES = {"fp_aspect": 1.5, "fp_min_height": 18.0, "fp_max_height_frac": 0.5}
-"""Car-shaped image-wide false positives on KITTI: median Car box aspect w/h 1.5, 5th percentile
-height 18 px over the 21 training sequences (the simulator's defaults are for pedestrians)."""
-
-
-@dataclass(frozen=True)
-class SweepPoint:
-    dataset: str
-    p_max: float
-    fp_per_frame: float
-    noise: float
-    """centre_sigma = size_sigma"""
-    quality: DetectionQuality
-    baseline: dict
-    abduction: dict
-
-
-def sweep_data(dataset: str, data_root: str | os.PathLike, sequences: Sequence[str] | None = None
-               ) -> list[tuple[str, io.GroundTruth, tuple[int, int] | None, float | None]]:
-    """(name, ground truth, image size, fps) of the sweep's sequences."""
-    from .simulate import MOT17_GT_VARIANT, MOT17_TRAIN
-    names = list(sequences) if sequences else list(SWEEP_SUBSETS[dataset])
-    root = Path(data_root)
-    out = []
-    if dataset == "mot17":
-        for s in names:
-            if s not in MOT17_TRAIN:
-                raise ValueError(f"unknown MOT17 train sequence {s!r} (known: {', '.join(MOT17_TRAIN)})")
-            folder = root / "MOT17" / "train" / f"{s}-{MOT17_GT_VARIANT}"
-            info = io.read_seqinfo(folder / "seqinfo.ini")
-            gt = dataclasses.replace(io.read_mot_ground_truth(folder / "gt" / "gt.txt", seqinfo=info), name=s)
-            out.append((s, gt, (int(info["imWidth"]), int(info["imHeight"])), float(info["frameRate"])))
-    elif dataset == "kitti-car":
-        listing = {s.name: s for s in io.benchmark_sequences("kitti-car", root)}
-        for s in names:
-            if s not in listing:
-                raise ValueError(f"unknown KITTI sequence {s!r} (known: {', '.join(listing)})")
-            out.append((s, io.load_ground_truth(listing[s]), io.KITTI_IMAGE_SIZE, io.KITTI_FPS))
-    else:
-        raise ValueError(f"unknown sweep dataset {dataset!r} (choose from {', '.join(SWEEP_DATASETS)})")
-    return out
-
-
-def detector_params(dataset: str, p_max: float, fp_per_frame: float, noise: float):
-    from .simulate import DetectorParams
-    extra = KITTI_CAR_FALSE_POSITIVES if dataset == "kitti-car" else {}
-    return DetectorParams(p_max=p_max, fp_per_frame=fp_per_frame, centre_sigma=noise, size_sigma=noise, **extra)
-
-
-def sweep(dataset: str, data_root: str | os.PathLike, backend: str = "cpsat",
-          p_max: Sequence[float] = DEFAULT_P_MAX, fp_per_frame: Sequence[float] = DEFAULT_FP_PER_FRAME,
-          noise: Sequence[float] = DEFAULT_NOISE, seed: int = 0, sequences: Sequence[str] | None = None,
-          max_frames: int | None = None, step: ProgressStep | None = None) -> list[SweepPoint]:
-    """Baseline vs abduction at every grid point (serially, in grid order; seed fixed per point)."""
-    from .simulate import simulate_detections
-    data = sweep_data(dataset, data_root, sequences)
-    otype = "car" if dataset == "kitti-car" else "pedestrian"
-    points = []
-    for pm in p_max:
-        for fp in fp_per_frame:
-            for nz in noise:
-                params = detector_params(dataset, pm, fp, nz)
-                triples, quality = [], DetectionQuality(0, 0, 0, 0, 0)
-                for name, gt, size, fps in data:
-                    dets = simulate_detections(gt, seed=seed, params=params, image_size=size, fps=fps,
-                                               name=name, object_type=otype)
-                    dets, g = first_frames(dets, gt, max_frames)
-                    quality = quality + detection_quality(g, dets)
-                    triples.append((name, dets, g))
-                base = track_and_evaluate(triples, "baseline")
-                abd = track_and_evaluate(triples, backend)
-                points.append(SweepPoint(dataset, pm, fp, nz, quality, base.overall, abd.overall))
-                if step:
-                    step(f"{dataset} p_max={pm:g} fp={fp:g} noise={nz:g}")
-    return points
-
-
-def _gain(a, b) -> str:
-    if a is None or b is None or not (np.isfinite(a) and np.isfinite(b)):
-        return "-"
-    return f"{100.0 * (a - b):+.1f}"
-
-
-def sweep_table(points: Sequence[SweepPoint]) -> str:
-    """Markdown: one row per grid point, baseline / abduction side by side (b / a)."""
-    head = ("| p_max | FP/frame | noise | det recall | det precision | HOTA b / a | MOTA b / a | MOTA gain "
-            "| IDF1 b / a | IDF1 gain | IDs+Frag b / a |\n"
-            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    blocks = []
-    for ds in dict.fromkeys(p.dataset for p in points):
-        lines = [f"**{ds}** (simulated detections)\n", head]
-        for p in (q for q in points if q.dataset == ds):
-            b, a = p.baseline, p.abduction
-            lines.append(
-                f"| {p.p_max:g} | {p.fp_per_frame:g} | {p.noise:g} | {_ratio(p.quality.recall)} | "
-                f"{_ratio(p.quality.precision)} | {_pct(b.get('hota'))} / {_pct(a.get('hota'))} | "
-                f"{_pct(b['mota'])} / {_pct(a['mota'])} | {_gain(a['mota'], b['mota'])} | "
-                f"{_pct(b['idf1'])} / {_pct(a['idf1'])} | {_gain(a['idf1'], b['idf1'])} | "
-                f"{b['idsw'] + b['frag']} / {a['idsw'] + a['frag']} |")
-        blocks.append("\n".join(lines))
-    return "\n\n".join(blocks) + "\n"
-
-
-def _has_hota(points: Sequence[SweepPoint]) -> bool:
-    return all(np.isfinite(p.baseline.get("hota", math.nan)) and np.isfinite(p.abduction.get("hota", math.nan))
-               for p in points)
-
-
-def plot_sweep(points: Sequence[SweepPoint], path: str | os.PathLike) -> str:
-    """Abduction's gain (HOTA if the evaluator gives it, else MOTA; and IDF1) against the measured
-    detector recall, one line per FP rate and noise level, one row of panels per dataset.
-    Written atomically (a temporary file in the same folder, then renamed).  Returns the metric
-    used for the first column."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    key = "hota" if _has_hota(points) else "mota"
-    datasets = list(dict.fromkeys(p.dataset for p in points))
-    fig, axes = plt.subplots(len(datasets), 2, figsize=(10, 3.8 * len(datasets)), dpi=100, squeeze=False)
-    fps_levels = sorted({p.fp_per_frame for p in points})
-    noise_levels = sorted({p.noise for p in points})
-    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, max(len(fps_levels), 1)))
-    styles = ["-", "--", ":", "-."]
-    for row, ds in enumerate(datasets):
-        for col, metric in enumerate((key, "idf1")):
-            ax = axes[row][col]
-            for ci, fp in enumerate(fps_levels):
-                for si, nz in enumerate(noise_levels):
-                    pts = sorted((p.quality.recall, 100.0 * (p.abduction[metric] - p.baseline[metric]))
-                                 for p in points if p.dataset == ds and p.fp_per_frame == fp and p.noise == nz)
-                    if pts:
-                        ax.plot([x for x, _ in pts], [y for _, y in pts], styles[si % len(styles)],
-                                color=colours[ci], marker="o", markersize=4,
-                                label=f"{fp:g} FP/frame, noise {nz:g}")
-            ax.axhline(0.0, color="grey", linewidth=0.8)
-            ax.set_xlabel("detector recall (measured, IoU 0.5)")
-            ax.set_ylabel(f"{metric.upper()} abduction - baseline (points)")
-            ax.set_title(f"{ds} (simulated detections): {metric.upper()} gain")
-            ax.grid(True, alpha=0.3)
-        axes[row][0].legend(fontsize=7)
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-    os.close(fd)
-    try:
-        fig.savefig(tmp, format="png")
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    finally:
-        plt.close(fig)
-    return key
 
 
 # ---------------------------------------------------------------------------------------
@@ -526,7 +352,8 @@ def _scores_json(overall: dict) -> dict:
     return {k: v for k, v in overall.items() if not isinstance(v, (dict, list))}
 
 
-def results_json(real: Sequence[DetectorResult], points: Sequence[SweepPoint]) -> str:
+def results_json(real: Sequence[DetectorResult], points: Sequence) -> str:
+    """Both reports' numbers (points: detector_sweep.SweepPoint) as JSON."""
     return json.dumps({
         "real": [{"benchmark": r.benchmark, "detector": r.detector, "sequences": list(r.sequences),
                   "frames": r.frames, "quality": _quality_json(r.quality), "score_range": list(r.score_range),
@@ -551,34 +378,25 @@ def real_report(results: Sequence[DetectorResult], command: str, seconds: float)
             "(files read beforehand, evaluation excluded). HOTA: '-' where the evaluator does not provide it.\n")
 
 
-def sweep_report(points: Sequence[SweepPoint], command: str, seconds: float, seed: int,
-                 sequences: dict[str, Sequence[str]], max_frames: int | None, plot: str | None) -> str:
-    used = "; ".join(f"{ds}: {', '.join(s)}" for ds, s in sequences.items())
-    frames = f", first {max_frames} frames of each" if max_frames else " (all frames)"
-    text = (f"Command: `{command}` (run took {seconds / 60:.1f} min)  \n"
-            f"Sequences: {used}{frames}; simulated detector seed {seed}.\n\n" + sweep_table(points) + "\n"
-            "p_max: detection probability of a fully visible object (1 - miss rate; MOT17 misses partly "
-            "occluded people more, see refimpl.simulate); FP/frame: Poisson mean of false positives; noise: "
-            "std. dev. of the centre offset and of the log-size error, as a fraction of the box. det recall / "
-            "precision: measured on the simulated detections as in the real-detector table. b / a: baseline "
-            "(SORT) / abduction (cpsat); gains in percentage points.\n")
-    if plot:
-        text += f"\n![abduction's gain against detector recall]({Path(plot).name})\n"
-    return text
-
-
 def run_detectors(*, data: str = "../shared/data", backend: str = "cpsat", do_sweep: bool = False,
                   benchmarks: Sequence[str] = tuple(REAL_DETECTORS), sequences: Sequence[str] | None = None,
-                  max_frames: int | None = None, sweep_datasets: Sequence[str] = SWEEP_DATASETS,
-                  p_max: Sequence[float] = DEFAULT_P_MAX, fp_per_frame: Sequence[float] = DEFAULT_FP_PER_FRAME,
-                  noise: Sequence[float] = DEFAULT_NOISE, seed: int = 0, out: str | None = None,
+                  max_frames: int | None = None, sweep_datasets: Sequence[str] | None = None,
+                  p_max: Sequence[float] | None = None, fp_per_frame: Sequence[float] | None = None,
+                  noise: Sequence[float] | None = None, seed: int = 0, out: str | None = None,
                   plot: str | None = None, json_path: str | None = None, command: str = "refimpl detectors",
                   with_ungated: bool = False,
                   progress: Callable[[int, str], object] | None = None) -> str:
-    """Run one of the two reports; write its section of ``out`` (and the sweep's plot); return the text."""
+    """Run one of the two reports; write its section of ``out`` (and the sweep's plot); return the text.
+    Sweep options left None take refimpl.detector_sweep's defaults."""
+    from . import detector_sweep as ds_
+    from .detector_sweep import plot_sweep, sweep, sweep_data, sweep_report
+    sweep_datasets = ds_.SWEEP_DATASETS if sweep_datasets is None else sweep_datasets
+    p_max = ds_.DEFAULT_P_MAX if p_max is None else p_max
+    fp_per_frame = ds_.DEFAULT_FP_PER_FRAME if fp_per_frame is None else fp_per_frame
+    noise = ds_.DEFAULT_NOISE if noise is None else noise
     started = time.perf_counter()
     real: list[DetectorResult] = []
-    points: list[SweepPoint] = []
+    points: list = []
     if not do_sweep:
         for bench in benchmarks:
             n = len(common_sequences(bench, data, sequences)) * len(REAL_DETECTORS[bench]) * (3 if with_ungated else 2)

@@ -107,7 +107,7 @@ def test_sweep_two_points_on_a_few_mot17_frames(shared_data, tmp_path, capsys):
     # clipped to the 1920x1080 image.  A box B clipped to C has IoU(B, C) = area(C) / area(B), so a
     # detection counts as matched iff at least half of its source box lies inside the image.  Derive
     # the expected counts that way from the simulated boxes (same seed and parameters as the command).
-    from refimpl.detectors import detector_params, sweep_data
+    from refimpl.detector_sweep import detector_params, sweep_data
     from refimpl.simulate import simulate_detections
     (_, gt, size, fps), = sweep_data("mot17", shared_data, ["MOT17-09"])
     dets = simulate_detections(gt, seed=0, params=detector_params("mot17", 1.0, 0.0, 0.0), image_size=size)
