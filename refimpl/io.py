@@ -59,6 +59,11 @@ decimals, written atomically (temporary file in the same folder, then ``os.repla
 numbers are written as the tracker numbered them, so KITTI results stay 0-based: pass
 ``first_frame=0`` to ``write_mot_results`` / ``read_mot_results`` for them.
 
+KITTI tracking results (``write_kitti_results`` / ``read_kitti_results``): the label_02 layout
+plus a score, ``frame id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry score``, space
+separated, 0-based frames, what TrackEval's Kitti2DBox reads; unknown 3D fields are written as
+KITTI's "unknown" values.  ``read_results`` reads either format for evaluation.
+
 Frame numbers above ``MAX_FRAME`` (100 000) are rejected as typos everywhere, since a
 sequence is materialised and tracked frame by frame (the longest MOTChallenge / KITTI
 sequences have a few thousand frames; 100 000 empty frames already take about 10 s to track).
