@@ -189,3 +189,19 @@ def test_mot17_distractor_handling_equals_trackevals(shared_data, tmp_path):
     report = tmp_path / "scores.json"
     assert main(["eval", str(results), "--gt", str(gt_root), "--json", str(report)]) == 0
     _compare(json.loads(report.read_text()), _trackeval_mot(gt_root, tmp_path, [seq], "MOT17", tmp_path / "te"), [seq])
+
+
+def test_hota_runs_on_numpy_without_any_patch():
+    # A fresh interpreter: TrackEval's HOTA must work without refimpl giving NumPy anything back
+    # (the motmetrics shim of refimpl.evaluate is only installed when CLEAR is first computed).
+    import subprocess
+    import sys
+    script = (
+        "import numpy as np\n"
+        "from refimpl.hota import hota_sequence\n"
+        "before = set(dir(np))\n"
+        "r = hota_sequence([np.array([1])], [np.array([5])], [np.array([[1.0]])])\n"
+        "assert r['hota'] == 1.0, r\n"
+        "assert set(dir(np)) == before, set(dir(np)) ^ before\n")
+    repo = Path(__file__).resolve().parent.parent
+    subprocess.run([sys.executable, "-c", script], cwd=repo, check=True)
