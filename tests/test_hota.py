@@ -75,6 +75,17 @@ def test_hand_derived_hota_of_one_sequence():
         assert b[key] == pytest.approx(15 / 19)
 
 
+def test_a_hypothesis_inside_a_dontcare_region_is_not_a_false_positive_for_hota_either():
+    # SEQ_A plus a KITTI DontCare region in frame 3 and an unmatched hypothesis inside it: removed
+    # by the preprocessing, so every number of the derivation above stays as it was.
+    gt = make_gt([(f, 1, 0, 0, 10, 10, "t") for f in (1, 2, 3, 4)]
+                 + [(f, 2, 100, 0, 10, 10, "t") for f in (1, 2)]
+                 + [(2, 9, 200, 0, 10, 10, "d")], num_frames=4, dontcare=[(3, 700, 0, 20, 20)])
+    r = ev.evaluate_sequence(gt, np.vstack([HYP_A, [3, 5, 705, 0, 10, 10]]))
+    assert r["removed_dontcare"] == 1 and r["fp"] == 1
+    assert r["hota"] == pytest.approx(math.sqrt(2 / 7))
+
+
 def test_sequences_are_combined_from_per_alpha_counts_not_averaged():
     per, overall = ev.evaluate_many([("a", SEQ_A, HYP_A), ("b", SEQ_B, HYP_B)])
     assert overall["deta"] == pytest.approx(35 / 57)
@@ -150,6 +161,7 @@ def _compare(ours: dict, theirs: dict, seqs: list[str]) -> None:
 
 def test_mot15_folder_scores_equal_trackevals_pipeline(shared_data, tmp_path):
     from refimpl.table6 import run_tracker
+    # ETH-Sunnyday and KITTI-17 have flag-0 ground-truth rows (not counted by either side)
     seqs = ["KITTI-17", "TUD-Campus", "TUD-Stadtmitte", "ETH-Sunnyday"]
     gt_root = shared_data / "MOT15" / "train"
     results = tmp_path / "refimpl" / "data"
