@@ -59,6 +59,11 @@ decimals, written atomically (temporary file in the same folder, then ``os.repla
 numbers are written as the tracker numbered them, so KITTI results stay 0-based: pass
 ``first_frame=0`` to ``write_mot_results`` / ``read_mot_results`` for them.
 
+KITTI tracking results (``write_kitti_results`` / ``read_kitti_results``): the label_02 layout
+plus a score, ``frame id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry score``, space
+separated, 0-based frames, what TrackEval's Kitti2DBox reads; unknown 3D fields are written as
+KITTI's "unknown" values.  ``read_results`` reads either format for evaluation.
+
 Frame numbers above ``MAX_FRAME`` (100 000) are rejected as typos everywhere, since a
 sequence is materialised and tracked frame by frame (the longest MOTChallenge / KITTI
 sequences have a few thousand frames; 100 000 empty frames already take about 10 s to track).
@@ -72,12 +77,13 @@ zero-area box) in KITTI files: the trackers' boxes could not be written back.
 from __future__ import annotations
 
 import configparser
+import json
 import os
 import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -984,3 +990,19 @@ def demo_sequence_paths() -> BenchmarkSequence:
         raise InputFormatError("bundled demo sequence not found (expected data/demo/TUD-Campus in "
                                "the checkout or the refimpl.data package)", checkout)
     return found
+
+
+# ---------------------------------------------------------------------------------------
+# Event log files
+# ---------------------------------------------------------------------------------------
+
+def write_event_log(path: str, events: Iterable) -> None:
+    """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
+    write_text_atomic(path, "".join(f"{e}.\n" for e in events))
+
+
+def write_event_log_json(path: str, events: Iterable) -> None:
+    """The event sequence as JSON lines: time, event name, arguments and the atom."""
+    lines = [json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
+                         "atom": str(e)}) for e in events]
+    write_text_atomic(path, "".join(line + "\n" for line in lines))
