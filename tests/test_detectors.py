@@ -142,3 +142,8 @@ def test_detectors_mistakes_end_in_one_line_and_exit_2(argv, fragment, shared_da
     assert main([*argv, "--data", str(shared_data), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert fragment in err and "\n" not in err
+
+
+def test_every_registered_detector_benchmark_is_a_known_benchmark():
+    from refimpl.detectors import REAL_DETECTORS
+    assert set(REAL_DETECTORS) <= set(io.BENCHMARKS)
