@@ -27,6 +27,10 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 
+DEFAULT_CONNECT_TIMEOUT = 10.0
+"""Seconds to wait for a --scheduler address to answer before giving up."""
+
+
 class ClusterError(RuntimeError):
     """The Dask cluster could not be reached or started (a user's address or setup, exit 2)."""
 
@@ -37,7 +41,8 @@ class Plan:
 
     workers: int = 1
     scheduler: str | None = None
-    connect_timeout: float = 10.0
+    connect_timeout: float | None = None
+    """Seconds; None for DEFAULT_CONNECT_TIMEOUT."""
 
     def __post_init__(self) -> None:
         if self.workers < 1:
@@ -99,7 +104,8 @@ class _client:
         from distributed import Client, LocalCluster
         try:
             if self.plan.scheduler is not None:
-                self.client = Client(self.plan.scheduler, timeout=self.plan.connect_timeout)
+                timeout = self.plan.connect_timeout if self.plan.connect_timeout is not None else DEFAULT_CONNECT_TIMEOUT
+                self.client = Client(self.plan.scheduler, timeout=timeout)
             else:
                 self.cluster = LocalCluster(n_workers=self.plan.workers, threads_per_worker=1, processes=True,
                                             host="127.0.0.1", dashboard_address=None,
