@@ -87,6 +87,7 @@ def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tupl
     """Check the grid and read the data: ValueError (or io.InputFormatError) for a user's mistake."""
     from .table6 import load_dataset
     names, settings = grid_settings(grid)
+    split_dataset(benchmark, [], data_root, split)  # a split that does not apply, before reading the data
     dataset = split_dataset(benchmark, load_dataset(benchmark, data_root), data_root, split)
     requests = tuple(RunRequest(benchmark, dataset, backend, tuple(zip(names, values))) for values in settings)
     return SweepPlan(benchmark, split, backend, names, settings, requests, tuple(n for n, _, _ in dataset))
