@@ -107,9 +107,11 @@ class _client:
                 timeout = self.plan.connect_timeout if self.plan.connect_timeout is not None else DEFAULT_CONNECT_TIMEOUT
                 self.client = Client(self.plan.scheduler, timeout=timeout)
             else:
+                # silence_logs: workers log connection errors while the cluster shuts down; a task's
+                # own error reaches us as its exception
                 self.cluster = LocalCluster(n_workers=self.plan.workers, threads_per_worker=1, processes=True,
                                             host="127.0.0.1", dashboard_address=None,
-                                            silence_logs=logging.ERROR)
+                                            silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
         except (OSError, TimeoutError) as exc:
             self.__exit__(None, None, None)

@@ -116,6 +116,16 @@ def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, 
             client.wait_for_workers(2, timeout=30)
         _track(inputs, tmp_path / "remote", "--scheduler", address)
         assert _files(tmp_path / "remote") == serial[1]
+
+        # results come back in input order although the first task finishes last: two workers,
+        # task 0 sleeps 1.5 s while tasks 1 and 2 (no sleep) finish on the other worker
+        from refimpl.scaleout import Plan, run_tasks
+        items = [["sleep", "1.5"], ["true"], ["echo"]]
+        finished = []
+        done = run_tasks(subprocess.run, items, Plan(scheduler=address), quiet=True,
+                         describe=lambda item: finished.append(item[0]) or "")
+        assert [r.args for r in done] == items
+        assert finished[-1] == "sleep"
     finally:
         for p in reversed(procs):
             p.terminate()

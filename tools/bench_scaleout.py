@@ -6,7 +6,9 @@
 For each input set (MOT15 train, 11 sequences; KITTI tracking train Car, 21 sequences) it runs
 the command as a user would (a fresh `python -m refimpl` process, so cluster start-up and
 worker imports are paid), serially and with --workers N, checks that both wrote the same bytes,
-and prints a markdown table of wall-clock seconds and their ratio.  The machine is shared: the
+and prints a markdown table of wall-clock seconds, their ratio, and the CPUs the command got
+(CPU seconds of the command and its worker processes / wall seconds: at most 1 serially, at
+most N with N workers).  The machine is shared: the
 1-minute load average before and after each run is printed with it, since a ratio measured
 under someone else's load understates the speed-up.  With --write the table replaces the
 generated section of that markdown file.
@@ -17,6 +19,7 @@ from __future__ import annotations
 import argparse
 import filecmp
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -44,13 +47,17 @@ def input_sets(data: str):
     return out
 
 
-def run(argv: list[str]) -> float:
+def run(argv: list[str]) -> tuple[float, float]:
+    """Wall-clock seconds and CPU seconds (user + system, the command and the processes it waited for)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "refimpl", *argv], cwd=REPO, stdout=subprocess.DEVNULL,
                           stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
         raise SystemExit(f"refimpl {' '.join(argv[:3])} ... failed: {done.stderr.strip()}")
-    return time.perf_counter() - start
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def same_files(a: Path, b: Path) -> bool:
@@ -74,7 +81,7 @@ def main() -> int:
         for label, extra, dets, frames in input_sets(args.data):
             times, loads = {}, []
             for mode, opts in (("serial", []), ("parallel", ["--workers", str(args.workers)])):
-                best = float("inf")
+                best = (float("inf"), 0.0)
                 for _ in range(args.repeat):
                     out = Path(tmp) / f"{len(rows)}-{mode}"
                     loads.append(os.getloadavg()[0])
@@ -83,9 +90,9 @@ def main() -> int:
                     loads.append(os.getloadavg()[0])
                 times[mode] = best
             identical = same_files(Path(tmp) / f"{len(rows)}-serial", Path(tmp) / f"{len(rows)}-parallel")
-            rows.append(f"| {label} | {frames} | {times['serial']:.1f} | {times['parallel']:.1f} | "
-                        f"{times['serial'] / times['parallel']:.2f} | {'yes' if identical else 'NO'} | "
-                        f"{min(loads):.1f}-{max(loads):.1f} |")
+            (ws, cs), (wp, cp) = times["serial"], times["parallel"]
+            rows.append(f"| {label} | {frames} | {ws:.1f} | {wp:.1f} | {ws / wp:.2f} | {cs / ws:.2f} | "
+                        f"{cp / wp:.2f} | {'yes' if identical else 'NO'} | {min(loads):.1f}-{max(loads):.1f} |")
             print(rows[-1], file=sys.stderr)
     command = "python tools/bench_scaleout.py" + "".join(
         f" --{k} {v}" for k, v in (("workers", args.workers), ("backend", args.backend), ("repeat", args.repeat)))
@@ -93,8 +100,9 @@ def main() -> int:
         f"`{command}` — `refimpl track --backend {args.backend} --out-dir D` on every sequence of a set, wall "
         f"clock of the whole command (fastest of {args.repeat}), serial vs `--workers {args.workers}`.  "
         f"Machine: {machine_note()}.\n",
-        f"| input set | frames | serial s | {args.workers} workers s | speed-up | same bytes | load avg (1 min) |",
-        "|---|---:|---:|---:|---:|---|---|",
+        f"| input set | frames | serial s | {args.workers} workers s | speed-up | CPUs used serial | "
+        f"CPUs used {args.workers} workers | same bytes | load avg (1 min) |",
+        "|---|---:|---:|---:|---:|---:|---:|---|---|",
         *rows])
     print(table)
     if args.write:
