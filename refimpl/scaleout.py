@@ -107,10 +107,12 @@ class _client:
                 timeout = self.plan.connect_timeout if self.plan.connect_timeout is not None else DEFAULT_CONNECT_TIMEOUT
                 self.client = Client(self.plan.scheduler, timeout=timeout)
             else:
-                # silence_logs: workers log connection errors while the cluster shuts down; a task's
-                # own error reaches us as its exception
+                # silence_logs: workers log connection errors while the cluster shuts down (a task's
+                # own error reaches us as its exception); no dashboard, and the scheduler's HTTP
+                # endpoint on a free port rather than a warning when 8787 is taken
                 self.cluster = LocalCluster(n_workers=self.plan.workers, threads_per_worker=1, processes=True,
                                             host="127.0.0.1", dashboard_address=None,
+                                            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                                             silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
         except (OSError, TimeoutError) as exc:
