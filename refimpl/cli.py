@@ -166,10 +166,10 @@ def cmd_track(args: argparse.Namespace) -> int:
     if failed:
         raise CheckFailed(f"{failed} answers break a rule of the model")
     if args.events:
-        from .tracker import write_event_log
+        from .io import write_event_log
         write_event_log(args.events, outputs[0].events)
     if args.events_json:
-        from .tracker import write_event_log_json
+        from .io import write_event_log_json
         write_event_log_json(args.events_json, outputs[0].events)
     return EXIT_OK
 
