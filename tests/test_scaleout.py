@@ -107,10 +107,11 @@ def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, 
             time.sleep(0.1)
         address = json.loads(sched_file.read_text())["address"]
         assert address.startswith("tcp://127.0.0.1:")
-        procs.append(subprocess.Popen(
-            ["dask", "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard",
-             "--local-directory", str(tmp_path / "worker")], cwd=REPO, env=env,
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        for k in range(2):  # two worker processes of one thread (no nanny: fewer processes to start)
+            procs.append(subprocess.Popen(
+                ["dask", "worker", address, "--no-nanny", "--nthreads", "1", "--no-dashboard",
+                 "--local-directory", str(tmp_path / f"worker{k}")], cwd=REPO, env=env,
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
         from distributed import Client
         with Client(address, timeout=20) as client:
             client.wait_for_workers(2, timeout=30)

@@ -57,13 +57,21 @@ def test_sweep_on_the_demo_sequence():
     result = run_sweep(SweepPlan("demo", "all", "cpsat", names, settings, requests, (seq.name,)), Plan(), quiet=True)
     default, never = (r.overall for r in result.runs)
     # 101 > every confidence (0..100): no track ever starts, so no predictions: FN = num_gt, FP = 0,
-    # MOTA = 1 - FN / num_gt = 0 and IDF1 = 2*0 / (0 + 0 + IDFN) = 0
+    # MOTA = 1 - FN / num_gt = 0, IDF1 = 2*0 / (0 + 0 + IDFN) = 0, and HOTA = 0 (DetA = TP / (TP +
+    # FN + FP) = 0 at every alpha)
     assert never["num_predictions"] == 0 and never["fn"] == never["num_gt"] > 0 and never["fp"] == 0
-    assert never["mota"] == 0.0 and never["idf1"] == 0.0
+    assert never["mota"] == 0.0 and never["idf1"] == 0.0 and never["hota"] == 0.0
     assert default["num_predictions"] > 0 and default["mota"] > 0.5
     table = format_sweep(result).splitlines()
-    assert table[2] == "| conf_thresh_new_track | MOTA | IDF1 | IDs | FP | FN |"
-    assert table[5] == f"| 101 | 0.0 | 0.0 | 0 | 0 | {never['fn']} |"
+    assert table[2] == "| conf_thresh_new_track | HOTA | MOTA | IDF1 | IDs | FP | FN |"
+    assert table[5] == f"| 101 | 0.0 | 0.0 | 0.0 | 0 | 0 | {never['fn']} |"
+
+
+def test_table_has_no_hota_column_without_hota():
+    from refimpl.sweep import SweepResult
+    o = {"mota": 0.6, "idf1": 0.5, "idsw": 3, "fp": 4, "fn": 5}
+    result = SweepResult("b", "all", "cpsat", ("iou_thresh",), ((30000,),), (RunSummary(0, {}, o),), ("s",))
+    assert format_sweep(result).splitlines()[2] == "| iou_thresh | MOTA | IDF1 | IDs | FP | FN |"
 
 
 def test_table_shows_hota_when_the_evaluation_has_it():
