@@ -14,9 +14,10 @@ file whose scores all lie in [0, 1] (refimpl.io): ``conf = floor(100 * score + 0
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
 from .solvers import BACKENDS, get_solver
@@ -24,10 +25,13 @@ from .spec import HistoryEvent
 from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker,
                       TrackingResult)
 
+if TYPE_CHECKING:
+    from .scene import Scene
+
 __all__ = ["Tracker", "confidences_from_scores"]
 
 
-def confidences_from_scores(scores: np.ndarray) -> np.ndarray:
+def confidences_from_scores(scores: ArrayLike) -> np.ndarray:
     """Scores in [0, 1] as the paper's integer confidences 0..100 (round half up, as refimpl.io)."""
     return np.floor(100.0 * np.asarray(scores, dtype=float) + 0.5).astype(np.int64)
 
@@ -88,7 +92,7 @@ class Tracker:
         return out
 
     @staticmethod
-    def _img_size(img_size) -> tuple[int, int]:
+    def _img_size(img_size: object) -> tuple[int, int]:
         try:
             w, h = img_size
         except (TypeError, ValueError):
@@ -98,13 +102,14 @@ class Tracker:
         return int(w), int(h)
 
     @staticmethod
-    def _type(name, what: str) -> str:
+    def _type(name: object, what: str) -> str:
         key = str(name).strip().lower()
         if key not in OBJECT_TYPES:
             raise ValueError(f"{what}: unknown object class {name!r} (known: {', '.join(OBJECT_TYPES)})")
         return key
 
-    def _check(self, dets, classes) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    def _check(self, dets: ArrayLike,
+               classes: Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
         try:
             a = np.asarray(dets, dtype=float)
         except (TypeError, ValueError):
@@ -146,7 +151,7 @@ class Tracker:
         """The number of the next frame ``update`` will process."""
         return self.first_frame + len(self._frames)
 
-    def update(self, dets, classes: Sequence[str] | None = None) -> np.ndarray:
+    def update(self, dets: ArrayLike, classes: Sequence[str] | None = None) -> np.ndarray:
         """Track one frame; the (M, 5) rows x1, y1, x2, y2, track_id reported for it, by track id."""
         boxes, scores, types = self._check(dets, classes)
         frame = self.frame
@@ -184,7 +189,7 @@ class Tracker:
         """The detections given so far as a DetectionSequence (refimpl.io)."""
         return DetectionSequence(self.name, tuple(self._frames), self.first_frame, self.image_size, self.fps)
 
-    def scene(self):
+    def scene(self) -> "Scene":
         """The scene so far (refimpl.scene.Scene): tracks, events and fluent timelines, for
         refimpl.scene.query / explain and refimpl.plots."""
         from .scene import scene_from_result

@@ -64,7 +64,8 @@ def split_dataset(benchmark: str, dataset, data_root: str | Path, split: str):
         return list(dataset)
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}")
-    kitti = benchmark in io.BENCHMARKS and all(s.format == "kitti" for s in io.benchmark_sequences(benchmark, data_root))
+    kitti = benchmark in io.BENCHMARKS and all(
+        s.format == "kitti" for s in io.benchmark_sequences(benchmark, data_root))
     if not kitti:
         raise ValueError(f"--split {split} is defined for the KITTI benchmarks only (its seqmap.val)")
     val = set(val_sequences(data_root))
