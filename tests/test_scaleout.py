@@ -199,3 +199,18 @@ def test_run_requests_regroups_tasks_per_request():
             assert a == b or (isinstance(a, float) and math.isnan(a) and math.isnan(b)), key
     assert runs[0].events == {} and sum(runs[1].events.values()) > 0
     assert [r.frames for r in runs] == [71, 71, 71]
+
+
+def test_const_and_img_size_reach_every_sequence(inputs, serial, tmp_path):
+    # conf_thresh_new_track=101 is above every confidence (0..100): no track starts in any sequence,
+    # so every results file is empty; and --img-size changes nothing the default run wrote when it
+    # equals TUD-Campus's seqinfo.ini (640x480) for the sequence that has one
+    code, out, err = run_cli(["track", "--backend", "cpsat", "--dets", *inputs[:2], "--out-dir", str(tmp_path / "c"),
+                              "--const", "conf_thresh_new_track=101", "--quiet"])
+    assert code == 0, err
+    assert [p.read_text() for p in sorted((tmp_path / "c").iterdir())] == ["", ""]
+    assert out.count(" 0 tracks -> ") == 2
+    code, _, err = run_cli(["track", "--backend", "cpsat", "--dets", inputs[0], "--out-dir", str(tmp_path / "s"),
+                            "--img-size", "640,480", "--quiet"])
+    assert code == 0, err
+    assert (tmp_path / "s" / "TUD-Campus.txt").read_bytes() == serial[1]["TUD-Campus.txt"]
