@@ -105,8 +105,14 @@ class AbductionTracker:
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
-                 compact_history: bool = True):
+                 compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False):
+        """hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
+        frozen (BoxKalman.predict(hold=True)); reupdate_on_resume: a resume re-runs the filter along
+        the box interpolated over the gap (BoxKalman.reupdate).  Both off by default (issue 12,
+        item 4; measured in docs/tracking.md)."""
         self.solver = solver
+        self.hold_hidden = hold_hidden
+        self.reupdate_on_resume = reupdate_on_resume
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
         self.min_hits = min_hits
@@ -127,7 +133,7 @@ class AbductionTracker:
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        predicted = np.array([self._bounded(self._predict(t)) for t in tracks]).reshape(-1, 4)
+        predicted = np.array([self._bounded(self._predict(t, self.hold_hidden)) for t in tracks]).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         detections = tuple(
@@ -160,10 +166,10 @@ class AbductionTracker:
         return np.array([x1, y1, bw, bh])
 
     @staticmethod
-    def _predict(trk: _Track) -> np.ndarray:
+    def _predict(trk: _Track, hold: bool = False) -> np.ndarray:
         """Kalman prediction; a filter whose state degenerated restarts, motionless, at the last observed box."""
         try:
-            return trk.kalman.predict()
+            return trk.kalman.predict(hold)
         except InvalidPrediction:
             trk.kalman = BoxKalman(trk.observed[max(trk.observed)])
             return trk.kalman.predict()
@@ -191,7 +197,10 @@ class AbductionTracker:
             if kind in ("assign", "resume"):
                 trk = self.tracks[args[0]]
                 box = boxes[int(args[1].rsplit("_", 1)[1])]
-                trk.kalman.update(box)
+                if kind == "resume" and self.reupdate_on_resume:
+                    trk.kalman.reupdate(box)
+                else:
+                    trk.kalman.update(box)
                 if kind == "resume":
                     last = max(trk.observed)
                     conf = int(confidences[int(args[1].rsplit("_", 1)[1])])
@@ -281,7 +290,8 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
-                   compact_history: bool = True) -> TrackingResult:
+                   compact_history: bool = True, hold_hidden: bool = False,
+                   reupdate_on_resume: bool = False) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border."""
     merged = dict(constants or {})
     if seq.image_size is not None:
@@ -289,7 +299,8 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
         merged.setdefault("img_height", int(seq.image_size[1]))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
-                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history)
+                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
+                               hold_hidden, reupdate_on_resume)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     return tracker.result()
