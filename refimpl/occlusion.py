@@ -22,10 +22,10 @@ long occlusions, so refimpl generates its own, seeded, as MOTChallenge sequences
   hide_frame + L.  The generator recomputes the cover from the written (rounded) ground-truth boxes
   and checks this; tests re-derive it independently.
 * **Detections** come from ``refimpl.simulate.simulate_detections`` (the same simulated detector
-  as MOT17-sim), fed with a *detectability* instead of the visibility: 1 while an object is
-  covered by at most half (by any box in front of it: bottom edge lower), 0 otherwise -- so an
-  object is never detected while mostly covered, and detected with probability ``p_max`` (0.98:
-  a few misses) otherwise.  Centre jitter 3 % of the box size, size jitter 3 %, 0.3 false
+  as MOT17-sim), fed only the objects covered by at most half (by any one box in front of it:
+  bottom edge lower), each fully visible to it -- so an object is never detected while mostly
+  covered (and no false positive is placed "near" it then), and is detected with probability
+  ``p_max`` (0.98: a few misses) otherwise.  Centre jitter 3 % of the box size, size jitter 3 %, 0.3 false
   positives per frame (half near an object), scores Beta(6, 1.5).  The ground truth's visibility
   column is the real visible share (1 - cover).  Boxes are rounded to 2 decimals and scores to
   4 before anything is built, so the in-memory sequence is exactly what the written files read
@@ -206,8 +206,11 @@ def build_scenario(spec: ScenarioSpec, seed: int = 0, index: int | None = None) 
                              f"{truth.hide_frame}..{truth.reappear_frame}")  # the construction is wrong
     ones = np.ones(len(g_frames), dtype=bool)
     gt = GroundTruth(spec.name, g_frames, g_ids, g_boxes, ones, ~ones, np.zeros((0, 5)), 1, n, visibility)
-    detectable = GroundTruth(spec.name, g_frames, g_ids, g_boxes, ones, ~ones, np.zeros((0, 5)), 1, n,
-                             (visibility >= 1.0 - HIDDEN_COVER).astype(float))
+    # the detector's sources: only objects covered by at most half (so no false positive is
+    # placed "near" a hidden object either), each detected with probability p_max
+    seen = visibility >= 1.0 - HIDDEN_COVER
+    detectable = GroundTruth(spec.name, g_frames, g_ids, g_boxes, seen, ~ones, np.zeros((0, 5)), 1, n,
+                             np.ones(len(g_frames)))
     sim = simulate_detections(detectable, seed=int(rng.integers(2**31)), params=DETECTOR,
                               image_size=IMAGE_SIZE, fps=float(FPS), name=spec.name)
     return Scenario(spec.name, _kind(spec), _rounded(sim, spec.name), gt, truth)
