@@ -17,7 +17,9 @@ For every scenario of refimpl.occlusion and every tracker variant:
 
 Variants: ``baseline`` (SORT, refimpl.baseline) and an abduction backend from
 refimpl.solvers.BACKENDS, optionally with ``+hold`` (motion while hidden) and/or ``+oru``
-(observation-centric re-update on resume), e.g. ``cpsat+hold+oru``.
+(observation-centric re-update on resume), e.g. ``cpsat+hold+oru``, and ``+persist``
+(lost_after_hidden = PERSIST_FRAMES: NOT the model, a stand-in for issue 12's reasoned
+persistence, to see what the motion options do once a hidden track is not cut at 30 frames).
 """
 
 from __future__ import annotations
@@ -33,6 +35,9 @@ from .solvers import BACKENDS
 
 TOLERANCE = 5
 MOTION_OPTIONS = {"hold": "hold_hidden", "oru": "reupdate_on_resume"}
+PERSIST_FRAMES = 1000
+"""'+persist': lost_after_hidden raised to this (longer than any scenario): a stand-in for reasoned
+persistence (issue 12, item 1), so that the motion options can be measured where hiding is not cut at 30."""
 
 
 @dataclass(frozen=True)
@@ -67,10 +72,13 @@ def parse_variant(variant: str) -> tuple[str, dict]:
         return head, {}
     if head not in BACKENDS:
         raise ValueError(f"unknown tracker {head!r} (baseline or one of {', '.join(BACKENDS)})")
-    bad = [o for o in opts if o not in MOTION_OPTIONS]
+    bad = [o for o in opts if o not in MOTION_OPTIONS and o != "persist"]
     if bad:
-        raise ValueError(f"unknown option {bad[0]!r} (options: {', '.join(MOTION_OPTIONS)})")
-    return head, {MOTION_OPTIONS[o]: True for o in opts}
+        raise ValueError(f"unknown option {bad[0]!r} (options: {', '.join(MOTION_OPTIONS)}, persist)")
+    out: dict = {MOTION_OPTIONS[o]: True for o in opts if o in MOTION_OPTIONS}
+    if "persist" in opts:
+        out["constants"] = {"lost_after_hidden": PERSIST_FRAMES}
+    return head, out
 
 
 def target_matches(scenario: Scenario, rows: np.ndarray) -> list[tuple[int, int]]:

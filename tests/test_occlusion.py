@@ -142,6 +142,7 @@ def test_abduction_keeps_the_identity_through_a_30_frame_occlusion(suite):
 def test_parse_variant():
     assert parse_variant("cpsat+hold+oru") == ("cpsat", {"hold_hidden": True, "reupdate_on_resume": True})
     assert parse_variant("baseline") == ("baseline", {})
+    assert parse_variant("cpsat+persist")[1] == {"constants": {"lost_after_hidden": 1000}}
     for bad in ("baseline+hold", "cpsat+fast", "sort"):
         with pytest.raises(ValueError):
             parse_variant(bad)
