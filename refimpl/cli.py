@@ -132,10 +132,10 @@ def cmd_track(args: argparse.Namespace) -> int:
     print(f"{seq.name}: {len(seq.frames)} frames, {len(set(rows[:, 1].tolist())) if len(rows) else 0} tracks"
           f" -> {args.out}")
     if args.events:
-        from .tracker import write_event_log
+        from .io import write_event_log
         write_event_log(args.events, events)
     if args.events_json:
-        from .tracker import write_event_log_json
+        from .io import write_event_log_json
         write_event_log_json(args.events_json, events)
     return EXIT_OK
 

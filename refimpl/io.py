@@ -72,12 +72,13 @@ zero-area box) in KITTI files: the trackers' boxes could not be written back.
 from __future__ import annotations
 
 import configparser
+import json
 import os
 import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -872,3 +873,19 @@ def demo_sequence_paths() -> BenchmarkSequence:
         raise InputFormatError("bundled demo sequence not found (expected data/demo/TUD-Campus in "
                                "the checkout or the refimpl.data package)", checkout)
     return found
+
+
+# ---------------------------------------------------------------------------------------
+# Event log files
+# ---------------------------------------------------------------------------------------
+
+def write_event_log(path: str, events: Iterable) -> None:
+    """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
+    write_text_atomic(path, "".join(f"{e}.\n" for e in events))
+
+
+def write_event_log_json(path: str, events: Iterable) -> None:
+    """The event sequence as JSON lines: time, event name, arguments and the atom."""
+    lines = [json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
+                         "atom": str(e)}) for e in events]
+    write_text_atomic(path, "".join(line + "\n" for line in lines))
