@@ -322,7 +322,7 @@ def cmd_occlusion_suite(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_occlusion(args: argparse.Namespace) -> int:
-    from .benchmarks import format_command, write_section
+    from .benchmarks import write_section
     from .occlusion_bench import format_results, parse_variant, run_suite
     from .occlusion import SCENARIOS
     variants = [v.strip() for v in args.trackers.split(",") if v.strip()]
@@ -333,7 +333,8 @@ def cmd_bench_occlusion(args: argparse.Namespace) -> int:
             raise UserError(f"--trackers: {exc}") from None
     progress = Progress(len(SCENARIOS), "occlusion suite", enabled=not args.quiet)
     text = format_results(run_suite(variants, args.seed, progress.step))
-    body = f"Command: `{format_command(sys.argv[1:])}`\n\n{text}"
+    command = f"refimpl bench-occlusion --trackers {','.join(variants)} --seed {args.seed}"
+    body = f"Command: `{command}`\n\n{text}"
     print(text)
     if args.out != "-":
         write_section(args.out, "<!-- bench-occlusion:begin -->", "<!-- bench-occlusion:end -->", body)

@@ -160,3 +160,16 @@ def test_cli_writes_the_suite_and_never_overwrites_without_force(tmp_path, capsy
     assert (tmp_path / first / "det" / "det.txt").read_text() == "mine\n"
     assert "--force" in capsys.readouterr().err
     assert main(["bench-occlusion", "--trackers", "cpsat+nope", "--out", "-"]) == 2
+
+
+def test_bench_occlusion_command_writes_its_section(tmp_path, capsys):
+    out = tmp_path / "occlusion.md"
+    out.write_text("# Mine\n\nkept text\n")
+    assert main(["bench-occlusion", "--trackers", "baseline", "--out", str(out), "--quiet"]) == 0
+    text = out.read_text()
+    assert text.startswith("# Mine\n\nkept text\n") and "<!-- bench-occlusion:begin -->" in text
+    # SORT (max_age 1) cannot bridge any of the 30..150-frame occlusions
+    assert f"baseline: 0/{len(SCENARIOS)} scenarios pass" in text
+    assert sum(line.startswith("| occl") for line in text.splitlines()) == len(SCENARIOS)
+    assert "Command: `refimpl bench-occlusion --trackers baseline --seed 0`" in text
+    assert "### baseline" in capsys.readouterr().out
