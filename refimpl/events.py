@@ -38,7 +38,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Iterable, Mapping, Union
 
-from .relations import near_border, overlapping_top
+from .geometry import intersection_area
+from .relations import near_border, outside_fov, overlapping_top
 from .spec import FrameProblem, HistoryEvent, Term, TrackPrediction, parse_term
 
 # ---------------------------------------------------------------------------------------
@@ -293,7 +294,8 @@ def _not_hidden(state: EventState, trk: str) -> bool:
 
 
 def poss_hides_behind(state: EventState, constants: Mapping[str, int],
-                      trk1: TrackPrediction, trk2: TrackPrediction) -> bool:
+                      trk1: TrackPrediction, trk2: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """Appendix A: poss(hides_behind(T1,T2)) :- position(overlapping_top,T1,T2),
     not holds_at(visibility(T1),not_visible), not holds_at(visibility(T2),not_visible).
     overlapping_top is refimpl.relations.overlapping_top (refimpl decision, docs/model-spec.md section 3)."""
@@ -305,14 +307,16 @@ def poss_hides_behind(state: EventState, constants: Mapping[str, int],
     )
 
 
-def poss_missing_detections(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_missing_detections(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """Appendix A: poss(missing_detections(T)) :- holds_at(clipped(T),false),
     not holds_at(visibility(T),not_visible)."""
     return state.holds_at(("clipped", trk.id), "false") and _not_hidden(state, trk.id)
 
 
 def poss_unhides_from_behind(state: EventState, constants: Mapping[str, int],
-                             trk1: TrackPrediction, trk2: TrackPrediction) -> bool:
+                             trk1: TrackPrediction, trk2: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """Section 4.1.1: poss(unhides_from_behind(T1,T2)) :- holds_at(visibility(T1),not_visible),
     not holds_at(visibility(T2),not_visible); refimpl decision (docs/model-spec.md): also
     T1 != T2 and holds_at(hidden_by(T1,T2),true)."""
@@ -324,34 +328,55 @@ def poss_unhides_from_behind(state: EventState, constants: Mapping[str, int],
     )
 
 
-def poss_recover(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_recover(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): clipped(T)=true or visibility(T)=not_visible."""
     return state.holds_at(("clipped", trk.id), "true") or state.holds_at(("visibility", trk.id), "not_visible")
 
 
-def poss_enters_fov(state: EventState, constants: Mapping[str, int], det_id: str) -> bool:
+def poss_enters_fov(state: EventState, constants: Mapping[str, int], det_id: str,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): always possible for a detection."""
     return True
 
 
-def poss_leaves_fov(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_leaves_fov(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): in_fov(T)=true and near_border(T)."""
     return state.holds_at(("in_fov", trk.id), "true") and near_border(
         trk.box, constants["img_width"], constants["img_height"], constants["border_margin"])
 
 
-def poss_lost(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
-    """refimpl decision (docs/model-spec.md): halted_at(T,Tm) and curr_time - Tm >= L, with
-    L = lost_after_hidden if visibility(T)=not_visible, else lost_after_missing."""
+def kept_in_mind(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+                 tracks: Mapping[str, TrackPrediction]) -> bool:
+    """refimpl rule (docs/model.md, "Out of sight, not out of mind"; grows from Section 4.1.2's
+    anticipate(unhides_from_behind(T1,T2),T) :- holds_at(hidden_by(T1,T2)), topology(proper_part,T1,T2)):
+    a hidden track is kept in mind while some current track T2 it is hidden_by still overlaps its
+    predicted box and that box is not entirely outside the field of view."""
+    if outside_fov(trk.box, constants["img_width"], constants["img_height"]):
+        return False
+    return any(t2 != trk.id and state.holds_at(("hidden_by", trk.id, t2), "true")
+               and intersection_area(trk.box, other.box) > 0 for t2, other in tracks.items())
+
+
+def poss_lost(state: EventState, constants: Mapping[str, int], trk: TrackPrediction, *,
+              tracks: Mapping[str, TrackPrediction]) -> bool:
+    """refimpl decision (docs/model.md): halted_at(T,Tm) and either curr_time - Tm >= L and T is not
+    kept in mind (L = lost_after_hidden if visibility(T)=not_visible, else lost_after_missing), or
+    curr_time - Tm >= lost_after_hidden_max (the safety bound, whatever the scene says)."""
     tm = state.halted_at(trk.id)
     if tm is None:
         return False
+    age = constants["curr_time"] - tm
+    if age >= constants["lost_after_hidden_max"]:
+        return True
     hidden = state.holds_at(("visibility", trk.id), "not_visible")
     limit = constants["lost_after_hidden"] if hidden else constants["lost_after_missing"]
-    return constants["curr_time"] - tm >= limit
+    return age >= limit and not kept_in_mind(state, constants, trk, tracks)
 
 
-def poss_noise(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_noise(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): started_at(T,Tm) and curr_time - Tm <= noise_max_age."""
     tm = state.started_at(trk.id)
     return tm is not None and constants["curr_time"] - tm <= constants["noise_max_age"]
@@ -381,7 +406,8 @@ class EventType:
     effects: tuple[Effect, ...]
     """causesValue rules: (fluent, argument positions or OTHERS, value)."""
     poss: Callable[..., bool]
-    """Its precondition: poss(state, constants, *arguments as TrackPrediction, or det id for start)."""
+    """Its precondition: poss(state, constants, *arguments as TrackPrediction (or the det id for a
+    start), tracks=the frame's current tracks by id) -- some preconditions look at other tracks."""
     phrase: str
     """How a sentence says it happened to a track, followed by the second track for a pair event
     ('went out of sight behind', 'came out from behind', 'was given up as lost', ...)."""
@@ -450,7 +476,7 @@ def poss(event: Union[Term, str], problem: FrameProblem, state: EventState,
     tracks = {t.id: t for t in problem.tracks}
     if any(a not in tracks for a in args):
         return False
-    return fn(state, constants, *(tracks[a] for a in args))
+    return fn(state, constants, *(tracks[a] for a in args), tracks=tracks)
 
 
 def possible_events(problem: FrameProblem, state: EventState,
@@ -462,16 +488,17 @@ def possible_events(problem: FrameProblem, state: EventState,
     """
     out: dict[str, bool] = {}
     tracks = problem.tracks
+    by_id = {t.id: t for t in tracks}
     for spec in EVENT_TABLE.values():
         if spec.explains == "start":
             for d in problem.detections:
-                out[f"{spec.name}({d.id})"] = spec.poss(state, constants, d.id)
+                out[f"{spec.name}({d.id})"] = spec.poss(state, constants, d.id, tracks=by_id)
         elif spec.arity == 1:
             for t in tracks:
-                out[f"{spec.name}({t.id})"] = spec.poss(state, constants, t)
+                out[f"{spec.name}({t.id})"] = spec.poss(state, constants, t, tracks=by_id)
         else:
             for t1 in tracks:
                 for t2 in tracks:
                     if t1.id != t2.id:
-                        out[f"{spec.name}({t1.id},{t2.id})"] = spec.poss(state, constants, t1, t2)
+                        out[f"{spec.name}({t1.id},{t2.id})"] = spec.poss(state, constants, t1, t2, tracks=by_id)
     return out

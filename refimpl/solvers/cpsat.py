@@ -68,18 +68,19 @@ def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction],
 
 
 def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
-                  state: EventState, constants: Mapping[str, int]) -> list[tuple[EventType, tuple[str, ...]]]:
+                  state: EventState, constants: Mapping[str, int],
+                  by_id: Mapping[str, TrackPrediction]) -> list[tuple[EventType, tuple[str, ...]]]:
     """The possible events explaining ``action`` of tracks[i]: (event type, argument ids), in
     event-table order, pair events by their candidate order."""
     t = tracks[i]
     out: list[tuple[EventType, tuple[str, ...]]] = []
     for spec in explaining(action):
         if spec.arity == 1:
-            if spec.poss(state, constants, t):
+            if spec.poss(state, constants, t, tracks=by_id):
                 out.append((spec, (t.id,)))
         else:
             out.extend((spec, (t.id, t2.id)) for t2 in _pair_candidates(spec, i, tracks, top, state)
-                       if spec.poss(state, constants, t, t2))
+                       if spec.poss(state, constants, t, t2, tracks=by_id))
     return out
 
 
@@ -185,6 +186,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
     # overlapping_top(T, T2): the loops below skip everything else before calling the rules
     # (same candidates, same variable order as testing every pair, without n^2 Python calls).
     paired = {t for t, _, _ in problem.iou}
+    by_id = {t.id: t for t in problem.tracks}
     top = _overlapping_top_matrix(problem.tracks, inter, constants["hide_overlap"])
     obj = am.objectives
     cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
@@ -220,14 +222,14 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
                     per_det[d.id].append(a)
                     obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
             # halt(T) <=> exactly one of its possible explanations   (explain_halt)
-            halts = _explanations("halt", i, problem.tracks, top, state, constants)
+            halts = _explanations("halt", i, problem.tracks, top, state, constants, by_id)
             if halts:
                 h = action(f"halt({t.id})", "halt")
                 per_trk[t.id].append(h)
                 model.add(sum(event(spec, args) for spec, args in halts) == h)
         else:  # halted
             # end(T) <=> exactly one of its possible explanations   (explain_end)
-            ends = _explanations("end", i, problem.tracks, top, state, constants)
+            ends = _explanations("end", i, problem.tracks, top, state, constants, by_id)
             if ends:
                 en = action(f"end({t.id})", "end")
                 per_trk[t.id].append(en)
@@ -236,7 +238,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
             # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
             resumable = [d for d in (problem.detections if t.id in paired else ())
                          if resume_constraints(problem, constants, iou, t, d)]
-            expl = _explanations("resume", i, problem.tracks, top, state, constants) if resumable else []
+            expl = _explanations("resume", i, problem.tracks, top, state, constants, by_id) if resumable else []
             if resumable and expl:
                 res = []
                 for d in resumable:
@@ -249,7 +251,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
 
     for d in problem.detections:
         # start(D) <=> exactly one of its possible explanations (enters_fov)   (explain_start)
-        starts = [spec for spec in explaining("start") if spec.poss(state, constants, d.id)]
+        starts = [spec for spec in explaining("start") if spec.poss(state, constants, d.id, tracks=None)]
         if start_constraints(constants, d) and starts:
             s = action(f"start({d.id})", "start")
             per_det[d.id].append(s)
@@ -657,6 +659,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     t_index = {t.id: i for i, t in enumerate(tracks)}
     d_index = {d.id: j for j, d in enumerate(dets)}
     paired = {tid for tid, _ in iou}
+    by_id = {t.id: t for t in tracks}
 
     def priced(found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:
         return [((cost[spec.name], _tiebreak_of_event(spec, args, r, k)), f"{spec.name}({','.join(args)})")
@@ -667,21 +670,21 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
     for i, t in enumerate(tracks):
         if t.state == "active":
-            expl = priced(_explanations("halt", i, tracks, top, state, constants))
+            expl = priced(_explanations("halt", i, tracks, top, state, constants, by_id))
             if not expl:
                 raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
             (c1, c0), event, tie = _cheapest(expl)
             solo_t.append(_Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie))
         else:
             options = [_Option(f"ignore_trk({t.id})", None, _cost("ignore_trk"))]
-            ends = priced(_explanations("end", i, tracks, top, state, constants))
+            ends = priced(_explanations("end", i, tracks, top, state, constants, by_id))
             if ends:
                 (c1, c0), event, tie = _cheapest(ends)
                 options.append(_Option(f"end({t.id})", event, _cost("end", event=c1, tiebreak=c0), tie))
             solo_t.append(_best_solo(options))
             if t.id not in paired:
                 continue  # no iou/3 pair: no resume, no explanation needed
-            expl = priced(_explanations("resume", i, tracks, top, state, constants))
+            expl = priced(_explanations("resume", i, tracks, top, state, constants, by_id))
             if expl:
                 resume_expl[i] = _cheapest(expl)
 
@@ -690,7 +693,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     for d in dets:
         options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
         starts = [((cost[spec.name], 0), f"{spec.name}({d.id})") for spec in explaining("start")
-                  if spec.poss(state, constants, d.id)]
+                  if spec.poss(state, constants, d.id, tracks=None)]
         if start_constraints(constants, d) and starts:
             (c1, c0), event, tie = _cheapest(starts)
             options.append(_Option(f"start({d.id})", event, _cost("start", event=c1, tiebreak=c0), tie))
