@@ -287,17 +287,15 @@ def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("offset,resumed", [(0, False), (1, True)])
 def test_resume_needs_confidence_above_threshold(backend, offset, resumed):
-    # conf_thresh_resume (40) = conf_thresh_new_track (40): at conf 40 the detection may neither
-    # resume the track nor start one (both tests are strict '>'), so both are ignored (2 x 10@3),
-    # which the resume (1@2) would have beaten; at 41 it resumes
-    c = default_constants()
-    assert c["conf_thresh_resume"] == c["conf_thresh_new_track"] == 40
-    h = solve(backend, _halted_clipped(det_conf=c["conf_thresh_resume"] + offset))
+    # conf_thresh_resume (50) > conf_thresh_new_track (40): at conf 50 the detection starts a new
+    # track (5@2) and the halted track is ignored (10@3), which the resume (1@2) would have beaten
+    conf = default_constants()["conf_thresh_resume"] + offset
+    h = solve(backend, _halted_clipped(det_conf=conf))
     if resumed:
         assert "resume(trk_1,det_1)" in h.actions
     else:
         assert "resume(trk_1,det_1)" not in h.actions
-        assert {"ignore_det(det_1)", "ignore_trk(trk_1)"} <= set(h.actions)
+        assert {"start(det_1)", "ignore_trk(trk_1)"} <= set(h.actions)
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
