@@ -12,7 +12,7 @@ from typing import Callable, Sequence
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 TRACKERS = ("baseline", "cpsat", "clingo")
-BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
+from .table6 import DATASETS as BENCHMARKS  # noqa: E402  (refimpl.io's benchmarks + simulated ones)
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 

@@ -781,7 +781,11 @@ MOT15_TRAIN = (
 )
 MOT15_SORT6 = ("TUD-Campus", "ETH-Sunnyday", "ETH-Pedcross2", "ADL-Rundle-8", "Venice-2", "KITTI-17")
 KITTI_TRAIN = tuple(f"{i:04d}" for i in range(21))
-BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped")
+KITTI_VAL_SEQMAP = Path("KITTI") / "tracking" / "training" / "evaluate_tracking.seqmap.val"
+"""The val split (AB3DMOT's): the sequences it lists are held out; the other training sequences
+are the split tuned on (``kitti-*-train``)."""
+BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped",
+              "kitti-car-val", "kitti-ped-val", "kitti-car-train", "kitti-ped-train")
 
 
 def _mot15(root: Path, names: Sequence[str]) -> list[BenchmarkSequence]:
@@ -794,12 +798,34 @@ def _mot15(root: Path, names: Sequence[str]) -> list[BenchmarkSequence]:
     return out
 
 
-def _kitti(root: Path, object_class: str) -> list[BenchmarkSequence]:
+def kitti_val_sequences(root: str | os.PathLike) -> tuple[str, ...]:
+    """The sequence names listed in the KITTI val seqmap (first field of each non-empty line)."""
+    path = Path(root) / KITTI_VAL_SEQMAP
+    if not path.is_file():
+        raise InputFormatError("KITTI val seqmap not found (needed for the kitti-*-val/-train splits)", path)
+    names = []
+    for lineno, line in _read_lines(path):
+        name = line.split()[0]
+        if name not in KITTI_TRAIN:
+            raise InputFormatError(f"sequence {name!r} is not a KITTI training sequence (0000-0020)", path, lineno)
+        if name in names:
+            raise InputFormatError(f"sequence {name!r} listed twice", path, lineno)
+        names.append(name)
+    if not names:
+        raise InputFormatError("the KITTI val seqmap lists no sequence", path)
+    return tuple(names)
+
+
+def _kitti(root: Path, object_class: str, split: str = "all") -> list[BenchmarkSequence]:
     base = root / "KITTI" / "tracking" / "training"
     det_dir = base / "det_02_pointrcnn" / {"car": "Car", "pedestrian": "Pedestrian"}[object_class]
+    names = KITTI_TRAIN
+    if split != "all":
+        val = set(kitti_val_sequences(root))
+        names = tuple(n for n in KITTI_TRAIN if (n in val) == (split == "val"))
     return [BenchmarkSequence(
         name=name, dets_path=det_dir / f"{name}.txt", gt_path=base / "label_02" / f"{name}.txt",
-        format="kitti", object_class=object_class, seqinfo_path=None) for name in KITTI_TRAIN]
+        format="kitti", object_class=object_class, seqinfo_path=None) for name in names]
 
 
 def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
@@ -807,7 +833,10 @@ def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[Benchma
 
     ``mot15`` (11 MOT15 train sequences, SORT Faster R-CNN dets), ``mot15-sort6`` (the six
     sequences of the SORT paper's comparison), ``kitti-car`` / ``kitti-ped`` (KITTI tracking
-    train 0000-0020, PointRCNN dets, label_02 ground truth).  Every file must exist.
+    train 0000-0020, PointRCNN dets, label_02 ground truth), ``kitti-car-val`` / ``kitti-ped-val``
+    (the sequences listed in ``KITTI/tracking/training/evaluate_tracking.seqmap.val``: 11) and
+    ``kitti-car-train`` / ``kitti-ped-train`` (the other training sequences: 10), the split that
+    anything tuned is tuned on.  Every file must exist.
     """
     root = Path(data_root)
     key = name.strip().lower()
@@ -815,10 +844,11 @@ def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[Benchma
         seqs = _mot15(root, MOT15_TRAIN)
     elif key == "mot15-sort6":
         seqs = _mot15(root, MOT15_SORT6)
-    elif key == "kitti-car":
-        seqs = _kitti(root, "car")
-    elif key == "kitti-ped":
-        seqs = _kitti(root, "pedestrian")
+    elif key.startswith("kitti-") and key in BENCHMARKS:
+        _, cls, *split = key.split("-")
+        if not root.is_dir():
+            raise InputFormatError(f"data root for benchmark {key!r} not found", root)
+        seqs = _kitti(root, {"car": "car", "ped": "pedestrian"}[cls], split[0] if split else "all")
     else:
         raise ValueError(f"unknown benchmark {name!r} (known: {', '.join(BENCHMARKS)})")
     if not root.is_dir():

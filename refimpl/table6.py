@@ -17,7 +17,7 @@ import numpy as np
 from . import io
 from .evaluate import evaluate_many
 
-PUBLIC = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped")
+PUBLIC = io.BENCHMARKS
 SIMULATED = ("mot17-sim", "mot20-01-sim")
 DATASETS = PUBLIC + SIMULATED
 TABLE6_DATASETS = ("mot15", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
@@ -26,6 +26,10 @@ TITLES = {
     "mot15-sort6": "MOT15 train, SORT's six sequences (SORT's Faster R-CNN detections)",
     "kitti-car": "KITTI tracking train, Car, 21 sequences (PointRCNN detections)",
     "kitti-ped": "KITTI tracking train, Pedestrian, 21 sequences (PointRCNN detections)",
+    "kitti-car-val": "KITTI tracking train, Car, the 11 val-split sequences (PointRCNN detections)",
+    "kitti-ped-val": "KITTI tracking train, Pedestrian, the 11 val-split sequences (PointRCNN detections)",
+    "kitti-car-train": "KITTI tracking train, Car, the 10 sequences outside the val split (PointRCNN detections)",
+    "kitti-ped-train": "KITTI tracking train, Pedestrian, the 10 sequences outside the val split (PointRCNN detections)",
     "mot17-sim": "MOT17 train, 7 sequences (SIMULATED detections, seed 0)",
     "mot20-01-sim": "MOT20-01 (SIMULATED detections, seed 0)",
 }
