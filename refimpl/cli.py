@@ -21,11 +21,14 @@ class UserError(Exception):
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
+    from .calibrate import CalibrationRefused
     from .io import InputFormatError
+    from .peers import PeersUnavailable
     from .solvers import NoAdmissibleHypothesis, SolverUnavailable
     from .spec import ProblemFormatError
     from .scene import SceneError
-    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
+    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError,
+            PeersUnavailable, CalibrationRefused)
 
 
 # ---------------------------------------------------------------------------------------
@@ -118,13 +121,23 @@ def _run_tracker(seq, backend: str):
     return run_tracker(seq, backend)
 
 
+def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> dict[str, int]:
+    """The preset of (format, class) unless --no-preset, then --const overrides (refimpl.presets)."""
+    from .presets import constants_for
+    overrides = dict(consts or [])
+    try:
+        return constants_for(fmt, cls or "pedestrian", overrides, use_preset=not no_preset)
+    except ValueError as exc:
+        raise UserError(f"--const: {exc}") from None
+
+
 def cmd_track(args: argparse.Namespace) -> int:
     from . import io
     seq = _load_sequence(args)
     if args.backend == "baseline":
-        if args.check or args.time_limit is not None or args.scene:
-            raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo); "
-                            "the baseline abduces no events")
+        if args.check or args.time_limit is not None or args.scene or args.const:
+            raise UserError("--check, --time-limit, --scene and --const need an abduction backend (cpsat or "
+                            "clingo); the baseline abduces no events")
         rows, events = _run_tracker(seq, args.backend)
     else:
         rows, events = _track_abduction(seq, args)
@@ -155,7 +168,8 @@ def _track_abduction(seq, args: argparse.Namespace):
             found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
-    result = track_sequence(seq, backend=args.backend, time_limit=args.time_limit,
+    constants = _abduction_constants(args.format, args.cls, args.const, args.no_preset)
+    result = track_sequence(seq, backend=args.backend, time_limit=args.time_limit, constants=constants,
                             observer=check if args.check else None)
     if result.not_optimal_frames:
         print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
@@ -191,12 +205,20 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from .evaluate import format_table
-    from .table6 import TITLES, load_dataset, run_benchmark
+    from .table6 import TITLES, dataset_kind, load_dataset, run_benchmark
+    if args.peers is not None:
+        return _benchmark_peers(args)
+    if args.out:
+        raise UserError("--out writes the peer comparison: give --peers too")
+    if args.backend == "baseline" and args.const:
+        raise UserError("--const needs an abduction backend (cpsat or clingo)")
     report = {}
     for name in args.names:
         dataset = load_dataset(name, args.data)
         progress = Progress(len(dataset), f"{name}/{args.backend}", enabled=not args.quiet)
-        run = run_benchmark(name, args.data, args.backend, progress.step, dataset=dataset)
+        constants = None if args.backend == "baseline" else \
+            _abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset)
+        run = run_benchmark(name, args.data, args.backend, progress.step, dataset=dataset, constants=constants)
         print(f"## {TITLES[name]} — {args.backend}\n")
         print(format_table(run.per_sequence, run.overall))
         print()
@@ -205,6 +227,64 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         from .io import write_text_atomic
         write_text_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
                                                 default=float))
+    return EXIT_OK
+
+
+def _benchmark_peers(args: argparse.Namespace) -> int:
+    """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
+    from .benchmarks import format_command, machine_note, write_section
+    from .peers import PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table
+    from .table6 import dataset_kind, load_dataset
+    peers = [p.strip() for p in args.peers.split(",") if p.strip()]
+    unknown = [p for p in peers if p not in PEERS]
+    if unknown:
+        raise UserError(f"--peers takes a comma-separated list out of {','.join(PEERS)}, got {args.peers!r}")
+    backend = "cpsat" if args.backend == "baseline" else args.backend
+    comparisons, report = [], {}
+    for name in args.names:
+        dataset = load_dataset(name, args.data)
+        constants = _abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset)
+        progress = Progress(len(dataset) * (2 + len(peers)), f"{name}/peers", enabled=not args.quiet)
+        c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step)
+        comparisons.append(c)
+        print(f"## {c.title}\n")
+        print(comparison_table(c))
+        report[name] = {s.label: {"overall": s.overall, "per_sequence": s.per_sequence, "frames": s.frames,
+                                  "seconds": s.seconds, "parameters": s.parameters} for s in c.scores}
+        report[name]["constants"] = c.constants
+    if args.out:
+        write_section(args.out, PEERS_BEGIN, PEERS_END,
+                      comparison_report(comparisons, format_command(sys.argv[1:]), machine_note()))
+        print(f"written: {args.out}")
+    if args.json:
+        from .io import write_text_atomic
+        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "benchmarks": report},
+                                                indent=2, default=float))
+    return EXIT_OK
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from .benchmarks import format_command, write_section
+    from .calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, chosen_preset,
+                            grid_points, parse_grid)
+    try:
+        grid = parse_grid(args.grid)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if args.workers < 1:
+        raise UserError("--workers must be >= 1")
+    progress = Progress(len(grid_points(grid)), f"calibrate {args.benchmark}", enabled=not args.quiet)
+    cal = calibrate(args.benchmark, args.data, grid, args.backend, args.workers, progress.step,
+                    loso=True if args.loso else None)
+    text = calibration_report(cal, format_command(sys.argv[1:]), args.top)
+    print(text)
+    if args.out:
+        write_section(args.out, CALIBRATE_BEGIN.format(name=args.benchmark), CALIBRATE_END.format(name=args.benchmark),
+                      text)
+        print(f"written: {args.out}")
+    if args.write_presets:
+        from .presets import write_preset
+        print(f"preset {cal.format}/{cal.object_class} written: {write_preset(chosen_preset(cal))}")
     return EXIT_OK
 
 
@@ -354,6 +434,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (cpsat or clingo backend)")
+    t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant (repeatable; on top of the preset of --format/--class)")
+    t.add_argument("--no-preset", action="store_true",
+                   help="run with model/constants.lp's defaults instead of the calibrated preset (model/presets.json)")
     t.set_defaults(func=cmd_track)
 
     e = sub.add_parser("eval", help="CLEAR MOT and IDF1 of a results file against ground truth")
@@ -370,7 +454,31 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--backend", choices=TRACKERS, default="baseline")
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument("--peers", metavar="LIST",
+                   help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
+                        "baseline, abduction (--backend, cpsat if baseline) and every peer in one table per dataset")
+    b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
+    b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
+    b.add_argument("--no-preset", action="store_true",
+                   help="abduction with model/constants.lp's defaults instead of the calibrated preset")
     b.set_defaults(func=cmd_benchmark)
+
+    cb = sub.add_parser("calibrate", help="grid-search the model's thresholds on a benchmark (its training split) "
+                                          "and print the ranked table; the best point is the preset")
+    cb.add_argument("--benchmark", required=True, choices=BENCHMARKS, metavar="NAME",
+                    help="sequences to tune on: kitti-car-train, kitti-ped-train, mot15 (leave-one-sequence-out)")
+    cb.add_argument("--grid", action="append", metavar="NAME=V1,V2,...",
+                    help="replace (or add) one dimension of the search space (repeatable)")
+    cb.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    cb.add_argument("--workers", type=int, default=1, help="processes (grid points in parallel; same result)")
+    cb.add_argument("--loso", action="store_true", help="also leave-one-sequence-out (default for MOT benchmarks)")
+    cb.add_argument("--top", type=int, default=None, help="print only the best N points")
+    cb.add_argument("--write-presets", action="store_true", help="store the best point as the preset (model/presets.json)")
+    cb.add_argument("--out", help="write the report into this markdown file (between marker comments)")
+    cb.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    cb.add_argument("--quiet", action="store_true", help="no progress bar")
+    cb.set_defaults(func=cmd_calibrate)
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
     t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
