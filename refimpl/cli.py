@@ -244,7 +244,8 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     for name in args.names:
         dataset = load_dataset(name, args.data)
         constants = _abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset)
-        progress = Progress(len(dataset) * (2 + len(peers)), f"{name}/peers", enabled=not args.quiet)
+        progress = Progress(len(dataset) * (2 + bool(constants) + len(peers)), f"{name}/peers",
+                            enabled=not args.quiet)
         c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step)
         comparisons.append(c)
         print(f"## {c.title}\n")

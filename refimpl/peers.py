@@ -97,13 +97,16 @@ def run_peer(seq, name: str, **overrides) -> PeerRun:
     """Track a DetectionSequence with a peer; see the module docstring for inputs and outputs."""
     import supervision as sv
 
-    params = peer_parameters(name, getattr(seq, "fps", None), **overrides)
+    overrides = dict(overrides)
+    params = peer_parameters(name, overrides.pop("frame_rate", getattr(seq, "fps", None)), **overrides)
     tracker = peer_class(name)(**params)
     prepared = []
     for fr in seq.frames:
         b = np.asarray(fr.boxes, dtype=float).reshape(-1, 4)
         xyxy = np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3]])
-        conf = np.asarray(fr.confidences, dtype=np.float32).reshape(-1) / np.float32(100.0)
+        # float64: 70 / 100 is then the same double as the package's threshold 0.7 (in float32 it is
+        # below it, and a detection of confidence 70 would not reach ByteTrack's ">= 0.7")
+        conf = np.asarray(fr.confidences, dtype=np.float64).reshape(-1) / 100.0
         prepared.append((fr.frame, sv.Detections(xyxy=xyxy, confidence=conf)))
     out = []
     t0 = time.perf_counter()
@@ -161,9 +164,12 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = "cpsat
     dataset = dataset if dataset is not None else load_dataset(name, data_root)
     frames = sum(len(d.frames) for _, d, _ in dataset)
     scores = []
-    for tracker, label in (("baseline", "refimpl baseline (SORT)"), (backend, f"refimpl abduction ({backend})")):
-        run = run_benchmark(name, data_root, tracker, step, dataset=dataset,
-                            constants=None if tracker == "baseline" else dict(constants or {}))
+    runs = [("baseline", "refimpl baseline (SORT)", None),
+            (backend, f"refimpl abduction ({backend})", dict(constants or {}))]
+    if constants:  # what the preset changes: the same tracker with model/constants.lp alone
+        runs.append((backend, f"refimpl abduction ({backend}), constants.lp defaults", {}))
+    for tracker, label, consts in runs:
+        run = run_benchmark(name, data_root, tracker, step, dataset=dataset, constants=consts)
         scores.append(TrackerScore(label, run.overall, run.per_sequence, frames, run.seconds))
     for p in peers:
         triples, seconds, params = [], 0.0, {}
@@ -211,7 +217,8 @@ def comparison_table(c: Comparison) -> str:
     lines += ["| " + " | ".join([s.label, *score_cells(s)]) + " |" for s in c.scores]
     notes = [f"- {s.label}: `{s.parameters}`" for s in c.scores if s.parameters]
     consts = ", ".join(f"{k}={v}" for k, v in sorted(c.constants.items())) or "none"
-    notes.insert(0, f"- refimpl abduction: model/constants.lp with {consts}")
+    notes.insert(0, f"- refimpl abduction: model/constants.lp with {consts} (the preset of this format and "
+                    f"class, refimpl.presets, and any --const)")
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 
 
