@@ -265,27 +265,31 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
+    """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
     from .benchmarks import format_command, write_section
-    from .calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, chosen_preset,
-                            grid_points, parse_grid)
+    from .calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
+                            chosen_preset, grid_points, parse_grid)
     try:
         grid = parse_grid(args.grid)
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if args.workers < 1:
         raise UserError("--workers must be >= 1")
-    progress = Progress(len(grid_points(grid)), f"calibrate {args.benchmark}", enabled=not args.quiet)
-    cal = calibrate(args.benchmark, args.data, grid, args.backend, args.workers, progress.step,
-                    loso=True if args.loso else None)
-    text = calibration_report(cal, format_command(sys.argv[1:]), args.top)
-    print(text)
-    if args.out:
-        write_section(args.out, CALIBRATE_BEGIN.format(name=args.benchmark), CALIBRATE_END.format(name=args.benchmark),
-                      text)
-        print(f"written: {args.out}")
-    if args.write_presets:
-        from .presets import write_preset
-        print(f"preset {cal.format}/{cal.object_class} written: {write_preset(chosen_preset(cal))}")
+    for name in args.benchmark:
+        check_tunable(name, args.data)  # refuse before hours of tracking, not after
+    command = format_command(sys.argv[1:])
+    for name in args.benchmark:
+        progress = Progress(len(grid_points(grid)), f"calibrate {name}", enabled=not args.quiet)
+        cal = calibrate(name, args.data, grid, args.backend, args.workers, progress.step,
+                        loso=True if args.loso else None)
+        text = calibration_report(cal, command, args.top)
+        print(text)
+        if args.out:
+            write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
+            print(f"written: {args.out}")
+        if args.write_presets:
+            from .presets import write_preset
+            print(f"preset {cal.format}/{cal.object_class} written: {write_preset(chosen_preset(cal))}")
     return EXIT_OK
 
 
@@ -467,8 +471,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     cb = sub.add_parser("calibrate", help="grid-search the model's thresholds on a benchmark (its training split) "
                                           "and print the ranked table; the best point is the preset")
-    cb.add_argument("--benchmark", required=True, choices=BENCHMARKS, metavar="NAME",
-                    help="sequences to tune on: kitti-car-train, kitti-ped-train, mot15 (leave-one-sequence-out)")
+    cb.add_argument("--benchmark", required=True, nargs="+", choices=BENCHMARKS, metavar="NAME",
+                    help="one or more benchmarks to tune on, each giving the preset of its format/class: "
+                         "kitti-car-train, kitti-ped-train, mot15 (leave-one-sequence-out)")
     cb.add_argument("--grid", action="append", metavar="NAME=V1,V2,...",
                     help="replace (or add) one dimension of the search space (repeatable)")
     cb.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
