@@ -131,24 +131,54 @@ def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> 
         raise UserError(f"--const: {exc}") from None
 
 
+def _parse_img_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.split(","))
+        if w <= 0 or h <= 0:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected W,H (two positive integers, pixels), got {text!r}") from None
+    return w, h
+
+
+def _track_constants(args: argparse.Namespace) -> dict[str, int]:
+    """--const overrides, checked against the model's constants before any frame is tracked."""
+    from .constants import default_constants
+    consts = dict(args.const or [])
+    known = default_constants()
+    unknown = sorted(set(consts) - set(known))
+    if unknown:
+        raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+    if args.img_size is not None and {"img_width", "img_height"} & set(consts):
+        raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
+    return consts
+
+
 def cmd_track(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
     from . import io
+    if args.out_format == "kitti" and args.format != "kitti":
+        raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
+                        "it needs --format kitti")
     seq = _load_sequence(args)
+    if args.img_size is not None:
+        seq = replace(seq, image_size=args.img_size)
     if args.backend == "baseline":
-        if args.check or args.time_limit is not None or args.scene or args.const:
-            raise UserError("--check, --time-limit, --scene and --const need an abduction backend (cpsat or "
-                            "clingo); the baseline abduces no events")
+        if args.check or args.time_limit is not None or args.scene or args.const or args.img_size:
+            raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
+                            "(cpsat or clingo); the baseline abduces no events")
         rows, events = _run_tracker(seq, args.backend)
     else:
         rows, events = _track_abduction(seq, args)
-    io.write_mot_results(args.out, rows, first_frame=seq.first_frame)
+    io.write_results(args.out, rows, args.out_format, first_frame=seq.first_frame, object_class=args.cls)
     print(f"{seq.name}: {len(seq.frames)} frames, {len(set(rows[:, 1].tolist())) if len(rows) else 0} tracks"
           f" -> {args.out}")
     if args.events:
-        from .tracker import write_event_log
+        from .io import write_event_log
         write_event_log(args.events, events)
     if args.events_json:
-        from .tracker import write_event_log_json
+        from .io import write_event_log_json
         write_event_log_json(args.events_json, events)
     return EXIT_OK
 
@@ -168,7 +198,7 @@ def _track_abduction(seq, args: argparse.Namespace):
             found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
-    constants = _abduction_constants(args.format, args.cls, args.const, args.no_preset)
+    constants = _abduction_constants(args.format, args.cls, _track_constants(args), args.no_preset)
     result = track_sequence(seq, backend=args.backend, time_limit=args.time_limit, constants=constants,
                             observer=check if args.check else None)
     if result.not_optimal_frames:
@@ -191,15 +221,24 @@ class CheckFailed(Exception):
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table
-    if args.format == "mot":
-        gt = io.read_mot_ground_truth(args.gt)
+    from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
+    if args.format == "kitti" and args.cls is None:
+        raise UserError("--format kitti needs --class Car|Pedestrian")
+    if Path(args.results).is_dir():
+        run = evaluate_folder(args.results, args.gt, args.format, args.cls)
+        per_seq, overall = run.per_sequence, run.overall
+        if run.unscored:
+            print(f"refimpl eval: note: {len(run.unscored)} ground-truth sequence(s) without a results file "
+                  f"not scored: {', '.join(run.unscored)}", file=sys.stderr)
     else:
-        if args.cls is None:
-            raise UserError("--format kitti needs --class Car|Pedestrian")
-        gt = io.read_kitti_ground_truth(args.gt, args.cls)
-    results = io.read_mot_results(args.results, first_frame=gt.first_frame)
-    per_seq, overall = evaluate_many([(gt.name, gt, results)])
+        if Path(args.gt).is_dir():
+            raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
+        gt = read_ground_truth(args.gt, args.format, args.cls)
+        results = io.read_results(args.results, args.format, args.cls)
+        per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
+    if args.json:
+        io.write_text_atomic(args.json, json.dumps(metrics_json(per_seq, overall), indent=2) + "\n")
     return EXIT_OK
 
 
@@ -407,6 +446,7 @@ def _class_name(text: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .io import RESULT_FORMATS
     p = argparse.ArgumentParser(
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
@@ -430,7 +470,16 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--format", choices=("mot", "kitti"), default="mot")
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     t.add_argument("--backend", choices=TRACKERS, default="baseline")
-    t.add_argument("--out", required=True, help="results file (MOTChallenge format)")
+    t.add_argument("--out", required=True, help="results file (MOTChallenge format unless --out-format kitti)")
+    t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
+                   help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
+                        "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
+    t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant (repeatable; as solve --const; abduction backends; on top "
+                        "of the preset of --format/--class)")
+    t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
+                   help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
+                        "1242,375 for KITTI, unknown otherwise)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
@@ -439,17 +488,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (cpsat or clingo backend)")
-    t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
-                   help="override a model constant (repeatable; on top of the preset of --format/--class)")
     t.add_argument("--no-preset", action="store_true",
                    help="run with model/constants.lp's defaults instead of the calibrated preset (model/presets.json)")
     t.set_defaults(func=cmd_track)
 
-    e = sub.add_parser("eval", help="CLEAR MOT and IDF1 of a results file against ground truth")
-    e.add_argument("results", help="results file (MOTChallenge format)")
-    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file")
+    e = sub.add_parser("eval", help="HOTA, CLEAR MOT and IDF1 of a results file, or of a folder of them "
+                                     "(one <SEQ>.txt per sequence), against ground truth")
+    e.add_argument("results", help="results file, or folder of <SEQ>.txt results files (MOTChallenge lines; "
+                                   "for --format kitti also the KITTI tracking format)")
+    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
+                   "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
     e.add_argument("--format", choices=("mot", "kitti"), default="mot")
     e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
+    e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
+                                  "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")

@@ -156,7 +156,7 @@ def test_track_const_changes_the_tracks_and_an_unknown_const_is_exit_2(tmp_path,
     assert a.read_text().strip() and not b.read_text().strip()
     capsys.readouterr()
     assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(b), "--const", "nosuch=1"]) == 2
-    assert "unknown constant 'nosuch'" in capsys.readouterr().err
+    assert "unknown constant(s) nosuch" in capsys.readouterr().err
 
 
 # ---------------------------------------------------------------------------------------
