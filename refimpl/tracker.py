@@ -40,6 +40,9 @@ DEFAULT_BRIDGE_GAP = 2
 DEFAULT_BRIDGE_CONF = 90
 _RESUMING = frozenset(e.name for e in explaining("resume"))
 _STARTING = frozenset(e.name for e in explaining("start"))
+HIDDEN_MAX_SECONDS = 10.0
+"""The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
+frame rate (docs/model.md 3.14); without a frame rate the model's default in frames applies."""
 MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
@@ -277,11 +280,14 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
                    compact_history: bool = True) -> TrackingResult:
-    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border."""
+    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
+    the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS)."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
         merged.setdefault("img_height", int(seq.image_size[1]))
+    if getattr(seq, "fps", None):
+        merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * seq.fps))))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history)
