@@ -25,9 +25,8 @@ from __future__ import annotations
 
 import itertools
 import math
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
+from typing import Mapping, Sequence
 
 DEFAULT_GRID: dict[str, tuple[int, ...]] = {
     "conf_thresh_new_track": (60, 80, 90),
@@ -109,23 +108,11 @@ def check_tunable(benchmark: str, data_root: str) -> None:
                 f"kitti-{'car' if seqs[0].object_class == 'car' else 'ped'}-train")
 
 
-_WORKER_DATASET = None
-
-
-def _init_worker(name: str, data_root: str) -> None:
-    global _WORKER_DATASET
-    import warnings
-    from .table6 import load_dataset
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # KITTI's dropped zero-area boxes, warned about once by the parent
-        _WORKER_DATASET = load_dataset(name, data_root)
-
-
 def _run_point(args) -> GridPoint:
+    """One grid point: track and score the whole dataset with these constants (a Dask task)."""
     name, data_root, constants, backend, dataset = args
     from .table6 import run_benchmark
-    run = run_benchmark(name, data_root, backend, dataset=dataset if dataset is not None else _WORKER_DATASET,
-                        constants=dict(constants))
+    run = run_benchmark(name, data_root, backend, dataset=dataset, constants=dict(constants))
     return GridPoint(tuple(constants), run.per_sequence, run.overall, run.seconds)
 
 
@@ -144,28 +131,21 @@ def leave_one_sequence_out(points: Sequence[GridPoint], use_hota: bool) -> dict:
 
 
 def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] = DEFAULT_GRID,
-              backend: str = "cpsat", workers: int = 1, step: Callable[[str], None] | None = None,
+              backend: str = "cpsat", plan=None, quiet: bool = True,
               loso: bool | None = None) -> Calibration:
-    """Run the grid on a benchmark and rank it; see the module docstring."""
+    """Run the grid on a benchmark and rank it; see the module docstring.  The grid points run as
+    tasks on ``plan`` (refimpl.scaleout.Plan: serial by default, or a Dask cluster), each with
+    the dataset it tracks; results come back in grid order whatever the worker count."""
+    from .scaleout import Plan, run_tasks
     from .table6 import dataset_kind, load_dataset
 
     check_tunable(benchmark, data_root)
     fmt, cls = dataset_kind(benchmark, data_root)
     combos = grid_points(grid)
-    if workers <= 1:
-        dataset = load_dataset(benchmark, data_root)
-        points = []
-        for c in combos:
-            points.append(_run_point((benchmark, data_root, c, backend, dataset)))
-            if step:
-                step(" ".join(f"{k}={v}" for k, v in c))
-    else:
-        with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(benchmark, data_root)) as pool:
-            points = []
-            for c, p in zip(combos, pool.map(_run_point, [(benchmark, data_root, c, backend, None) for c in combos])):
-                points.append(p)
-                if step:
-                    step(" ".join(f"{k}={v}" for k, v in c))
+    dataset = load_dataset(benchmark, data_root)
+    points = run_tasks(_run_point, [(benchmark, data_root, c, backend, dataset) for c in combos],
+                       plan or Plan(), label=f"calibrate {benchmark}", quiet=quiet,
+                       describe=lambda item: " ".join(f"{k}={v}" for k, v in item[2]))
     use_hota = all(_has_hota(p.overall) for p in points)
     ranking = "HOTA, then IDF1, then MOTA" if use_hota else \
         "IDF1, then MOTA (HOTA not available from refimpl.evaluate yet)"

@@ -319,19 +319,17 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
     from .benchmarks import format_command, write_section
     from .calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
-                            chosen_preset, grid_points, parse_grid)
+                            chosen_preset, parse_grid)
     try:
         grid = parse_grid(args.grid)
     except ValueError as exc:
         raise UserError(str(exc)) from None
-    if args.workers < 1:
-        raise UserError("--workers must be >= 1")
+    plan = _plan(args)
     for name in args.benchmark:
         check_tunable(name, args.data)  # refuse before hours of tracking, not after
     command = format_command(sys.argv[1:])
     for name in args.benchmark:
-        progress = Progress(len(grid_points(grid)), f"calibrate {name}", enabled=not args.quiet)
-        cal = calibrate(name, args.data, grid, args.backend, args.workers, progress.step,
+        cal = calibrate(name, args.data, grid, args.backend, plan, args.quiet,
                         loso=True if args.loso else None)
         text = calibration_report(cal, command, args.top)
         print(text)
@@ -627,14 +625,14 @@ def build_parser() -> argparse.ArgumentParser:
                          "kitti-car-train, kitti-ped-train, mot15 (leave-one-sequence-out)")
     cb.add_argument("--grid", action="append", metavar="NAME=V1,V2,...",
                     help="replace (or add) one dimension of the search space (repeatable)")
-    cb.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
-    cb.add_argument("--workers", type=int, default=1, help="processes (grid points in parallel; same result)")
+    cb.add_argument("--backend", choices=[t for t in TRACKERS if t != "baseline"], default="cpsat")
     cb.add_argument("--loso", action="store_true", help="also leave-one-sequence-out (default for MOT benchmarks)")
     cb.add_argument("--top", type=int, default=None, help="print only the best N points")
     cb.add_argument("--write-presets", action="store_true", help="store the best point as the preset (model/presets.json)")
     cb.add_argument("--out", help="write the report into this markdown file (between marker comments)")
     cb.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     cb.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(cb)
     cb.set_defaults(func=cmd_calibrate)
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
