@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 import warnings
@@ -25,7 +26,8 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .solvers import NoAdmissibleHypothesis, SolverUnavailable
     from .spec import ProblemFormatError
     from .scene import SceneError
-    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
+    from .outputs import OutputError
+    return (UserError, OutputError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
 
 
 # ---------------------------------------------------------------------------------------
@@ -118,30 +120,57 @@ def _run_tracker(seq, backend: str):
     return run_tracker(seq, backend)
 
 
-def cmd_track(args: argparse.Namespace) -> int:
-    from . import io
-    seq = _load_sequence(args)
-    if args.backend == "baseline":
-        if args.check or args.time_limit is not None or args.scene:
-            raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo); "
-                            "the baseline abduces no events")
-        rows, events = _run_tracker(seq, args.backend)
+def _time_limit(text: str) -> float:
+    """--time-limit: a positive finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive finite number of seconds, got {text!r}")
+    return value
+
+
+def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
+    """The files `track` reads: the detections and the sequence files found beside them."""
+    dets = Path(args.dets)
+    inputs = {"--dets": args.dets}
+    if args.format == "mot":
+        inputs["seqinfo.ini"] = str(dets.parent.parent / "seqinfo.ini")
     else:
-        rows, events = _track_abduction(seq, args)
-    io.write_mot_results(args.out, rows, first_frame=seq.first_frame)
-    print(f"{seq.name}: {len(seq.frames)} frames, {len(set(rows[:, 1].tolist())) if len(rows) else 0} tracks"
-          f" -> {args.out}")
-    if args.events:
-        from .tracker import write_event_log
-        write_event_log(args.events, events)
-    if args.events_json:
-        from .tracker import write_event_log_json
-        write_event_log_json(args.events_json, events)
+        inputs["label_02"] = str(dets.parent.parent.parent / "label_02" / dets.name)
+    return inputs
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    from .outputs import STDOUT, OutputSet, check_outputs
+    from .tracker import ResultWriter
+    if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene):
+        raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo); "
+                        "the baseline abduces no events")
+    outputs = {"--out": args.out, "--events": args.events, "--events-json": args.events_json, "--scene": args.scene}
+    check_outputs(outputs, _track_inputs(args))
+    seq = _load_sequence(args)
+    if args.format == "mot" and seq.image_size is None:
+        warnings.warn(f"{args.dets}: no seqinfo.ini beside it (../seqinfo.ini): the image size is unknown, "
+                      "so the field-of-view border events (enters_fov, leaves_fov, clipped) use the "
+                      "model's default image size")
+    with OutputSet() as outs:
+        sink = ResultWriter(outs.open(args.out), outs.open(args.events) if args.events else None,
+                            outs.open(args.events_json) if args.events_json else None, seq.first_frame)
+        if args.backend == "baseline":
+            from .baseline import stream_sequence
+            for rows in stream_sequence(seq):
+                sink.rows(rows)
+        else:
+            _track_abduction(seq, args, sink, outs)
+    summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
+    print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {args.out}", file=summary)
     return EXIT_OK
 
 
-def _track_abduction(seq, args: argparse.Namespace):
-    """Algorithm 1 with the chosen backend, optionally checking every frame's answer."""
+def _track_abduction(seq, args: argparse.Namespace, sink, outs) -> None:
+    """Algorithm 1 with the chosen backend, streaming to ``sink``, optionally checking every frame's answer."""
     from .tracker import track_sequence
     checked = violations = 0
 
@@ -156,18 +185,20 @@ def _track_abduction(seq, args: argparse.Namespace):
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
     result = track_sequence(seq, backend=args.backend, time_limit=args.time_limit,
-                            observer=check if args.check else None)
+                            observer=check if args.check else None, sink=sink,
+                            keep_records=bool(args.scene))
     if result.not_optimal_frames:
         print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
               f"within the time limit (best answer found used)", file=sys.stderr)
     if args.check:
-        print(f"check: {checked} answers checked, {violations} with violations")
+        to_stdout = "-" not in (args.out, args.events, args.events_json, args.scene)
+        print(f"check: {checked} answers checked, {violations} with violations",
+              file=sys.stdout if to_stdout else sys.stderr)
         if violations:
             raise CheckFailed(f"{violations} answers break a rule of the model")
     if args.scene:
-        from .scene import save_scene, scene_from_result
-        save_scene(args.scene, scene_from_result(seq, result))
-    return result.rows, result.events
+        from .scene import scene_from_result, scene_to_json
+        outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)), separators=(",", ":")) + "\n")
 
 
 class CheckFailed(Exception):
@@ -333,7 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
     s.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
     s.add_argument("--json", action="store_true", help="print one JSON object")
-    s.add_argument("--time-limit", type=float, default=None, metavar="SECONDS")
+    s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant (repeatable)")
     s.add_argument("--check", action="store_true",
@@ -348,7 +379,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="results file (MOTChallenge format)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
-    t.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+    t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
                    help="per-frame solver limit; the best answer found in time is used and counted")
     t.add_argument("--check", action="store_true",
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
@@ -403,7 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
     sc.add_argument("--backends", default="cpsat,cpsat-full,clingo",
                     help="solvers to time (default cpsat,cpsat-full,clingo; cpsat-full = CP-SAT without the fast path)")
-    sc.add_argument("--time-limit", type=float, default=20.0, metavar="SECONDS",
+    sc.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                     help="per-frame time limit of every backend (default 20)")
     sc.add_argument("--out", default="docs/benchmarks.md",
                     help="markdown file whose generated section is replaced (default docs/benchmarks.md; - for none)")

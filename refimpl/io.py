@@ -73,7 +73,6 @@ from __future__ import annotations
 
 import configparser
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -584,33 +583,19 @@ def _fmt2(v: float) -> str:
 
 
 def write_text_atomic(path, text: str) -> None:
-    """Write text via a temporary file in the same folder, fsync, rename: never a partial file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; outputs are meant to be shared
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    """Write text atomically through refimpl.outputs (never a partial file; symlinks, device
+    nodes, modes and the umask handled as its module doc says)."""
+    from .outputs import write_atomic
+    write_atomic(path, text)
 
 
-def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> None:
-    """Write (n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results, sorted, atomically.
+def format_mot_results(rows, first_frame: int = 1) -> str:
+    """(n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results lines, sorted by (frame, id).
 
-    The lines go to a temporary file in the target folder which then replaces the target, so a
-    crash never leaves a partial results file.  Bad rows raise ValueError before anything is
-    written.  Frames are written as given; ``first_frame`` (1 MOT, 0 KITTI) is the smallest allowed.
+    Bad rows raise ValueError.  Frames are written as given; ``first_frame`` (1 MOT, 0 KITTI) is
+    the smallest allowed.  Rows given in whole frames can be formatted chunk by chunk (streaming):
+    the concatenation is the text of all rows at once.
     """
-    path = Path(path)
     a = np.asarray(rows, dtype=float)
     if a.size == 0:
         a = a.reshape(0, 6)
@@ -631,10 +616,19 @@ def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> No
     if len(a) > 1 and np.any((frames[1:] == frames[:-1]) & (ids[1:] == ids[:-1])):
         k = int(np.flatnonzero((frames[1:] == frames[:-1]) & (ids[1:] == ids[:-1]))[0])
         raise ValueError(f"duplicate (frame {frames[k]}, id {ids[k]}) in results")
-    text = "".join(
+    return "".join(
         f"{f},{i},{_fmt2(r[2])},{_fmt2(r[3])},{_fmt2(r[4])},{_fmt2(r[5])},1,-1,-1,-1\n"
         for f, i, r in zip(frames, ids, a))
-    write_text_atomic(path, text)
+
+
+def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> None:
+    """Write (n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results, sorted, atomically.
+
+    The lines go to a temporary file in the target folder which then replaces the target, so a
+    crash never leaves a partial results file.  Bad rows raise ValueError before anything is
+    written (see :func:`format_mot_results`).
+    """
+    write_text_atomic(path, format_mot_results(rows, first_frame))
 
 
 # ---------------------------------------------------------------------------------------

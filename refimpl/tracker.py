@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Mapping
+from typing import IO, Callable, Iterable, Mapping
 
 import numpy as np
 
-from .io import write_text_atomic
+from .io import format_mot_results, write_text_atomic
 from .geometry import integer_box, iou_matrix, scale_iou
 from .hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, InvalidPrediction
@@ -43,6 +43,16 @@ MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
+
+
+class ResultSink:
+    """Where a streaming tracker puts what it has decided (see AbductionTracker's ``sink``)."""
+
+    def rows(self, rows: np.ndarray) -> None:
+        """(n, 6) results rows of whole frames that can receive no more rows, sorted by (frame, id)."""
+
+    def events(self, events: tuple[HistoryEvent, ...]) -> None:
+        """The events of the frame just decided, in log order."""
 
 
 @dataclass
@@ -105,7 +115,13 @@ class AbductionTracker:
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
-                 compact_history: bool = True):
+                 compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True):
+        """``sink``: results rows and events are handed to it as soon as they are final (a frame's
+        rows once no later frame can add any: bridged-gap interpolation reaches back at most
+        ``bridge_gap`` frames), instead of being kept; with ``keep_records=False`` as well, the
+        tracker forgets everything a later frame does not need (finished tracks, all but the last
+        observed box of a live one), so its memory does not grow with the sequence; then
+        :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
@@ -121,7 +137,9 @@ class AbductionTracker:
         self.frames = 0
         self.not_optimal = 0
         self.solve_ms = 0.0
-
+        self.sink = sink
+        self.keep_records = keep_records or sink is None
+        self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
                       types: tuple[str, ...]) -> FrameProblem:
@@ -180,7 +198,36 @@ class AbductionTracker:
         self.not_optimal += not hyp.optimal
         self.solve_ms += hyp.solve_ms
         self._apply(frame, boxes, np.asarray(confidences), types, hyp)
+        if self.sink is not None:
+            self._flush(frame - self.bridge_gap)
+            if not self.keep_records:
+                self._forget()
         return hyp
+
+    def _flush(self, upto: int | None) -> None:
+        """Hand the rows of every pending frame <= upto (None: all) to the sink, by (frame, id)."""
+        done = sorted(f for f in self._pending if upto is None or f <= upto)
+        if done:
+            rows = np.array([r for f in done for r in sorted(self._pending.pop(f), key=lambda r: r[1])],
+                            dtype=float).reshape(-1, 6)
+            self.sink.rows(rows)
+
+    def _forget(self) -> None:
+        """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
+        self.finished.clear()
+        self.events.clear()
+        for trk in self.tracks.values():
+            last = max(trk.observed)
+            if len(trk.observed) > 1:
+                trk.observed = {last: trk.observed[last]}
+            trk.confirmed &= {last}
+            trk.gaps.clear()
+            trk.halted.clear()
+
+    def finish(self) -> None:
+        """Hand every remaining row to the sink (streaming); call after the last frame."""
+        if self.sink is not None:
+            self._flush(None)
 
     def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
                hyp: Hypothesis) -> None:
@@ -199,6 +246,8 @@ class AbductionTracker:
                                    and last in trk.confirmed)
                     if trk.bridged:
                         trk.gaps.append((last, frame))
+                        if self.sink is not None:
+                            self._pend_gap(trk, last, frame, trk.kalman.box)
                     trk.state = "active"
                 trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
                 trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
@@ -218,10 +267,12 @@ class AbductionTracker:
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
+        frame_events: list[HistoryEvent] = []
         for atom in hyp.events:
             event = self._rename(parse_term(atom).args[0], new_ids)
             logged = HistoryEvent(event, frame)
             self.events.append(logged)
+            frame_events.append(logged)
             owner = event.args[0].name
             if owner in self.tracks:
                 trk = self.tracks[owner]
@@ -231,6 +282,8 @@ class AbductionTracker:
                     trk.history = [e for e in trk.history if e.event.name == "enters_fov"]
                 else:
                     trk.history.append(logged)
+        if self.sink is not None and frame_events:
+            self.sink.events(tuple(frame_events))
         for trk_id in ended:
             trk = self.tracks.pop(trk_id)
             trk.ended_at = frame
@@ -244,6 +297,16 @@ class AbductionTracker:
         frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed."""
         if trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged:
             trk.confirmed.add(frame)
+            if self.sink is not None:
+                self._pending.setdefault(frame, []).append([frame, _trk_number(trk.id), *trk.observed[frame]])
+
+    def _pend_gap(self, trk: _Track, last: int, resumed: int, box) -> None:
+        """The interpolated rows of a bridged gap, exactly as result_rows computes them."""
+        number = _trk_number(trk.id)
+        a, b = trk.observed[last], np.asarray(box, dtype=float)
+        for f in range(last + 1, resumed):
+            w = (f - last) / (resumed - last)
+            self._pending.setdefault(f, []).append([f, number, *((1 - w) * a + w * b)])
 
     @staticmethod
     def _rename(event: Term, new_ids: Mapping[str, str]) -> Term:
@@ -281,17 +344,27 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
-                   compact_history: bool = True) -> TrackingResult:
-    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border."""
+                   compact_history: bool = True, sink: ResultSink | None = None,
+                   keep_records: bool = True) -> TrackingResult:
+    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border.
+
+    With a ``sink`` the rows and events go to it as they are decided (see AbductionTracker) and
+    the result's rows and events are empty."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
         merged.setdefault("img_height", int(seq.image_size[1]))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
-                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history)
+                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
+                               sink, keep_records)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
+    tracker.finish()
+    if sink is not None:
+        return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
+                              tracker.track_records() if keep_records else (),
+                              tracker.frames, tracker.not_optimal, tracker.solve_ms)
     return tracker.result()
 
 
@@ -299,13 +372,44 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
 # Event log files
 # ---------------------------------------------------------------------------------------
 
+def event_line(e: HistoryEvent) -> str:
+    """One line of the event log in the paper's syntax."""
+    return f"{e}.\n"
+
+
+def event_json_line(e: HistoryEvent) -> str:
+    """One JSON line of the event log: time, event name, arguments and the atom."""
+    return json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
+                       "atom": str(e)}) + "\n"
+
+
 def write_event_log(path: str, events: Iterable[HistoryEvent]) -> None:
     """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
-    write_text_atomic(path, "".join(f"{e}.\n" for e in events))
+    write_text_atomic(path, "".join(event_line(e) for e in events))
 
 
 def write_event_log_json(path: str, events: Iterable[HistoryEvent]) -> None:
     """The event sequence as JSON lines: time, event name, arguments and the atom."""
-    lines = [json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
-                         "atom": str(e)}) for e in events]
-    write_text_atomic(path, "".join(line + "\n" for line in lines))
+    write_text_atomic(path, "".join(event_json_line(e) for e in events))
+
+
+class ResultWriter(ResultSink):
+    """A sink that writes results rows and event logs to open (staged) files as they come."""
+
+    def __init__(self, results: IO | None = None, events: IO | None = None, events_json: IO | None = None,
+                 first_frame: int = 1):
+        self.results, self.events_lp, self.events_json = results, events, events_json
+        self.first_frame = first_frame
+        self.track_ids: set[int] = set()  # distinct ids written (for the summary line)
+
+    def rows(self, rows: np.ndarray) -> None:
+        if len(rows):
+            self.track_ids.update(int(i) for i in set(rows[:, 1].tolist()))
+        if self.results is not None and len(rows):
+            self.results.write(format_mot_results(rows, self.first_frame))
+
+    def events(self, events: tuple[HistoryEvent, ...]) -> None:
+        if self.events_lp is not None:
+            self.events_lp.write("".join(event_line(e) for e in events))
+        if self.events_json is not None:
+            self.events_json.write("".join(event_json_line(e) for e in events))
