@@ -27,7 +27,8 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .spec import ProblemFormatError
     from .scene import SceneError
     from .outputs import OutputError
-    return (UserError, OutputError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
+    from .benchmarks import BenchmarkFileError
+    return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
 
 
 # ---------------------------------------------------------------------------------------
@@ -222,6 +223,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from .evaluate import format_table
+    from .outputs import check_outputs
+    check_outputs({"--json": args.json})
     from .table6 import TITLES, load_dataset, run_benchmark
     report = {}
     for name in args.names:
@@ -233,23 +236,27 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         print()
         report[name] = {"per_sequence": run.per_sequence, "overall": run.overall, "events": run.events}
     if args.json:
-        from .io import write_text_atomic
-        write_text_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
-                                                default=float))
+        from .outputs import write_atomic
+        write_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
+                                           default=float))
     return EXIT_OK
 
 
 def cmd_table6(args: argparse.Namespace) -> int:
-    from .table6 import format_table6, run_table6
+    from .outputs import check_outputs
+    from .table6 import DATASETS, format_table6, run_table6
+    check_outputs({"--out": args.out})
     datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else None
+    if datasets is not None and (not all(datasets) or any(d not in DATASETS for d in datasets)):
+        raise UserError(f"--datasets takes a comma-separated list out of {','.join(DATASETS)}, got {args.datasets!r}")
     kwargs = {"datasets": datasets} if datasets else {}
     runs = run_table6(args.data, args.backend,
                       step_factory=None if args.quiet else (lambda label, n: Progress(n, label).step), **kwargs)
     text = format_table6(runs)
     print(text)
     if args.out:
-        from .io import write_text_atomic
-        write_text_atomic(args.out, text + "\n")
+        from .outputs import write_atomic
+        write_atomic(args.out, text + "\n")
     return EXIT_OK
 
 
@@ -302,10 +309,13 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_demo(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table
+    backends = [b.strip() for b in args.backends.split(",")]
+    if not all(backends) or any(b not in TRACKERS for b in backends):
+        raise UserError(f"--backends takes a comma-separated list out of {','.join(TRACKERS)}, got {args.backends!r}")
     seq = io.demo_sequence_paths()
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)
     print(f"refimpl demo: {seq.name} ({len(dets.frames)} frames, bundled MOT15 sample)\n")
-    for backend in args.backends.split(","):
+    for backend in backends:
         t0 = time.perf_counter()
         rows, events = _run_tracker(dets, backend)
         secs = time.perf_counter() - t0
@@ -332,6 +342,11 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
             raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
     if args.seeds < 1 or args.time_limit <= 0 or not sizes or not overlaps:
         raise UserError("--seeds must be >= 1, --time-limit > 0, --sizes and --overlaps not empty")
+    from .outputs import check_outputs
+    out = None if args.out == "-" else args.out
+    default_plot = str(Path(out).with_name("scalability.png")) if out and not args.throughput else None
+    check_outputs({"--out": out, "--plot": args.plot or default_plot, "--json": args.json},
+                  {"--from-json": args.from_json})
     progress = lambda total, label: Progress(total, label, enabled=not args.quiet)  # noqa: E731
     print(bm.run_bench_scale(
         sizes=sizes, overlaps=overlaps, seeds=args.seeds, backends=backends, time_limit=args.time_limit,

@@ -84,6 +84,8 @@ def check_output(label: str, path: str) -> None:
         st = os.stat(real)
     except FileNotFoundError:
         st = None
+    except NotADirectoryError:
+        raise OutputError(f"{label} {path}: a folder on the path is not a directory") from None
     except OSError as exc:
         raise OutputError(f"{label} {path}: {exc.strerror}") from None
     if st is not None:
