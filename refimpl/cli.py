@@ -78,13 +78,17 @@ def cmd_solve(args: argparse.Namespace) -> int:
     from .spec import ProblemFormatError, read_problem, with_constants
 
     from .constants import resolve_constants
+    from .ranges import check_constant, check_ranges
     problem = read_problem(args.file)
     if args.const:
+        for name, value in args.const:
+            check_constant(name, value, f"--const {name}={value}")
         problem = with_constants(problem, dict(args.const))
     try:
         resolve_constants(problem)  # an unknown #const name is the file's (or --const's) mistake
     except ProblemFormatError as exc:
         raise ProblemFormatError(exc.reason, args.file) from None
+    check_ranges(problem, args.file)
     hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
     violations = ()
     if args.check:
@@ -110,7 +114,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
 def _load_sequence(args: argparse.Namespace):
     from . import io
     if args.format == "mot":
-        return io.read_mot_detections(args.dets)
+        return io.read_mot_detections(args.dets, scores_rule=getattr(args, "scores", "auto"))
     if args.cls is None:
         raise UserError("--format kitti needs --class Car|Pedestrian|Cyclist")
     return io.read_kitti_detections(args.dets, args.cls)
@@ -391,7 +395,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--format", choices=("mot", "kitti"), default="mot")
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     t.add_argument("--backend", choices=TRACKERS, default="baseline")
-    t.add_argument("--out", required=True, help="results file (MOTChallenge format)")
+    t.add_argument("--scores", choices=("auto", "probability", "raw"), default="auto",
+                   help="MOTChallenge detection scores: probabilities in 0..1 or raw detector scores "
+                        "(default auto: decided by the file, see refimpl/io.py)")
+    t.add_argument("--out", required=True, help="results file (MOTChallenge format, - for standard output)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",

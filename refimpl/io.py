@@ -9,12 +9,18 @@ Formats and the conventions implemented
 MOTChallenge detections (``det/det.txt``): comma separated ``frame,id,x,y,w,h,score[,...]``,
 7 to 10 fields, 1-based frames.  The sequence runs over frames ``1..seqLength`` of
 ``seqinfo.ini`` (or ``1..max frame`` without one); frames without detections are kept as
-empty frames.  Confidence (the paper's integer 0..100), decided once per file:
+empty frames.  Confidence (the paper's integer 0..100): a file holds either probabilities or raw
+detector scores, one rule for all its rows, chosen by ``scores=`` or, by default (``"auto"``),
+by the share of its scores in [0, 1]:
 
-* every score in [0, 1] (e.g. SORT's Faster R-CNN ``det_sort_frcnn.txt``, 0.5..1.0):
-  ``conf = round(100 * score)``;
-* otherwise (raw ACF scores of the official MOT15 ``det.txt``, about -0.8..139):
-  ``conf = clip(round(score), 0, 100)``.
+* ``"probability"`` (e.g. SORT's Faster R-CNN ``det_sort_frcnn.txt``, 0.5..1.0): every score
+  must be in [0, 1], else ``file:line`` is an error; ``conf = round(100 * score)``;
+* ``"raw"`` (raw ACF scores of the official MOT15 ``det.txt``, about -0.8..139, of which at
+  most 1.5 % fall in [0, 1]): ``conf = clip(round(score), 0, 100)``;
+* ``"auto"``: probability if every score is in [0, 1], raw if at most half of them are; a file
+  in between (more than half, but not all, in [0, 1]) is refused at the first score outside
+  [0, 1].  So one stray value never switches the rule silently (a 1.01 among probabilities is
+  an error naming its line; it used to turn every confidence of the file into 0 or 1).
 
 ``round`` is half up everywhere in this module (``floor(x + 0.5)``), as in ``geometry``.
 
@@ -104,6 +110,8 @@ MAX_FRAME = 100_000
 MAX_COORD = 1_000_000.0
 """Box coordinates and sizes beyond this (in magnitude, pixels) are rejected as typos."""
 MIN_DET_SIZE = 0.01
+MAX_DET_AREA = 20_000_000
+"""px^2: a larger detection box would take 100 * area beyond clingo's 32-bit integers (tracker.MAX_BOX_AREA)."""
 """Detection boxes must be at least this wide and high (results files keep two decimals)."""
 
 
@@ -466,8 +474,44 @@ def _mot_frames_and_boxes(path: Path, linenos: Sequence[int], a: np.ndarray, inf
     return frames, boxes
 
 
+SCORE_RULES = ("auto", "probability", "raw")
+
+
+def _mot_confidences(path: Path, linenos: Sequence[int], scores: np.ndarray, rule: str) -> np.ndarray:
+    """The confidence rule of a MOTChallenge detection file (module doc), one rule for every row."""
+    if rule not in SCORE_RULES:
+        raise ValueError(f"scores must be one of {', '.join(SCORE_RULES)}, got {rule!r}")
+    inside = (scores >= 0.0) & (scores <= 1.0)
+    if rule == "auto":
+        share = float(inside.mean())
+        if share == 1.0:
+            rule = "probability"
+        elif share <= 0.5:
+            rule = "raw"
+        else:
+            bad = _first_bad(~inside)
+            raise InputFormatError(
+                f"score {scores[bad]:g} is outside 0..1 although {int(inside.sum())} of {len(scores)} scores "
+                "are probabilities in 0..1: fix the line, or choose the rule (--scores probability|raw)",
+                path, linenos[bad])
+    if rule == "probability":
+        bad = _first_bad(~inside)
+        if bad is not None:
+            raise InputFormatError(f"score {scores[bad]:g} is not a probability in 0..1", path, linenos[bad])
+        return _round_half_up(100.0 * scores)
+    return _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
+
+
+def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray) -> None:
+    """A detection's area must fit the solvers' 32-bit arithmetic (refimpl.ranges): w*h <= MAX_DET_AREA."""
+    bad = _first_bad(np.round(w) * np.round(h) > MAX_DET_AREA)
+    if bad is not None:
+        raise InputFormatError(f"box area w*h = {w[bad]:g}*{h[bad]:g} exceeds {MAX_DET_AREA} px^2 "
+                               "(the solvers compute 100 * area in 32-bit integers)", path, linenos[bad])
+
+
 def read_mot_detections(path: str | os.PathLike, seqinfo=None,
-                        object_type: str = "pedestrian") -> DetectionSequence:
+                        object_type: str = "pedestrian", scores_rule: str = "auto") -> DetectionSequence:
     """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
     path = Path(path)
     otype = _object_type(object_type, path)
@@ -481,11 +525,9 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     if tiny is not None:
         raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
                                f"w={boxes[tiny, 2]:g} h={boxes[tiny, 3]:g}", path, linenos[tiny])
+    _check_area(path, linenos, boxes[:, 2], boxes[:, 3])
     scores = a[:, 6]
-    if np.all((scores >= 0.0) & (scores <= 1.0)):
-        conf = _round_half_up(100.0 * scores)
-    else:
-        conf = _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
+    conf = _mot_confidences(path, linenos, scores, scores_rule)
     count = int(info["seqLength"]) if info is not None else int(frames.max())
     return DetectionSequence(
         name=_mot_sequence_name(path, info),
@@ -701,6 +743,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
             f"{path}: dropped {len(dropped)} zero-area (or thinner than {MIN_DET_SIZE:g} px) detection "
             f"box(es) on line(s) {', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=2)
         keep &= ~zero
+    _check_area(path, np.asarray(linenos)[keep], w[keep], h[keep])
     boxes = np.column_stack([a[:, 2], a[:, 3], w, h])[keep]
     scores = a[keep, 6]
     conf = _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))  # sigmoid, overflow-free

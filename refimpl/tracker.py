@@ -33,6 +33,7 @@ from .io import format_mot_results, write_text_atomic
 from .geometry import integer_box, iou_matrix, scale_iou
 from .hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, InvalidPrediction
+from .ranges import check_ranges
 from .solvers import Solver, get_solver
 from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, parse_term
 
@@ -191,6 +192,7 @@ class AbductionTracker:
              observer: FrameObserver | None = None) -> Hypothesis:
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         problem = self.frame_problem(frame, boxes, confidences, types)
+        check_ranges(problem, f"frame {frame}")
         hyp = self.solver.solve(problem, time_limit=self.time_limit)
         if observer is not None:
             observer(problem, hyp)
