@@ -212,7 +212,7 @@ class CheckFailed(Exception):
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
-    from .evaluate import evaluate_many, format_table
+    from .evaluate import check_results_fit, evaluate_many, format_table
     if args.format == "mot":
         gt = io.read_mot_ground_truth(args.gt)
     else:
@@ -220,6 +220,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
             raise UserError("--format kitti needs --class Car|Pedestrian")
         gt = io.read_kitti_ground_truth(args.gt, args.cls)
     results = io.read_mot_results(args.results, first_frame=gt.first_frame)
+    misfit = check_results_fit(gt, results)
+    if misfit is not None:
+        row, reason = misfit
+        raise io.InputFormatError(reason, args.results, io.data_line_numbers(args.results)[row] if row else None)
     per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
     return EXIT_OK

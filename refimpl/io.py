@@ -258,6 +258,11 @@ def _read_lines(path: Path) -> list[tuple[int, str]]:
     return lines
 
 
+def data_line_numbers(path: str | os.PathLike) -> list[int]:
+    """The line numbers of a file's data (non-blank) lines: row k of a reader's array is on line [k]."""
+    return [n for n, _ in _read_lines(Path(path))]
+
+
 def _split(path: Path, lines: list[tuple[int, str]], sep: str | None, lo: int, hi: int,
            what: str) -> list[list[str]]:
     """Split every line into fields and check the field count is in lo..hi."""
