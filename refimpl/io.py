@@ -305,6 +305,22 @@ def _numbers(path: Path, linenos: Sequence[int], rows: list[list[str]], columns:
     return out
 
 
+_CHUNK = 50_000
+"""Lines split and converted at a time: the per-field Python strings of a large file never exist all at once."""
+
+
+def _table(path: Path, lines: list[tuple[int, str]], sep: str | None, lo: int, hi: int, what: str,
+           columns: Sequence[int], names: Sequence[str]) -> np.ndarray:
+    """_split then _numbers, chunk by chunk (the first error found is reported, in file order per chunk)."""
+    parts = []
+    for start in range(0, len(lines), _CHUNK):
+        chunk = lines[start:start + _CHUNK]
+        rows = _split(path, chunk, sep, lo, hi, what)
+        parts.append(_numbers(path, [n for n, _ in chunk], rows, columns, names))
+        del rows
+    return np.vstack(parts) if parts else np.empty((0, len(list(columns))))
+
+
 def _first_bad(mask: np.ndarray) -> int | None:
     idx = np.flatnonzero(mask)
     return int(idx[0]) if len(idx) else None
@@ -522,9 +538,10 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     otype = _object_type(object_type, path)
     lines = _read_lines(path)
     info = _resolve_seqinfo(seqinfo, path)
-    rows = _split(path, lines, ",", 7, 10, "frame,id,x,y,w,h,score,...")
+    a = _table(path, lines, ",", 7, 10, "frame,id,x,y,w,h,score,...", range(7),
+               ("frame", "id", "x", "y", "w", "h", "score"))
     linenos = [n for n, _ in lines]
-    a = _numbers(path, linenos, rows, range(7), ("frame", "id", "x", "y", "w", "h", "score"))
+    del lines
     frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
     tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
     if tiny is not None:
@@ -597,9 +614,8 @@ def read_mot_ground_truth(path: str | os.PathLike, seqinfo=None) -> GroundTruth:
 
 
 def _results_array(path: Path, lines: list[tuple[int, str]], first_frame: int) -> np.ndarray:
-    rows = _split(path, lines, ",", 6, 10, "frame,id,x,y,w,h,...")
+    a = _table(path, lines, ",", 6, 10, "frame,id,x,y,w,h,...", range(6), ("frame", "id", "x", "y", "w", "h"))
     linenos = [n for n, _ in lines]
-    a = _numbers(path, linenos, rows, range(6), ("frame", "id", "x", "y", "w", "h"))
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     ids = _check_integral(path, linenos, a[:, 1], "id")
     _check_min_frame(path, linenos, frames, first_frame)
@@ -704,12 +720,10 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     if on_degenerate not in ("drop", "error"):
         raise ValueError("on_degenerate must be 'drop' or 'error'")
     lines = _read_lines(path)
-    rows = _split(path, lines, ",", 15, 15,
-                  "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha")
+    a = _table(path, lines, ",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
+               ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z", "rot_y", "alpha"))
     linenos = [n for n, _ in lines]
-    a = _numbers(path, linenos, rows, range(15),
-                 ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l",
-                  "x", "y", "z", "rot_y", "alpha"))
+    del lines
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     types = _check_integral(path, linenos, a[:, 1], "type")
     _check_min_frame(path, linenos, frames, 0)
