@@ -507,6 +507,16 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The command line; Ctrl-C (SIGINT) anywhere ends it with exit code 130 and one line, after the
+    outputs' temporary files are removed (refimpl.outputs), so no partial output is left."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        print("refimpl: interrupted", file=sys.stderr)
+        return 130
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = _one_line_warning
@@ -525,9 +535,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CheckFailed as exc:
         print(f"refimpl {args.command}: check failed: {exc}", file=sys.stderr)
         return EXIT_FAILURE
-    except KeyboardInterrupt:
-        print("refimpl: interrupted", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":
