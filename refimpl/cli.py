@@ -147,34 +147,71 @@ def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
     return inputs
 
 
+def _parse_img_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.split(","))
+        if w <= 0 or h <= 0:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected W,H (two positive integers, pixels), got {text!r}") from None
+    return w, h
+
+
+def _track_constants(args: argparse.Namespace) -> dict[str, int]:
+    """--const overrides, checked against the model's constants before any frame is tracked."""
+    from .constants import default_constants
+    consts = dict(args.const or [])
+    known = default_constants()
+    unknown = sorted(set(consts) - set(known))
+    if unknown:
+        raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+    if args.img_size is not None and {"img_width", "img_height"} & set(consts):
+        raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
+    from .ranges import check_constant
+    for name, value in consts.items():
+        check_constant(name, value, f"--const {name}={value}")
+    return consts
+
+
 def cmd_track(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from .io import results_formatter
     from .outputs import STDOUT, OutputSet, check_outputs
     from .tracker import ResultWriter
-    if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene):
-        raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo); "
-                        "the baseline abduces no events")
+    if args.out_format == "kitti" and args.format != "kitti":
+        raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
+                        "it needs --format kitti")
+    if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
+                                       or args.img_size):
+        raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
+                        "(cpsat or clingo); the baseline abduces no events")
+    constants = _track_constants(args)
     outputs = {"--out": args.out, "--events": args.events, "--events-json": args.events_json, "--scene": args.scene}
     check_outputs(outputs, _track_inputs(args))
     seq = _load_sequence(args)
-    if args.format == "mot" and seq.image_size is None:
-        warnings.warn(f"{args.dets}: no seqinfo.ini beside it (../seqinfo.ini): the image size is unknown, "
-                      "so the field-of-view border events (enters_fov, leaves_fov, clipped) use the "
-                      "model's default image size")
+    if args.img_size is not None:
+        seq = replace(seq, image_size=args.img_size)
+    if args.format == "mot" and seq.image_size is None and "img_width" not in constants:
+        warnings.warn(f"{args.dets}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
+                      "is unknown, so the right and bottom field-of-view borders are not tested "
+                      "(enters_fov, leaves_fov, clipped)")
     with OutputSet() as outs:
         sink = ResultWriter(outs.open(args.out), outs.open(args.events) if args.events else None,
-                            outs.open(args.events_json) if args.events_json else None, seq.first_frame)
+                            outs.open(args.events_json) if args.events_json else None, seq.first_frame,
+                            results_formatter(args.out_format, seq.first_frame, args.cls))
         if args.backend == "baseline":
             from .baseline import stream_sequence
             for rows in stream_sequence(seq):
                 sink.rows(rows)
         else:
-            _track_abduction(seq, args, sink, outs)
+            _track_abduction(seq, args, sink, outs, constants)
     summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
     print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {args.out}", file=summary)
     return EXIT_OK
 
 
-def _track_abduction(seq, args: argparse.Namespace, sink, outs) -> None:
+def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int]) -> None:
     """Algorithm 1 with the chosen backend, streaming to ``sink``, optionally checking every frame's answer."""
     from .tracker import track_sequence
     checked = violations = 0
@@ -189,7 +226,7 @@ def _track_abduction(seq, args: argparse.Namespace, sink, outs) -> None:
             found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
-    result = track_sequence(seq, backend=args.backend, time_limit=args.time_limit,
+    result = track_sequence(seq, backend=args.backend, constants=constants, time_limit=args.time_limit,
                             observer=check if args.check else None, sink=sink,
                             keep_records=bool(args.scene))
     if result.not_optimal_frames:
@@ -213,19 +250,30 @@ class CheckFailed(Exception):
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import check_results_fit, evaluate_many, format_table
-    if args.format == "mot":
-        gt = io.read_mot_ground_truth(args.gt)
+    from .outputs import check_outputs
+    check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
+    from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
+    if args.format == "kitti" and args.cls is None:
+        raise UserError("--format kitti needs --class Car|Pedestrian")
+    if Path(args.results).is_dir():
+        run = evaluate_folder(args.results, args.gt, args.format, args.cls)
+        per_seq, overall = run.per_sequence, run.overall
+        if run.unscored:
+            print(f"refimpl eval: note: {len(run.unscored)} ground-truth sequence(s) without a results file "
+                  f"not scored: {', '.join(run.unscored)}", file=sys.stderr)
     else:
-        if args.cls is None:
-            raise UserError("--format kitti needs --class Car|Pedestrian")
-        gt = io.read_kitti_ground_truth(args.gt, args.cls)
-    results = io.read_mot_results(args.results, first_frame=gt.first_frame)
-    misfit = check_results_fit(gt, results)
-    if misfit is not None:
-        row, reason = misfit
-        raise io.InputFormatError(reason, args.results, io.data_line_numbers(args.results)[row] if row else None)
-    per_seq, overall = evaluate_many([(gt.name, gt, results)])
+        if Path(args.gt).is_dir():
+            raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
+        gt = read_ground_truth(args.gt, args.format, args.cls)
+        results = io.read_results(args.results, args.format, args.cls)
+        misfit = check_results_fit(gt, results)
+        if misfit is not None:
+            row, reason = misfit
+            raise io.InputFormatError(reason, args.results, io.data_line_numbers(args.results)[row] if row else None)
+        per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
+    if args.json:
+        io.write_text_atomic(args.json, json.dumps(metrics_json(per_seq, overall), indent=2) + "\n")
     return EXIT_OK
 
 
@@ -376,6 +424,7 @@ def _class_name(text: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .io import RESULT_FORMATS
     p = argparse.ArgumentParser(
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
@@ -402,7 +451,15 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--scores", choices=("auto", "probability", "raw"), default="auto",
                    help="MOTChallenge detection scores: probabilities in 0..1 or raw detector scores "
                         "(default auto: decided by the file, see refimpl/io.py)")
-    t.add_argument("--out", required=True, help="results file (MOTChallenge format, - for standard output)")
+    t.add_argument("--out", required=True, help="results file (MOTChallenge format unless --out-format kitti; - for standard output)")
+    t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
+                   help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
+                        "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
+    t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant (repeatable; as solve --const; abduction backends)")
+    t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
+                   help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
+                        "1242,375 for KITTI, unknown otherwise)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
@@ -413,11 +470,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "for query / explain / plot (cpsat or clingo backend)")
     t.set_defaults(func=cmd_track)
 
-    e = sub.add_parser("eval", help="CLEAR MOT and IDF1 of a results file against ground truth")
-    e.add_argument("results", help="results file (MOTChallenge format)")
-    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file")
+    e = sub.add_parser("eval", help="HOTA, CLEAR MOT and IDF1 of a results file, or of a folder of them "
+                                     "(one <SEQ>.txt per sequence), against ground truth")
+    e.add_argument("results", help="results file, or folder of <SEQ>.txt results files (MOTChallenge lines; "
+                                   "for --format kitti also the KITTI tracking format)")
+    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
+                   "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
     e.add_argument("--format", choices=("mot", "kitti"), default="mot")
     e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
+    e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
+                                  "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")

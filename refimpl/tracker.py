@@ -23,23 +23,24 @@ defaults are this conservative.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
-from typing import IO, Callable, Iterable, Mapping
+from typing import IO, Callable, Mapping
 
 import numpy as np
 
-from .io import format_mot_results, write_text_atomic
 from .geometry import integer_box, iou_matrix, scale_iou
-from .hypothesis import Hypothesis, parse_action
+from .events import explaining
+from .hypothesis import Hypothesis
 from .motion import BoxKalman, InvalidPrediction
 from .ranges import check_ranges
 from .solvers import Solver, get_solver
-from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, parse_term
+from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 
 DEFAULT_MIN_HITS = 3
 DEFAULT_BRIDGE_GAP = 2
 DEFAULT_BRIDGE_CONF = 90
+_RESUMING = frozenset(e.name for e in explaining("resume"))
+_STARTING = frozenset(e.name for e in explaining("start"))
 MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
@@ -141,6 +142,7 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
+
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
                       types: tuple[str, ...]) -> FrameProblem:
@@ -233,34 +235,25 @@ class AbductionTracker:
 
     def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
                hyp: Hypothesis) -> None:
-        new_ids: dict[str, str] = {}
-        ended: list[str] = []
-        for atom in hyp.actions:  # sorted atom strings: a deterministic order
-            kind, args = parse_action(atom)
-            if kind in ("assign", "resume"):
-                trk = self.tracks[args[0]]
-                box = boxes[int(args[1].rsplit("_", 1)[1])]
-                trk.kalman.update(box)
-                if kind == "resume":
-                    last = max(trk.observed)
-                    conf = int(confidences[int(args[1].rsplit("_", 1)[1])])
-                    trk.bridged = (frame - last - 1 <= self.bridge_gap and conf >= self.bridge_conf
-                                   and last in trk.confirmed)
-                    if trk.bridged:
-                        trk.gaps.append((last, frame))
-                        if self.sink is not None:
-                            self._pend_gap(trk, last, frame, trk.kalman.box)
-                    trk.state = "active"
-                trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
-                trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
-                self._confirm(trk, frame)
-            elif kind == "halt":
-                self.tracks[args[0]].state = "halted"
-            elif kind == "end":
-                ended.append(args[0])
+        index = {_det_id(j): j for j in range(len(boxes))}
+        for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
+            self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
+        for trk_id, det_id in hyp.resumes:
+            trk, j = self.tracks[trk_id], index[det_id]
+            last = max(trk.observed)
+            trk.bridged = (frame - last - 1 <= self.bridge_gap and int(confidences[j]) >= self.bridge_conf
+                           and last in trk.confirmed)
+            if trk.bridged:
+                trk.gaps.append((last, frame))
+            trk.state = "active"
+            self._observe(trk, frame, boxes[j])
+            if trk.bridged and self.sink is not None:
+                self._pend_gap(trk, last, frame)
+        for trk_id in hyp.halts:
+            self.tracks[trk_id].state = "halted"
         # start: new identities in detection order, so ids do not depend on atom sorting
-        starts = sorted((int(a[len("start(det_"):-1]) for a in hyp.actions if a.startswith("start(")))
-        for j in starts:
+        new_ids: dict[str, str] = {}
+        for j in sorted(index[d] for d in hyp.starts):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
             kalman = BoxKalman(boxes[j])
@@ -270,29 +263,36 @@ class AbductionTracker:
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
         frame_events: list[HistoryEvent] = []
-        for atom in hyp.events:
-            event = self._rename(parse_term(atom).args[0], new_ids)
+        for name, args in hyp.event_terms:
+            event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
             logged = HistoryEvent(event, frame)
             self.events.append(logged)
             frame_events.append(logged)
-            owner = event.args[0].name
-            if owner in self.tracks:
-                trk = self.tracks[owner]
-                if self.compact_history and event.name in ("unhides_from_behind", "recover"):
-                    # a resume leaves every fluent of the track at its initial value (visible,
-                    # unclipped, hidden by none, in view): only its start event still matters
-                    trk.history = [e for e in trk.history if e.event.name == "enters_fov"]
-                else:
-                    trk.history.append(logged)
+            owner = self.tracks.get(event.args[0].name)
+            if owner is None:
+                continue
+            if self.compact_history and name in _RESUMING:
+                # a resume leaves every fluent of the track at its initial value (visible,
+                # unclipped, hidden by none, in view): only its start event still matters
+                owner.history = [e for e in owner.history if e.event.name in _STARTING]
+            else:
+                owner.history.append(logged)
         if self.sink is not None and frame_events:
             self.sink.events(tuple(frame_events))
-        for trk_id in ended:
+        for trk_id in hyp.ends:
             trk = self.tracks.pop(trk_id)
             trk.ended_at = frame
             self.finished.append(trk)
         for trk in self.tracks.values():
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
+
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray) -> None:
+        """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
+        trk.kalman.update(box)
+        trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
+        trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
+        self._confirm(trk, frame)
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
@@ -302,17 +302,13 @@ class AbductionTracker:
             if self.sink is not None:
                 self._pending.setdefault(frame, []).append([frame, _trk_number(trk.id), *trk.observed[frame]])
 
-    def _pend_gap(self, trk: _Track, last: int, resumed: int, box) -> None:
+    def _pend_gap(self, trk: _Track, last: int, resumed: int) -> None:
         """The interpolated rows of a bridged gap, exactly as result_rows computes them."""
         number = _trk_number(trk.id)
-        a, b = trk.observed[last], np.asarray(box, dtype=float)
+        a, b = trk.observed[last], trk.observed[resumed]
         for f in range(last + 1, resumed):
             w = (f - last) / (resumed - last)
             self._pending.setdefault(f, []).append([f, number, *((1 - w) * a + w * b)])
-
-    @staticmethod
-    def _rename(event: Term, new_ids: Mapping[str, str]) -> Term:
-        return Term(event.name, tuple(Term(new_ids.get(a.name, a.name)) for a in event.args))
 
     # -- results -----------------------------------------------------------------------------
     def result_rows(self) -> np.ndarray:
@@ -351,7 +347,7 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border.
 
     With a ``sink`` the rows and events go to it as they are decided (see AbductionTracker) and
-    the result's rows and events are empty."""
+    the result's rows are empty (its events and tracks too unless ``keep_records``)."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
@@ -370,47 +366,27 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
     return tracker.result()
 
 
-# ---------------------------------------------------------------------------------------
-# Event log files
-# ---------------------------------------------------------------------------------------
-
-def event_line(e: HistoryEvent) -> str:
-    """One line of the event log in the paper's syntax."""
-    return f"{e}.\n"
-
-
-def event_json_line(e: HistoryEvent) -> str:
-    """One JSON line of the event log: time, event name, arguments and the atom."""
-    return json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
-                       "atom": str(e)}) + "\n"
-
-
-def write_event_log(path: str, events: Iterable[HistoryEvent]) -> None:
-    """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
-    write_text_atomic(path, "".join(event_line(e) for e in events))
-
-
-def write_event_log_json(path: str, events: Iterable[HistoryEvent]) -> None:
-    """The event sequence as JSON lines: time, event name, arguments and the atom."""
-    write_text_atomic(path, "".join(event_json_line(e) for e in events))
-
-
 class ResultWriter(ResultSink):
-    """A sink that writes results rows and event logs to open (staged) files as they come."""
+    """A sink that writes results rows and event logs to open (staged) files as they come.
+
+    ``results_format``: a function formatting (n, 6) rows of whole frames as text (default
+    MOTChallenge lines, refimpl.io.format_mot_results); chunks concatenate to the text of all rows."""
 
     def __init__(self, results: IO | None = None, events: IO | None = None, events_json: IO | None = None,
-                 first_frame: int = 1):
+                 first_frame: int = 1, results_format: Callable[[np.ndarray], str] | None = None):
+        from .io import format_mot_results
         self.results, self.events_lp, self.events_json = results, events, events_json
-        self.first_frame = first_frame
+        self.format = results_format or (lambda rows: format_mot_results(rows, first_frame))
         self.track_ids: set[int] = set()  # distinct ids written (for the summary line)
 
     def rows(self, rows: np.ndarray) -> None:
         if len(rows):
             self.track_ids.update(int(i) for i in set(rows[:, 1].tolist()))
-        if self.results is not None and len(rows):
-            self.results.write(format_mot_results(rows, self.first_frame))
+            if self.results is not None:
+                self.results.write(self.format(rows))
 
     def events(self, events: tuple[HistoryEvent, ...]) -> None:
+        from .io import event_json_line, event_line
         if self.events_lp is not None:
             self.events_lp.write("".join(event_line(e) for e in events))
         if self.events_json is not None:

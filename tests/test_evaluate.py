@@ -165,10 +165,13 @@ def test_format_table_prints_percentages_and_an_overall_row():
     per, overall = ev.evaluate_many([("TWO", TWO_OBJECTS, HYPS)])
     table = ev.format_table(per, overall)
     lines = table.strip().splitlines()
-    assert lines[0] == "| Sequence | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
+    assert lines[0] == "| Sequence | HOTA | DetA | AssA | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
+    # HOTA / DetA / AssA in percent with one decimal (their values are tested in test_hota.py)
+    r = per["TWO"]
+    hota = " | ".join(f"{100 * r[k]:.1f}" for k in ("hota", "deta", "assa"))
     # MOTA 0.5 -> 50.0; MOTP (4 + 9/11)/5 = 0.9636 -> 96.4; IDF1 2/3 -> 66.7
-    assert lines[2] == "| TWO | 50.0 | 96.4 | 66.7 | 1 | 0 | 1 | 1 | 1 | 0 |"
-    assert lines[3].startswith("| OVERALL | 50.0 | 96.4 | 66.7 |")
+    assert lines[2] == f"| TWO | {hota} | 50.0 | 96.4 | 66.7 | 1 | 0 | 1 | 1 | 1 | 0 |"
+    assert lines[3].startswith(f"| OVERALL | {hota} | 50.0 | 96.4 | 66.7 |")
 
 
 def test_asfarray_replacement_matches_numpy1_semantics():

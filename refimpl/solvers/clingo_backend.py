@@ -25,13 +25,12 @@ from pathlib import Path
 from typing import Sequence
 
 from ..constants import model_dir, resolve_constants
-from ..hypothesis import Hypothesis
+from ..hypothesis import PRIORITIES, Hypothesis
 from ..spec import FrameProblem
 from . import NoAdmissibleHypothesis, SolverUnavailable
 from .fallback import obvious_hypothesis
 from .common import tiebreak_facts
 
-PRIORITIES = (10, 3, 2, 1, 0)
 """The cost levels of the model (docs/model-spec.md section 5), highest first."""
 
 _INSTALL_HINT = "the clingo backend needs clingo: pip install 'refimpl[asp]'"
