@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -576,6 +577,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("refimpl: interrupted", file=sys.stderr)
         return 130
+
+
+def run() -> None:
+    """The process entry point (``refimpl`` and ``python -m refimpl``): main, then exit.  After an
+    interrupt the process ends at once (os._exit, outputs already cleaned up, streams flushed)
+    rather than spending half a second tearing down numpy, scipy and the solvers' modules."""
+    code = main()
+    if code == 130:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+    sys.exit(code)
 
 
 def _main(argv: Sequence[str] | None) -> int:
