@@ -244,25 +244,40 @@ class BenchmarkSequence:
 # low-level parsing
 
 
-def _read_lines(path: Path) -> list[tuple[int, str]]:
-    """(line number, stripped text) of the non-blank lines; missing/empty/unreadable is an error."""
+def _line_chunks(path: Path, size: int):
+    """Lists of at most ``size`` (line number, stripped text) of the non-blank lines, read line by
+    line (never the whole file at once); missing/empty/unreadable is an error."""
+    chunk: list[tuple[int, str]] = []
+    lineno, seen = 0, False
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        # newline=None: \r\n and \r become \n, and a file object splits only at \n (str.splitlines
+        # would also split at \f, \v, \x85, U+2028 ... and so name the wrong line numbers)
+        with open(path, encoding="utf-8-sig", newline=None) as fh:
+            for lineno, raw in enumerate(fh, start=1):
+                text = raw.strip()
+                if text:
+                    chunk.append((lineno, text))
+                    if len(chunk) >= size:
+                        seen = True
+                        yield chunk
+                        chunk = []
     except FileNotFoundError:
         raise InputFormatError("file not found", path) from None
     except IsADirectoryError:
         raise InputFormatError("is a directory, expected a file", path) from None
     except UnicodeDecodeError as exc:
-        raise InputFormatError(f"not a UTF-8 text file ({exc.reason} at byte {exc.start})", path) from None
+        raise InputFormatError(f"not a UTF-8 text file ({exc.reason} after line {lineno})", path) from None
     except OSError as exc:
         raise InputFormatError(f"cannot read file ({exc.strerror or exc})", path) from None
-    # read_text turned \r\n and \r into \n; str.splitlines would also split at \f, \v, \x85, U+2028 ...
-    # and so name the wrong line numbers
-    lines = [(i, s.strip()) for i, s in enumerate(text.split("\n"), start=1)]
-    lines = [(i, s) for i, s in lines if s]
-    if not lines:
+    if chunk:
+        yield chunk
+    elif not seen:
         raise InputFormatError("empty file (no data lines)", path)
-    return lines
+
+
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    """(line number, stripped text) of the non-blank lines; missing/empty/unreadable is an error."""
+    return [line for chunk in _line_chunks(path, 1 << 62) for line in chunk]
 
 
 def data_line_numbers(path: str | os.PathLike) -> list[int]:
@@ -326,6 +341,21 @@ def _table(path: Path, lines: list[tuple[int, str]], sep: str | None, lo: int, h
         parts.append(_numbers(path, [n for n, _ in chunk], rows, columns, names))
         del rows
     return np.vstack(parts) if parts else np.empty((0, len(list(columns))))
+
+
+def _read_table(path: Path, sep: str | None, lo: int, hi: int, what: str, columns: Sequence[int],
+                names: Sequence[str]) -> tuple[np.ndarray, list[int]]:
+    """A numeric file read chunk by chunk, straight from disk: (the columns as floats, the line
+    number of each row).  Its memory is the array plus one chunk of text; the first error is
+    reported as soon as its chunk is read."""
+    parts, linenos = [], []
+    for chunk in _line_chunks(path, _CHUNK):
+        rows = _split(path, chunk, sep, lo, hi, what)
+        numbers = [n for n, _ in chunk]
+        parts.append(_numbers(path, numbers, rows, columns, names))
+        linenos.extend(numbers)
+        del rows, chunk
+    return np.vstack(parts), linenos
 
 
 def _first_bad(mask: np.ndarray) -> int | None:
@@ -543,12 +573,9 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
     path = Path(path)
     otype = _object_type(object_type, path)
-    lines = _read_lines(path)
+    a, linenos = _read_table(path, ",", 7, 10, "frame,id,x,y,w,h,score,...", range(7),
+                             ("frame", "id", "x", "y", "w", "h", "score"))
     info = _resolve_seqinfo(seqinfo, path)
-    a = _table(path, lines, ",", 7, 10, "frame,id,x,y,w,h,score,...", range(7),
-               ("frame", "id", "x", "y", "w", "h", "score"))
-    linenos = [n for n, _ in lines]
-    del lines
     frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
     tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
     if tiny is not None:
@@ -854,11 +881,9 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     otype = _object_type(object_class, path)
     if on_degenerate not in ("drop", "error"):
         raise ValueError("on_degenerate must be 'drop' or 'error'")
-    lines = _read_lines(path)
-    a = _table(path, lines, ",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
-               ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z", "rot_y", "alpha"))
-    linenos = [n for n, _ in lines]
-    del lines
+    a, linenos = _read_table(path, ",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
+                             ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z",
+                              "rot_y", "alpha"))
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     types = _check_integral(path, linenos, a[:, 1], "type")
     _check_min_frame(path, linenos, frames, 0)
