@@ -193,16 +193,26 @@ class OutputSet:
         return handle
 
     def write(self, path: str | os.PathLike, data: str | bytes) -> None:
-        self.open(path, binary=isinstance(data, bytes)).write(data)
+        """Stage the whole content of one output (its temporary file is closed at once, so a set
+        of many outputs does not hold many open files)."""
+        handle = self.open(path, binary=isinstance(data, bytes))
+        handle.write(data)
+        staged = self._staged[-1]
+        if staged.tmp is not None:
+            handle.flush()
+            os.fsync(handle.fileno())
+            handle.close()
 
     def commit(self) -> None:
         """Flush every staged output to disk, then put each in place."""
         umask = _umask()
         for s in self._staged:
-            s.handle.flush()
+            if not s.handle.closed:
+                s.handle.flush()
             if s.tmp is not None:
-                os.fsync(s.handle.fileno())
-                s.handle.close()
+                if not s.handle.closed:
+                    os.fsync(s.handle.fileno())
+                    s.handle.close()
                 try:
                     st = os.stat(s.target)
                     os.chmod(s.tmp, stat.S_IMODE(st.st_mode))

@@ -1364,8 +1364,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [(name, motion, k, v) for k, v in result["by_hidden_frames"].items()]
     print(format_evaluation(rows))
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump([{"data": d, "motion": m, "bucket": b, **s} for d, m, b, s in rows], fh, indent=2)
+        from .outputs import write_atomic
+        write_atomic(args.json, json.dumps([{"data": d, "motion": m, "bucket": b, **s} for d, m, b, s in rows],
+                                           indent=2))
     return 0
 
 
