@@ -250,7 +250,7 @@ class CheckFailed(Exception):
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
-    from .evaluate import check_results_fit, evaluate_many, format_table
+    from .evaluate import evaluate_many, format_table, refuse_misfit
     from .outputs import check_outputs
     check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
     from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
@@ -267,10 +267,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
         gt = read_ground_truth(args.gt, args.format, args.cls)
         results = io.read_results(args.results, args.format, args.cls)
-        misfit = check_results_fit(gt, results)
-        if misfit is not None:
-            row, reason = misfit
-            raise io.InputFormatError(reason, args.results, io.data_line_numbers(args.results)[row] if row else None)
+        refuse_misfit(gt, results, args.results)
         per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
     if args.json:

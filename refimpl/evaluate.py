@@ -336,3 +336,15 @@ def check_results_fit(gt: GroundTruth, results: np.ndarray) -> tuple[int, str] |
         return 0, (f"only {matched} of {len(res)} result rows overlap a ground-truth box of {gt.name} "
                    f"(IoU >= 0.5; at least {FIT_MIN_SHARE:.0%} expected): results of another sequence?")
     return None
+
+
+def refuse_misfit(gt: GroundTruth, results: np.ndarray, path) -> None:
+    """Raise InputFormatError (naming the line where it can) if results do not fit gt (check_results_fit)."""
+    from .io import InputFormatError, data_line_numbers
+    misfit = check_results_fit(gt, results)
+    if misfit is None:
+        return
+    row, reason = misfit
+    lines = data_line_numbers(path) if row else []
+    # a line number only when every data line is a row (MOTChallenge lines; KITTI results skip other classes)
+    raise InputFormatError(reason, path, lines[row] if len(lines) == len(results) else None)
