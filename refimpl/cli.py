@@ -576,6 +576,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
+def _recheck_choices(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """argparse drops a value '--' (``--backend=--`` gives []) and then skips its choices check:
+    check every option with choices again, so a command never sees a value outside them."""
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    sub = subparsers.choices[args.command]
+    for action in sub._actions:
+        if action.choices is None or not hasattr(args, action.dest):
+            continue
+        value = getattr(args, action.dest)
+        values = value if isinstance(value, list) else [value]
+        if value is not action.default and (not values or any(v not in action.choices for v in values)):
+            name = "/".join(action.option_strings) or action.dest
+            sub.error(f"argument {name}: invalid choice: {value!r} (choose from {', '.join(map(str, action.choices))})")
+
+
 def run() -> None:
     """The process entry point (``refimpl`` and ``python -m refimpl``): main, then exit.  After an
     interrupt the process ends at once (os._exit, outputs already cleaned up, streams flushed)
@@ -594,6 +609,7 @@ def run() -> None:
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    _recheck_choices(parser, args)
     warnings.showwarning = _one_line_warning
     try:
         return args.func(args)

@@ -301,6 +301,8 @@ def _boxes(rows, what: str) -> tuple[tuple[int, Box], ...]:
               and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in row),
               f"{what}: each entry must be [frame, x, y, w, h], got {row!r:.80}")
         frame = _int(row[0], f"{what}: frame")
+        _need(all(abs(v) <= SCENE_MAX_COORD or v != v for v in row[1:]),  # (NaN is caught below)
+              f"{what}: frame {frame}: box coordinates must be finite numbers within +-{SCENE_MAX_COORD:g}")
         box = tuple(float(v) for v in row[1:])
         _need(all(math.isfinite(v) and abs(v) <= SCENE_MAX_COORD for v in box),
               f"{what}: frame {frame}: box coordinates must be finite numbers within +-{SCENE_MAX_COORD:g}, "

@@ -246,3 +246,21 @@ def test_bench_scale_from_json_on_malformed_files_ends_in_one_line(tmp_path, cap
     assert cli.main(["bench-scale", "--from-json", str(f), "--out", "-", "--quiet"]) == 2
     line = _err(capsys)
     assert line.startswith(f"refimpl bench-scale: error: {f}") and message in line
+
+
+# -- found by tools/fuzz_cli.py -------------------------------------------------------------
+
+def test_an_option_value_of_double_dash_is_not_a_valid_choice(tmp_path, capsys):
+    # argparse turns --backend=-- into [] and skips its choices check; it used to reach
+    # get_solver([]) and end in a ValueError traceback (fuzz_cli seed 0 input 259)
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(tmp_path / "r.txt"), "--backend=--"])
+    assert exc.value.code == 2 and "argument --backend: invalid choice: []" in capsys.readouterr().err
+    assert not (tmp_path / "r.txt").exists()
+
+
+def test_a_scene_box_with_a_400_digit_integer_ends_in_one_line(tmp_path, capsys):
+    # float(10**400) raises OverflowError: it used to escape scene_from_json (fuzz_cli seed 0 input 288)
+    path = _scene(tmp_path, lambda d: d["tracks"][0]["observed"][0].__setitem__(2, 10 ** 400))
+    assert cli.main(["explain", path]) == 2
+    assert "box coordinates must be finite numbers within" in _err(capsys)
