@@ -169,7 +169,9 @@ def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) 
         if spec is None:
             continue
         if spec.level is not None:
-            level[spec.level] += spec.weight - (iou.get(args, 0) if term.name == "assign" else 0)
+            level[spec.level] += spec.weight
+        if spec.likelihood_level is not None:
+            level[spec.likelihood_level] -= iou.get(args, 0)
         if term.name in ("assign", "resume"):
             level[TIEBREAK_LEVEL] += w.get(args, 0)
     for atom in event_atoms:

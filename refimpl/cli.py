@@ -12,6 +12,8 @@ import warnings
 from pathlib import Path
 from typing import Callable, Sequence
 
+from .progress import Progress
+
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 TRACKERS = ("baseline", "cpsat", "clingo")
 BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
@@ -27,37 +29,11 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .solvers import NoAdmissibleHypothesis, SolverUnavailable
     from .spec import ProblemFormatError
     from .scene import SceneError
+    from .scaleout import ClusterError
     from .outputs import OutputError
     from .benchmarks import BenchmarkFileError
-    return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
-
-
-# ---------------------------------------------------------------------------------------
-# Progress
-# ---------------------------------------------------------------------------------------
-
-class Progress:
-    """A progress bar on stderr (a line per step when stderr is not a terminal)."""
-
-    def __init__(self, total: int, label: str, enabled: bool = True):
-        self.total, self.label, self.done, self.enabled = total, label, 0, enabled
-        self.tty = sys.stderr.isatty()
-        self.start = time.perf_counter()
-
-    def step(self, what: str) -> None:
-        self.done += 1
-        if not self.enabled:
-            return
-        width = 24
-        filled = int(width * self.done / max(self.total, 1))
-        bar = "#" * filled + "." * (width - filled)
-        secs = time.perf_counter() - self.start
-        line = f"{self.label} [{bar}] {self.done}/{self.total} {what} ({secs:.1f}s)"
-        if self.tty:
-            sys.stderr.write("\r\x1b[2K" + line + ("\n" if self.done == self.total else ""))
-        else:
-            sys.stderr.write(line + "\n")
-        sys.stderr.flush()
+    return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError,
+            ClusterError)
 
 
 # ---------------------------------------------------------------------------------------
@@ -112,18 +88,49 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return EXIT_FAILURE if violations else EXIT_OK
 
 
-def _load_sequence(args: argparse.Namespace):
+def _load_sequence(args: argparse.Namespace, path: str | None = None):
     from . import io
+    path = args.dets if path is None else path
     if args.format == "mot":
-        return io.read_mot_detections(args.dets, scores_rule=getattr(args, "scores", "auto"))
+        return io.read_mot_detections(path, scores_rule=getattr(args, "scores", "auto"))
     if args.cls is None:
         raise UserError("--format kitti needs --class Car|Pedestrian|Cyclist")
-    return io.read_kitti_detections(args.dets, args.cls)
+    return io.read_kitti_detections(path, args.cls)
 
 
 def _run_tracker(seq, backend: str):
     from .table6 import run_tracker
     return run_tracker(seq, backend)
+
+
+def _plan(args: argparse.Namespace):
+    """Where the tasks of a many-sequence command run (refimpl.scaleout)."""
+    from .scaleout import Plan
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers must be >= 1, got {args.workers}")
+    if args.workers is not None and args.scheduler is not None:
+        raise UserError("give --workers N (a local cluster) or --scheduler ADDRESS (an existing one), not both")
+    return Plan(workers=args.workers or 1, scheduler=args.scheduler)
+
+
+def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
+    """Where each --dets goes: --out for one, or DIR/<sequence>.txt with --out-dir."""
+    from .tasks import results_file_name
+    if (args.out is None) == (args.out_dir is None):
+        raise UserError("give --out FILE (one --dets) or --out-dir DIR (one results file per --dets)")
+    if args.out is not None:
+        if len(args.dets) > 1:
+            raise UserError(f"{len(args.dets)} --dets need --out-dir DIR (one results file per sequence), not --out")
+        return [args.out]
+    if args.events or args.events_json or args.scene:
+        raise UserError("--events, --events-json and --scene write one sequence's file: use them with --out")
+    seen: dict[str, str] = {}
+    for path in args.dets:
+        name = results_file_name(path)
+        if name in seen:
+            raise UserError(f"{seen[name]} and {path} would both write {Path(args.out_dir) / name}")
+        seen[name] = path
+    return [Path(args.out_dir) / name for name in seen]
 
 
 def _time_limit(text: str) -> float:
@@ -139,12 +146,15 @@ def _time_limit(text: str) -> float:
 
 def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
     """The files `track` reads: the detections and the sequence files found beside them."""
-    dets = Path(args.dets)
-    inputs = {"--dets": args.dets}
-    if args.format == "mot":
-        inputs["seqinfo.ini"] = str(dets.parent.parent / "seqinfo.ini")
-    else:
-        inputs["label_02"] = str(dets.parent.parent.parent / "label_02" / dets.name)
+    inputs: dict[str, str | None] = {}
+    for k, path in enumerate(args.dets):
+        dets = Path(path)
+        label = "--dets" if len(args.dets) == 1 else f"--dets #{k + 1}"
+        inputs[label] = path
+        if args.format == "mot":
+            inputs[f"{label} seqinfo.ini"] = str(dets.parent.parent / "seqinfo.ini")
+        else:
+            inputs[f"{label} label_02"] = str(dets.parent.parent.parent / "label_02" / dets.name)
     return inputs
 
 
@@ -177,9 +187,10 @@ def _track_constants(args: argparse.Namespace) -> dict[str, int]:
 def cmd_track(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from .io import results_formatter
+    from . import io
     from .outputs import STDOUT, OutputSet, check_outputs
-    from .tracker import ResultWriter
+    from .scaleout import run_tasks
+    from .tasks import TrackJob, track_job
     if args.out_format == "kitti" and args.format != "kitti":
         raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
                         "it needs --format kitti")
@@ -187,18 +198,55 @@ def cmd_track(args: argparse.Namespace) -> int:
                                        or args.img_size):
         raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
                         "(cpsat or clingo); the baseline abduces no events")
-    constants = _track_constants(args)
-    outputs = {"--out": args.out, "--events": args.events, "--events-json": args.events_json, "--scene": args.scene}
-    check_outputs(outputs, _track_inputs(args))
-    seq = _load_sequence(args)
+    outs = _track_outputs(args)
+    outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
+    outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
+    check_outputs(outputs, _track_inputs(args))  # before any work: never an input, never each other
+    plan = _plan(args)
+    constants = tuple(_track_constants(args).items()) if args.backend != "baseline" else ()
+    seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.img_size is not None:
-        seq = replace(seq, image_size=args.img_size)
-    if args.format == "mot" and seq.image_size is None and "img_width" not in constants:
-        warnings.warn(f"{args.dets}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
-                      "is unknown, so the right and bottom field-of-view borders are not tested "
-                      "(enters_fov, leaves_fov, clipped)")
+        seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
+    for seq, path in zip(seqs, args.dets):
+        if args.format == "mot" and seq.image_size is None and "img_width" not in dict(constants):
+            warnings.warn(f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
+                          "is unknown, so the right and bottom field-of-view borders are not tested "
+                          "(enters_fov, leaves_fov, clipped)")
+    summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
+    if len(seqs) == 1 and not plan.distributed:
+        _track_streaming(seqs[0], args, outs[0], dict(constants), summary)
+        return EXIT_OK
+    jobs = [TrackJob(seq, args.backend, args.time_limit, args.check, False, constants) for seq in seqs]
+    results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name)
+    failed = 0
+    with OutputSet() as files:  # every results file lands together, after the last sequence
+        for seq, out, path in zip(seqs, results, outs):  # input order: the same bytes however tasks ran
+            if out.not_optimal_frames:
+                print(f"refimpl track: {_prefix(seqs, seq)}{out.not_optimal_frames} of {out.frames} frames not "
+                      f"proven optimal within the time limit (best answer found used)", file=sys.stderr)
+            for line in out.violations:
+                print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
+            if args.check:
+                print(f"check: {_prefix(seqs, seq)}{out.checked} answers checked, {len(out.violations)} with "
+                      "violations")
+                if out.violations:
+                    failed += len(out.violations)
+                    continue  # a backend that broke the model writes no results
+            files.write(path, io.results_formatter(args.out_format, seq.first_frame, args.cls)(out.rows))
+            print(f"{seq.name}: {len(seq.frames)} frames, "
+                  f"{len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0} tracks -> {path}", file=summary)
+    if failed:
+        raise CheckFailed(f"{failed} answers break a rule of the model")
+    return EXIT_OK
+
+
+def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[str, int], summary) -> None:
+    """One sequence in this process: results and event logs streamed to staged files as frames are
+    decided (bounded memory, docs/robustness.md), committed together at the end."""
+    from .io import ResultWriter, results_formatter
+    from .outputs import OutputSet
     with OutputSet() as outs:
-        sink = ResultWriter(outs.open(args.out), outs.open(args.events) if args.events else None,
+        sink = ResultWriter(outs.open(out_path), outs.open(args.events) if args.events else None,
                             outs.open(args.events_json) if args.events_json else None, seq.first_frame,
                             results_formatter(args.out_format, seq.first_frame, args.cls))
         if args.backend == "baseline":
@@ -206,19 +254,22 @@ def cmd_track(args: argparse.Namespace) -> int:
             for rows in stream_sequence(seq):
                 sink.rows(rows)
         else:
-            _track_abduction(seq, args, sink, outs, constants)
-    summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
-    print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {args.out}", file=summary)
-    return EXIT_OK
+            bar = Progress(len(seq.frames), seq.name, enabled=not args.quiet, unit="frame")
+            with bar:
+                _track_abduction(seq, args, sink, outs, constants, bar.step, summary)
+    print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
 
 
-def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int]) -> None:
+def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int], on_frame, summary) -> None:
     """Algorithm 1 with the chosen backend, streaming to ``sink``, optionally checking every frame's answer."""
     from .tracker import track_sequence
     checked = violations = 0
 
-    def check(problem, hyp) -> None:
+    def observe(problem, hyp) -> None:
         nonlocal checked, violations
+        on_frame()
+        if not args.check:
+            return
         from .check import check_answer
         report = check_answer(problem, hyp)
         checked += 1
@@ -228,20 +279,21 @@ def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
     result = track_sequence(seq, backend=args.backend, constants=constants, time_limit=args.time_limit,
-                            observer=check if args.check else None, sink=sink,
-                            keep_records=bool(args.scene))
+                            observer=observe, sink=sink, keep_records=bool(args.scene))
     if result.not_optimal_frames:
         print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
               f"within the time limit (best answer found used)", file=sys.stderr)
     if args.check:
-        to_stdout = "-" not in (args.out, args.events, args.events_json, args.scene)
-        print(f"check: {checked} answers checked, {violations} with violations",
-              file=sys.stdout if to_stdout else sys.stderr)
+        print(f"check: {checked} answers checked, {violations} with violations", file=summary)
         if violations:
             raise CheckFailed(f"{violations} answers break a rule of the model")
     if args.scene:
         from .scene import scene_from_result, scene_to_json
         outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)), separators=(",", ":")) + "\n")
+
+
+def _prefix(seqs, seq) -> str:
+    return f"{seq.name}: " if len(seqs) > 1 else ""
 
 
 class CheckFailed(Exception):
@@ -251,9 +303,9 @@ class CheckFailed(Exception):
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table, refuse_misfit
+    from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
     from .outputs import check_outputs
     check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
-    from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
     if args.format == "kitti" and args.cls is None:
         raise UserError("--format kitti needs --class Car|Pedestrian")
     if Path(args.results).is_dir():
@@ -277,67 +329,98 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from .evaluate import format_table
+    from .table6 import TITLES, load_dataset
+    from .tasks import RunRequest, run_requests
     from .outputs import check_outputs
     check_outputs({"--json": args.json})
-    from .table6 import TITLES, load_dataset, run_benchmark
+    plan = _plan(args)
+    requests = [RunRequest(name, load_dataset(name, args.data), args.backend) for name in args.names]
+    runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
     report = {}
-    for name in args.names:
-        dataset = load_dataset(name, args.data)
-        progress = Progress(len(dataset), f"{name}/{args.backend}", enabled=not args.quiet)
-        run = run_benchmark(name, args.data, args.backend, progress.step, dataset=dataset)
+    for name, run in zip(args.names, runs):
         print(f"## {TITLES[name]} — {args.backend}\n")
         print(format_table(run.per_sequence, run.overall))
         print()
         report[name] = {"per_sequence": run.per_sequence, "overall": run.overall, "events": run.events}
     if args.json:
-        from .outputs import write_atomic
-        write_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
-                                           default=float))
+        from .io import write_text_atomic
+        write_text_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
+                                                default=float))
     return EXIT_OK
 
 
 def cmd_table6(args: argparse.Namespace) -> int:
+    from .table6 import DATASETS, TABLE6_DATASETS, BenchmarkRun, format_table6, load_dataset
+    from .tasks import RunRequest, run_requests
+    datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
     from .outputs import check_outputs
-    from .table6 import DATASETS, format_table6, run_table6
     check_outputs({"--out": args.out})
-    datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else None
-    if datasets is not None and (not all(datasets) or any(d not in DATASETS for d in datasets)):
-        raise UserError(f"--datasets takes a comma-separated list out of {','.join(DATASETS)}, got {args.datasets!r}")
-    kwargs = {"datasets": datasets} if datasets else {}
-    runs = run_table6(args.data, args.backend,
-                      step_factory=None if args.quiet else (lambda label, n: Progress(n, label).step), **kwargs)
-    text = format_table6(runs)
+    unknown = [d for d in datasets if d not in DATASETS]
+    if unknown or not all(datasets):
+        raise UserError(f"--datasets takes a comma-separated list out of {','.join(DATASETS)}, "
+                        f"got {','.join(unknown)!r}")
+    plan = _plan(args)
+    requests = []
+    for name in datasets:
+        dataset = load_dataset(name, args.data)
+        requests += [RunRequest(name, dataset, "baseline"), RunRequest(name, dataset, args.backend)]
+    summaries = run_requests(requests, plan, label="table6", quiet=args.quiet)
+    runs = [BenchmarkRun(r.dataset, r.tracker, s.per_sequence, s.overall, s.events, s.frames, s.seconds)
+            for r, s in zip(requests, summaries)]
+    text = format_table6([tuple(runs[i:i + 2]) for i in range(0, len(runs), 2)])
     print(text)
     if args.out:
-        from .outputs import write_atomic
-        write_atomic(args.out, text + "\n")
+        from .io import write_text_atomic
+        write_text_atomic(args.out, text + "\n")
     return EXIT_OK
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
     from . import io
-    from .diff import DiffReport, diff_sequence
+    from .diff import DiffReport
+    from .scaleout import run_tasks
+    from .tasks import DiffJob, diff_job
     backends = tuple(b.strip() for b in args.backends.split(","))
     if len(backends) != 2 or any(b not in ("cpsat", "clingo") for b in backends) or backends[0] == backends[1]:
         raise UserError(f"--backends takes two different backends out of cpsat,clingo, got {args.backends!r}")
+    plan = _plan(args)
     if args.benchmark:
         seqs = [io.load_detections(s) for s in io.benchmark_sequences(args.benchmark, args.data)]
     elif args.dets:
-        seqs = [_load_sequence(args)]
+        seqs = [_load_sequence(args, path) for path in args.dets]
     else:
-        raise UserError("give --dets PATH (one sequence) or --benchmark NAME (every sequence of a benchmark)")
+        raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
     total = DiffReport(backends)  # type: ignore[arg-type]
-    progress = Progress(len(seqs), f"diff {backends[0]},{backends[1]}", enabled=not args.quiet)
-    for seq in seqs:
-        report = diff_sequence(seq, backends)  # type: ignore[arg-type]
+    reports = run_tasks(diff_job, [DiffJob(seq, backends) for seq in seqs], plan,  # type: ignore[arg-type]
+                        label=f"diff {backends[0]},{backends[1]}", quiet=args.quiet, describe=lambda j: j.seq.name)
+    for seq, report in zip(seqs, reports):
         total.add(report)
         print(f"{seq.name}: {report.summary()}")
         if report.first_divergence:
             print(report.first_divergence.describe())
-        progress.step(seq.name)
     if len(seqs) > 1:
         print(f"TOTAL: {total.summary()}")
     return EXIT_OK if total.ok else EXIT_FAILURE
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .io import InputFormatError
+    from .outputs import check_outputs
+    from .sweep import format_sweep, plan_sweep, run_sweep, sweep_json
+    check_outputs({"--json": args.json})
+    plan = _plan(args)
+    try:
+        sweep = plan_sweep(args.benchmark, args.data, args.backend, args.grid, split=args.split)
+    except InputFormatError:
+        raise
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    result = run_sweep(sweep, plan, quiet=args.quiet)
+    print(format_sweep(result), end="")
+    if args.json:
+        from .io import write_text_atomic
+        write_text_atomic(args.json, json.dumps(sweep_json(result), indent=2, default=float) + "\n")
+    return EXIT_OK
 
 
 def cmd_query(args: argparse.Namespace) -> int:
@@ -421,6 +504,26 @@ def _class_name(text: str) -> str:
     return CLASSES[key]
 
 
+def _add_scaleout(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="run the sequences as tasks on a local Dask cluster of N processes (docs/scale-out.md)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the tasks on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+
+
+def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
+    name, sep, values = text.partition("=")
+    try:
+        if not sep or not name.strip():
+            raise ValueError
+        parsed = tuple(int(v) for v in values.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NAME=INTEGER,INTEGER,..., got {text!r}") from None
+    if len(set(parsed)) != len(parsed):
+        raise argparse.ArgumentTypeError(f"a value is given twice in {text!r}")
+    return name.strip(), parsed
+
+
 def build_parser() -> argparse.ArgumentParser:
     from .io import RESULT_FORMATS
     p = argparse.ArgumentParser(
@@ -442,14 +545,18 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_solve)
 
     t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
-    t.add_argument("--dets", required=True, help="detections: MOTChallenge det.txt or KITTI PointRCNN file")
+    t.add_argument("--dets", required=True, nargs="+", metavar="PATH",
+                   help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir)")
     t.add_argument("--format", choices=("mot", "kitti"), default="mot")
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     t.add_argument("--backend", choices=TRACKERS, default="baseline")
+    t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti; "
+                                 "- for standard output)")
     t.add_argument("--scores", choices=("auto", "probability", "raw"), default="auto",
                    help="MOTChallenge detection scores: probabilities in 0..1 or raw detector scores "
                         "(default auto: decided by the file, see refimpl/io.py)")
-    t.add_argument("--out", required=True, help="results file (MOTChallenge format unless --out-format kitti; - for standard output)")
+    t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
+                   "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
     t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
                    help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
                         "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
@@ -466,6 +573,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (cpsat or clingo backend)")
+    _add_scaleout(t)
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_track)
 
     e = sub.add_parser("eval", help="HOTA, CLEAR MOT and IDF1 of a results file, or of a folder of them "
@@ -487,6 +596,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--backend", choices=TRACKERS, default="baseline")
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
@@ -495,18 +605,36 @@ def build_parser() -> argparse.ArgumentParser:
     t6.add_argument("--datasets", help="comma-separated subset of mot15,kitti-car,kitti-ped,mot17-sim,mot20-01-sim")
     t6.add_argument("--out", help="also write the markdown table to this file")
     t6.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(t6)
     t6.set_defaults(func=cmd_table6)
 
     x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
                                      "exit 1 on any cost disagreement")
-    x.add_argument("--dets", help="detections of one sequence")
+    x.add_argument("--dets", nargs="+", metavar="PATH", help="detections of one or more sequences")
     x.add_argument("--format", choices=("mot", "kitti"), default="mot")
     x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
     x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
     x.add_argument("--data", default="../shared/data", help="benchmark data root (with --benchmark)")
     x.add_argument("--backends", default="cpsat,clingo", help="FIRST,SECOND (default cpsat,clingo)")
     x.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(x)
     x.set_defaults(func=cmd_diff)
+
+    sw = sub.add_parser("sweep", help="track and score a benchmark for every combination of model constants "
+                                      "(one task per setting and sequence); one table")
+    sw.add_argument("--benchmark", required=True, choices=BENCHMARKS, metavar="NAME",
+                    help=f"one of {', '.join(BENCHMARKS)}")
+    sw.add_argument("--grid", required=True, action="append", type=_parse_grid, metavar="NAME=V1,V2,...",
+                    help="a model constant and its integer values (repeatable; the settings are all combinations)")
+    sw.add_argument("--split", choices=("all", "tune", "val"), default="all",
+                    help="KITTI: tune = the 10 training sequences outside evaluate_tracking.seqmap.val, "
+                         "val = the 11 in it (default all)")
+    sw.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    sw.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    sw.add_argument("--json", help="also write every setting's overall scores as JSON")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(sw)
+    sw.set_defaults(func=cmd_sweep)
 
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
     d.add_argument("--backends", default="baseline,cpsat",
@@ -570,7 +698,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """The command line; Ctrl-C (SIGINT) anywhere ends it with exit code 130 and one line, after the
     outputs' temporary files are removed (refimpl.outputs), so no partial output is left."""
     try:
-        return _main(argv)
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        _recheck_choices(parser, args)
+        with warnings.catch_warnings():  # one-line warnings for this command only, restored after it
+            warnings.showwarning = _one_line_warning
+            return _run(args)
     except KeyboardInterrupt:
         print("refimpl: interrupted", file=sys.stderr)
         return 130
@@ -606,11 +739,7 @@ def run() -> None:
     sys.exit(code)
 
 
-def _main(argv: Sequence[str] | None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    _recheck_choices(parser, args)
-    warnings.showwarning = _one_line_warning
+def _run(args: argparse.Namespace) -> int:
     try:
         return args.func(args)
     except _user_errors() as exc:
@@ -629,4 +758,4 @@ def _main(argv: Sequence[str] | None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -15,8 +15,9 @@ The rest is motmetrics: a ``MOTAccumulator`` fed with the IoU distance ``1 - IoU
 distance > 1 - threshold cannot match) for every frame of the sequence, and its standard
 metrics.  MOTP is reported as MOTChallenge does, as an overlap (1 - mean distance).
 
-motmetrics 1.4.0 calls ``np.asfarray``, which NumPy 2 removed; ``_ensure_numpy_compat`` adds
-an equivalent before motmetrics is first used (never at import time of refimpl).
+motmetrics 1.4.0's ``distances.iou_matrix`` calls ``np.asfarray``, which NumPy 2 removed;
+``_iou_distances`` computes the same matrix with motmetrics' own ``boxiou`` instead, so NumPy is
+never patched.
 """
 
 from __future__ import annotations
@@ -45,32 +46,24 @@ _MM_METRICS = ("mota", "motp", "idf1", "idtp", "idfp", "idfn", "num_objects", "n
 
 
 # ---------------------------------------------------------------------------------------
-# NumPy 2 compatibility for motmetrics 1.4.0
-
-
-def _asfarray(a, dtype=np.float64):
-    """NumPy 1.x ``np.asfarray``: ``a`` as an array of a floating type (float64 unless dtype is inexact)."""
-    dtype = np.dtype(dtype)
-    if not np.issubdtype(dtype, np.inexact):
-        dtype = np.dtype(np.float64)
-    return np.asarray(a, dtype=dtype)
-
-
-def _ensure_numpy_compat() -> None:
-    """Give NumPy 2 back ``np.asfarray`` (removed in 2.0, still called by motmetrics 1.4.0).
-
-    Only sets the attribute if it is missing, so it is a no-op on NumPy 1.x; idempotent.
-    """
-    if not hasattr(np, "asfarray"):
-        np.asfarray = _asfarray
+# motmetrics, without touching NumPy
 
 
 def _motmetrics():
-    """motmetrics, imported lazily (it pulls in pandas) and made NumPy-2 safe."""
-    _ensure_numpy_compat()
+    """motmetrics, imported lazily (it pulls in pandas)."""
     import motmetrics
 
     return motmetrics
+
+
+def _iou_distances(mm, objs: np.ndarray, hyps: np.ndarray, max_iou: float) -> np.ndarray:
+    """motmetrics.distances.iou_matrix, computed with its own boxiou: that function calls
+    ``np.asfarray``, which NumPy 2 removed, and refimpl does not patch NumPy for everyone."""
+    if np.size(objs) == 0 or np.size(hyps) == 0:
+        return np.empty((0, 0))
+    objs, hyps = np.asarray(objs, dtype=np.float64), np.asarray(hyps, dtype=np.float64)
+    dist = 1 - mm.distances.boxiou(objs[:, None], hyps[None, :])
+    return np.where(dist > max_iou, np.nan, dist)
 
 
 # ---------------------------------------------------------------------------------------
@@ -202,7 +195,7 @@ def evaluate_sequence(gt: GroundTruth, results, iou_threshold: float = 0.5) -> d
     for k, frame in enumerate(numbers):
         oboxes, hboxes = o_boxes[o0[k]:o1[k]], res[h0[k]:h1[k], 2:6]
         gids, hids = o_ids[o0[k]:o1[k]], res[h0[k]:h1[k], 1].astype(np.int64)
-        dists = mm.distances.iou_matrix(oboxes, hboxes, max_iou=max_dist)
+        dists = _iou_distances(mm, oboxes, hboxes, max_dist)
         acc.update(gids, hids, dists, frameid=int(frame))
         frame_gt_ids.append(gids)
         frame_hyp_ids.append(hids)

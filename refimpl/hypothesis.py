@@ -11,10 +11,11 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
-PRIORITIES = (10, 3, 2, 1, 0)
-"""The cost levels, highest priority first (model/optimisation.lp, docs/model-spec.md section 5):
-@10 matching likelihood and number of assignments (maximised), @3 ignored detections and tracks,
-@2 resumed, ended and started tracks, @1 the cost of the abduced events, @0 the tie-break."""
+PRIORITIES = (10, 5, 3, 2, 1, 0)
+"""The cost levels, highest priority first (model/optimisation.lp, docs/model.md "Optimisation"):
+@10 matching likelihood and number of assignments (maximised), @5 matching likelihood of the
+resumed tracks (maximised; refimpl decision, evidence-based resume), @3 ignored detections and
+tracks, @2 resumed, ended and started tracks, @1 the cost of the abduced events, @0 the tie-break."""
 
 EVENT_LEVEL = 1
 """The level at which each abduced event costs its cost_<event> constant."""
@@ -26,8 +27,10 @@ class ActionType:
     """One assignment action of the paper (Appendix A): its arguments and what it costs.
 
     ``level``/``weight``: the action costs ``weight`` at priority ``level`` (None: no cost).
-    assign is maximised at @10 by its likelihood: it costs -(ML + 1) there, ML = IoU x 100000
-    (model/optimisation.lp level10_likelihood and level10_count).
+    ``likelihood_level``: the action's matching likelihood ML = IoU x 100000 of its (track,
+    detection) pair is maximised there, i.e. it costs -ML at that level: assign at @10
+    (model/optimisation.lp level10_likelihood, with level10_count: -(ML + 1) in all), resume at @5
+    (level5_resume_likelihood).
     """
 
     name: str
@@ -35,14 +38,15 @@ class ActionType:
     """'trk' / 'det' for each argument."""
     level: int | None
     weight: int
+    likelihood_level: int | None = None
 
 
 ACTION_TABLE: dict[str, ActionType] = {a.name: a for a in (
-    ActionType("assign", ("trk", "det"), 10, -1),       # plus -ML: see the docstring
+    ActionType("assign", ("trk", "det"), 10, -1, 10),
     ActionType("start", ("det",), 2, 5),
     ActionType("end", ("trk",), 2, 5),
     ActionType("halt", ("trk",), None, 0),
-    ActionType("resume", ("trk", "det"), 2, 1),
+    ActionType("resume", ("trk", "det"), 2, 1, 5),
     ActionType("ignore_det", ("det",), 3, 10),
     ActionType("ignore_trk", ("trk",), 3, 10),
 )}
@@ -52,11 +56,13 @@ Cost = tuple[tuple[int, int], ...]
 
 
 def action_cost(name: str, likelihood: int = 0) -> tuple[int, ...]:
-    """The cost an action adds to each level, in PRIORITIES order (likelihood: ML of an assign)."""
+    """The cost an action adds to each level, in PRIORITIES order (likelihood: the ML of its pair)."""
     spec = ACTION_TABLE[name]
     out = [0] * len(PRIORITIES)
     if spec.level is not None:
-        out[PRIORITIES.index(spec.level)] = spec.weight - (likelihood if name == "assign" else 0)
+        out[PRIORITIES.index(spec.level)] += spec.weight
+    if spec.likelihood_level is not None:
+        out[PRIORITIES.index(spec.likelihood_level)] -= likelihood
     return tuple(out)
 
 

@@ -1105,6 +1105,31 @@ def event_json_line(e) -> str:
                        "atom": str(e)}) + "\n"
 
 
+class ResultWriter:
+    """Writes results rows and event logs to open (staged) files as a streaming tracker decides
+    them: a ``refimpl.tracker.ResultSink`` (rows of whole frames, then each frame's events).
+
+    ``results_format``: a function formatting (n, 6) rows as text (default MOTChallenge lines,
+    :func:`format_mot_results`); chunks of whole frames concatenate to the text of all rows."""
+
+    def __init__(self, results=None, events=None, events_json=None, first_frame: int = 1, results_format=None):
+        self.results, self.events_lp, self.events_json = results, events, events_json
+        self.format = results_format or (lambda rows: format_mot_results(rows, first_frame))
+        self.track_ids: set[int] = set()  # distinct ids written (for the summary line)
+
+    def rows(self, rows: np.ndarray) -> None:
+        if len(rows):
+            self.track_ids.update(int(i) for i in set(rows[:, 1].tolist()))
+            if self.results is not None:
+                self.results.write(self.format(rows))
+
+    def events(self, events) -> None:
+        if self.events_lp is not None:
+            self.events_lp.write("".join(event_line(e) for e in events))
+        if self.events_json is not None:
+            self.events_json.write("".join(event_json_line(e) for e in events))
+
+
 def write_event_log(path: str, events: Iterable) -> None:
     """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
     write_text_atomic(path, "".join(event_line(e) for e in events))

@@ -24,7 +24,7 @@ defaults are this conservative.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import IO, Callable, Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -41,6 +41,9 @@ DEFAULT_BRIDGE_GAP = 2
 DEFAULT_BRIDGE_CONF = 90
 _RESUMING = frozenset(e.name for e in explaining("resume"))
 _STARTING = frozenset(e.name for e in explaining("start"))
+HIDDEN_MAX_SECONDS = 10.0
+"""The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
+frame rate (docs/model.md 3.14); without a frame rate the model's default in frames applies."""
 MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
@@ -344,7 +347,8 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
                    compact_history: bool = True, sink: ResultSink | None = None,
                    keep_records: bool = True) -> TrackingResult:
-    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border.
+    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
+    the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
 
     With a ``sink`` the rows and events go to it as they are decided (see AbductionTracker) and
     the result's rows are empty (its events and tracks too unless ``keep_records``)."""
@@ -352,6 +356,8 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
         merged.setdefault("img_height", int(seq.image_size[1]))
+    if getattr(seq, "fps", None):
+        merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * seq.fps))))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
@@ -365,29 +371,3 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                               tracker.frames, tracker.not_optimal, tracker.solve_ms)
     return tracker.result()
 
-
-class ResultWriter(ResultSink):
-    """A sink that writes results rows and event logs to open (staged) files as they come.
-
-    ``results_format``: a function formatting (n, 6) rows of whole frames as text (default
-    MOTChallenge lines, refimpl.io.format_mot_results); chunks concatenate to the text of all rows."""
-
-    def __init__(self, results: IO | None = None, events: IO | None = None, events_json: IO | None = None,
-                 first_frame: int = 1, results_format: Callable[[np.ndarray], str] | None = None):
-        from .io import format_mot_results
-        self.results, self.events_lp, self.events_json = results, events, events_json
-        self.format = results_format or (lambda rows: format_mot_results(rows, first_frame))
-        self.track_ids: set[int] = set()  # distinct ids written (for the summary line)
-
-    def rows(self, rows: np.ndarray) -> None:
-        if len(rows):
-            self.track_ids.update(int(i) for i in set(rows[:, 1].tolist()))
-            if self.results is not None:
-                self.results.write(self.format(rows))
-
-    def events(self, events: tuple[HistoryEvent, ...]) -> None:
-        from .io import event_json_line, event_line
-        if self.events_lp is not None:
-            self.events_lp.write("".join(event_line(e) for e in events))
-        if self.events_json is not None:
-            self.events_json.write("".join(event_json_line(e) for e in events))

@@ -27,7 +27,7 @@ from refimpl.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "data" / "examples"
-PRIORITIES = (10, 3, 2, 1, 0)
+PRIORITIES = (10, 5, 3, 2, 1, 0)
 
 
 def solver_for(backend: str):
@@ -119,7 +119,7 @@ def test_bus_t235_car_hides_behind_bus(backend):
     #      (trk_7,det_4) k=1 w=4, (trk_8,det_2) k=2 w=9, (trk_12,det_1) k=3 w=16,
     #      [(trk_13,det_1) k=4 w=25 not chosen], (trk_15,det_0) k=5 w=36: 1+4+9+16+36 = 66;
     #      r(trk_13,trk_12) = 0 (the only track overlapping trk_13)          = 66
-    assert h.cost == ((10, -454480), (3, 0), (2, 5), (1, 2), (0, 66))
+    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, 66))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -134,11 +134,11 @@ def test_bus_t268_car_unhides_from_behind_bus(backend):
         "assign(trk_7,det_3)", "assign(trk_8,det_4)", "assign(trk_3,det_5)"]))
     assert h.events == ("occurs_at(unhides_from_behind(trk_13,trk_12),268)",)
     # @10: -(89636 + 97815 + 95528 + 93506 + 94945 + 5) = -(471430 + 5) = -471435
-    # @2: one resume = 1; @1: unhides_from_behind = 1
+    # @5: -ML of resume(trk_13,det_1) = -76713 (iou fact); @2: one resume = 1; @1: unhides = 1
     # @0: w(trk_3,det_5)=1 + w(trk_7,det_3)=4 + w(trk_8,det_4)=9 + w(trk_12,det_2)=25
     #     + w(trk_15,det_0)=64 + resume w(trk_13,det_1)=36 = 139
     #     + k(trk_12)=3 (trk_3, trk_7, trk_8, trk_12 in natural order) for the unhides = 142
-    assert h.cost == ((10, -471435), (3, 0), (2, 1), (1, 1), (0, 142))
+    assert h.cost == ((10, -471435), (5, -76713), (3, 0), (2, 1), (1, 1), (0, 142))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -174,7 +174,7 @@ def test_kitti_0020_t79(backend):
     # @0: w in natural (trk, det) order of the 22 iou pairs: (trk_1,det_1)=4, (trk_4,det_7)=9,
     #     (trk_5,det_4)=36, (trk_6,det_2)=49, (trk_7,det_8)=121, (trk_11,det_0)=196,
     #     (trk_12,det_3)=256, (trk_13,det_5)=441: sum 1112
-    assert h.cost == ((10, -692182), (3, 30), (2, 30), (1, 8), (0, 1112))
+    assert h.cost == ((10, -692182), (5, 0), (3, 30), (2, 30), (1, 8), (0, 1112))
 
 
 def test_bus_t268_file_is_canonical_and_its_ious_are_computed():
@@ -234,7 +234,7 @@ def test_halted_track_is_not_assigned(backend):
     h = solve(backend, p)
     check_well_formed(p, h)
     assert h.answer == ("ignore_det(det_1)", "ignore_trk(trk_1)")
-    assert h.cost == ((10, 0), (3, 20), (2, 0), (1, 0), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 20), (2, 0), (1, 0), (0, 0))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -279,8 +279,8 @@ def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
     p = _halted_clipped()
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["resume(trk_1,det_1)", ev("recover(trk_1)")]))
-    # @2: resume 1; @1: recover 2; @0: w(trk_1,det_1) = 1
-    assert h.cost == ((10, 0), (3, 0), (2, 1), (1, 2), (0, 1))
+    # @5: -ML of the resume = -50000; @2: resume 1; @1: recover 2; @0: w(trk_1,det_1) = 1
+    assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, 1))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -333,10 +333,10 @@ def test_start_needs_confidence_above_threshold(backend, conf, started):
     h = solve(backend, p)
     if started:
         assert h.answer == ("occurs_at(enters_fov(det_1),10)", "start(det_1)")
-        assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 1), (0, 0))
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 0))
     else:
         assert h.answer == ("ignore_det(det_1)",)
-        assert h.cost == ((10, 0), (3, 10), (2, 0), (1, 0), (0, 0))
+        assert h.cost == ((10, 0), (5, 0), (3, 10), (2, 0), (1, 0), (0, 0))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -368,7 +368,7 @@ def test_halted_track_is_not_halted_again(backend):
     p = frame([], [trk(1, "halted", box=(5, 300, 50, 50))])
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
-    assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 1), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 0))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -378,7 +378,7 @@ def test_unexplainable_end_does_not_happen_so_the_track_is_ignored(backend):
     p = frame([], [trk(1, "halted")])
     h = solve(backend, p)
     assert h.answer == ("ignore_trk(trk_1)",)
-    assert h.cost == ((10, 0), (3, 10), (2, 0), (1, 0), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 10), (2, 0), (1, 0), (0, 0))
 
 
 # --- explain_halt, poss_hides_behind, poss_missing_detections -----------------------------------
@@ -396,7 +396,7 @@ def test_halt_is_explained_by_hides_behind_an_overlapping_top_track(backend):
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "halt(trk_1)",
                                      ev("hides_behind(trk_1,trk_2)")]))
-    assert h.cost == ((10, -90001), (3, 0), (2, 0), (1, 1), (0, 1))
+    assert h.cost == ((10, -90001), (5, 0), (3, 0), (2, 0), (1, 1), (0, 1))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -547,13 +547,14 @@ def test_leaves_fov_needs_in_fov(backend):
     ("hides_behind(trk_1,trk_2)", 11, False),
 ])
 def test_lost_needs_enough_time_since_halting(backend, event, halted, lost):
-    # trk_2 is an active track far away, with its own detection
+    # trk_2 is an active track far away, with its own detection: it never covers trk_1, so a hidden
+    # trk_1 is not kept in mind and lost_after_hidden applies
     p = frame([det(2, box=(600, 600, 40, 40))], [trk(1, "halted"), trk(2, box=(600, 600, 40, 40))],
               [("trk_2", "det_2", 90000)], [hist(event, halted)], time=40)
     h = solve(backend, p)
     if lost:
         assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "end(trk_1)", ev("lost(trk_1)", 40)]))
-        assert h.cost[1:4] == ((3, 0), (2, 5), (1, 3))
+        assert h.cost[1:5] == ((5, 0), (3, 0), (2, 5), (1, 3))
     else:
         assert h.answer == ("assign(trk_2,det_2)", "ignore_trk(trk_1)")
 
@@ -587,7 +588,7 @@ def test_noise_only_for_young_tracks(backend, started, noise):
     h = solve(backend, _ended(history=history))
     if noise:  # 10 - 7 = 3 <= noise_max_age = 3
         assert h.answer == tuple(sorted(["end(trk_1)", ev("noise(trk_1)")]))
-        assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 2), (0, 0))
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 2), (0, 0))
     else:
         assert h.answer == ("ignore_trk(trk_1)",)
 
@@ -611,7 +612,7 @@ def test_every_start_is_explained_by_enters_fov(backend):
     h = solve(backend, p)
     assert h.actions == ("start(det_1)", "start(det_2)", "start(det_3)")
     assert h.events == tuple(ev(f"enters_fov(det_{i})") for i in range(1, 4))
-    assert h.cost == ((10, 0), (3, 0), (2, 15), (1, 3), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 15), (1, 3), (0, 0))
 
 
 # --- optimisation ----------------------------------------------------------------------------------
@@ -640,7 +641,7 @@ def test_more_assignments_beat_a_higher_likelihood_sum_only_by_the_count(backend
 def test_empty_frame_reports_all_levels(backend):
     h = solve(backend, frame())
     assert h.answer == ()
-    assert h.cost == ((10, 0), (3, 0), (2, 0), (1, 0), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 0), (1, 0), (0, 0))
     assert h.optimal
 
 
@@ -724,3 +725,23 @@ def test_unsatisfiable_problem_raises(backend):
     with pytest.raises(NoAdmissibleHypothesis) as info:
         solve(backend, p)
     assert "\n" not in str(info.value)
+
+
+# --- level5_resume_likelihood: evidence-based resume ------------------------------------------
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("exact", [0, 1])
+def test_resume_prefers_the_likelier_detection(backend, exact):
+    # trk_1 halted at 9 (clipped). Two detections could resume it: det_<exact> lies exactly on its
+    # prediction (IoU 1.0 = 100000), the other overlaps it at IoU 0.38. Levels 10..1 tie (one resume
+    # + recover, one start + enters_fov); level 5 takes the likelier pair whatever the id order.
+    other = 1 - exact
+    p = frame([det(0), det(1)], [trk(1, "halted")],
+              [("trk_1", f"det_{exact}", 100000), ("trk_1", f"det_{other}", 38000)],
+              [hist("missing_detections(trk_1)", 9)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted([f"resume(trk_1,det_{exact})", ev("recover(trk_1)"),
+                                     f"start(det_{other})", ev(f"enters_fov(det_{other})")]))
+    # @5: -100000; @2: resume 1 + start 5; @1: recover 2 + enters_fov 1;
+    # @0: w = (k+1)^2 over the pairs in natural order (trk_1,det_0) k=0, (trk_1,det_1) k=1
+    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, (exact + 1) ** 2))

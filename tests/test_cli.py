@@ -33,7 +33,7 @@ def test_solve_json_has_the_documented_fields(backend, capsys):
     assert out["time"] == 235 and out["backend"] == backend and out["optimal"] is True
     assert "halt(trk_13)" in out["actions"] and out["actions"] == sorted(out["actions"])
     assert out["events"] == ["occurs_at(enters_fov(det_5),235)", "occurs_at(hides_behind(trk_13,trk_12),235)"]
-    assert [p for p, _ in out["cost"]] == [10, 3, 2, 1, 0]
+    assert [p for p, _ in out["cost"]] == [10, 5, 3, 2, 1, 0]
 
 
 def test_solve_const_override_changes_the_answer(capsys):

@@ -51,7 +51,7 @@ def test_bus_example_is_the_papers_answer(examples):
     iou_sum = 82426 + 88079 + 98532 + 94981 + 90457
     w, r, _ = tiebreak_weights(p)
     tb = sum(w[tuple(parse_action(a)[1])] for a in h.actions if a.startswith("assign")) + r[("trk_13", "trk_12")]
-    assert h.cost == ((10, -(iou_sum + 5)), (3, 0), (2, 5), (1, 2), (0, tb))
+    assert h.cost == ((10, -(iou_sum + 5)), (5, 0), (3, 0), (2, 5), (1, 2), (0, tb))
     check_admissible(p, h)
 
 
@@ -60,7 +60,7 @@ def test_kitti_example(examples):
     h = get_solver("cpsat").solve(p)
     assert h.optimal
     check_admissible(p, h)
-    assert [c[0] for c in h.cost] == [10, 3, 2, 1, 0]
+    assert [c[0] for c in h.cost] == [10, 5, 3, 2, 1, 0]
 
 
 # -- lexicographic, not weighted -----------------------------------------------------------------
@@ -82,7 +82,7 @@ def test_levels_are_lexicographic():
     h = CpSatSolver().solve(_lex_problem())
     assert h.actions == ("assign(trk_1,det_1)", "ignore_det(det_0)")
     assert h.events == ()
-    assert h.cost == ((10, -90002), (3, 10), (2, 0), (1, 0), (0, 4))
+    assert h.cost == ((10, -90002), (5, 0), (3, 10), (2, 0), (1, 0), (0, 4))
     assert h.optimal
 
 
@@ -98,7 +98,7 @@ def test_lower_levels_break_ties_of_higher_ones():
     h = CpSatSolver().solve(p)
     assert h.actions == ("end(trk_1)", "end(trk_2)")
     assert h.events == ("occurs_at(leaves_fov(trk_1),10)", "occurs_at(noise(trk_2),10)")
-    assert h.cost == ((10, 0), (3, 0), (2, 10), (1, 3), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 10), (1, 3), (0, 0))
 
 
 # -- determinism -------------------------------------------------------------------------------
@@ -133,8 +133,8 @@ def test_deterministic_including_a_tie():
         am = build_model(p, state, resolve_constants(p))
         am.model.add(am.events[f"unhides_from_behind(trk_1,{t2})"] == 1)
         costs[t2] = solve_lexicographic(am, p).cost
-    assert costs["trk_2"][:4] == costs["trk_3"][:4]
-    assert costs["trk_3"][4][1] - costs["trk_2"][4][1] == 2 - 1
+    assert costs["trk_2"][:5] == costs["trk_3"][:5]
+    assert costs["trk_3"][5][1] - costs["trk_2"][5][1] == 2 - 1
 
 
 @pytest.mark.parametrize("seed", range(5))
@@ -216,7 +216,7 @@ def test_no_admissible_hypothesis_found_by_the_solver():
 def test_empty_problem():
     h = CpSatSolver().solve(FrameProblem(time=3))
     assert h.actions == () and h.events == () and h.optimal
-    assert h.cost == ((10, 0), (3, 0), (2, 0), (1, 0), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 0), (1, 0), (0, 0))
 
 
 def test_answers_are_admissible_on_random_frames():

@@ -61,8 +61,9 @@ def test_the_action_costs_and_priorities_are_those_of_optimisation_lp():
     # assign is maximised at @10: ML + 1 per assignment, i.e. a cost of -(ML + 1)
     assert "#maximize { ML@10, Trk, Det : assign(Trk, Det), iou(Trk, Det, ML) }" in text
     assert "#maximize { 1@10, Trk, Det, count : assign(Trk, Det) }" in text
-    assert action_cost("assign", 500) == (-501, 0, 0, 0, 0)
-    assert action_cost("halt") == (0, 0, 0, 0, 0)
+    assert action_cost("assign", 500) == (-501, 0, 0, 0, 0, 0)
+    assert action_cost("resume", 500) == (0, -500, 0, 1, 0, 0)
+    assert action_cost("halt") == (0, 0, 0, 0, 0, 0)
 
 
 # A frame in which every event of the table is possible (derivations in the comments):

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from refimpl.io import DetectionSequence, event_json_line, event_line, format_mot_results, read_mot_detections
-from refimpl.tracker import AbductionTracker, ResultWriter, track_sequence
+from refimpl.io import (DetectionSequence, ResultWriter, event_json_line, event_line, format_mot_results,
+                        read_mot_detections)
+from refimpl.tracker import AbductionTracker, track_sequence
 from refimpl.solvers import get_solver
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))

@@ -242,7 +242,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
             if resumable and expl:
                 res = []
                 for d in resumable:
-                    a = action(f"resume({t.id},{d.id})", "resume")
+                    a = action(f"resume({t.id},{d.id})", "resume", iou[(t.id, d.id)])
                     res.append(a)
                     per_trk[t.id].append(a)
                     per_det[d.id].append(a)
@@ -713,7 +713,8 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         elif i in resume_expl and resume_constraints(problem, constants, iou, t, d):
             (c1, c0), event, tie = resume_expl[i]
             edges.append((i, j, _Option(f"resume({tid},{did})", event,
-                                        _cost("resume", event=c1, tiebreak=w[(tid, did)] + c0), tie)))
+                                        _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0),
+                                        tie)))
 
     # -- one integer per cost vector, in the lexicographic order ---------------------------------
     bound = sum(abs(c) for o in solo_t + solo_d for c in o.cost) + sum(abs(c) for _, _, o in edges for c in o.cost)
