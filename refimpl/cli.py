@@ -710,17 +710,25 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _recheck_choices(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """argparse drops a value '--' (``--backend=--`` gives []) and then skips its choices check:
-    check every option with choices again, so a command never sees a value outside them."""
+    """argparse drops a value '--' (``--backend=--`` gives [], and neither the option's type nor its
+    choices are applied to it): check every option again, so a command never sees such a value."""
     subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     sub = subparsers.choices[args.command]
     for action in sub._actions:
-        if action.choices is None or not hasattr(args, action.dest):
+        if not hasattr(args, action.dest):
             continue
         value = getattr(args, action.dest)
+        name = "/".join(action.option_strings) or action.dest
+        if isinstance(action, argparse._AppendAction):
+            if any(isinstance(v, list) for v in value or ()):
+                sub.error(f"argument {name}: expected a value, got '--'")
+            continue
+        if action.nargs is None and isinstance(value, list):
+            sub.error(f"argument {name}: expected one value, got '--'")
+        if action.choices is None or value is action.default:
+            continue
         values = value if isinstance(value, list) else [value]
-        if value is not action.default and (not values or any(v not in action.choices for v in values)):
-            name = "/".join(action.option_strings) or action.dest
+        if not values or any(v not in action.choices for v in values):
             sub.error(f"argument {name}: invalid choice: {value!r} (choose from {', '.join(map(str, action.choices))})")
 
 

@@ -255,7 +255,7 @@ def test_an_option_value_of_double_dash_is_not_a_valid_choice(tmp_path, capsys):
     # get_solver([]) and end in a ValueError traceback (fuzz_cli seed 0 input 259)
     with pytest.raises(SystemExit) as exc:
         cli.main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(tmp_path / "r.txt"), "--backend=--"])
-    assert exc.value.code == 2 and "argument --backend: invalid choice: []" in capsys.readouterr().err
+    assert exc.value.code == 2 and "argument --backend: expected one value" in capsys.readouterr().err
     assert not (tmp_path / "r.txt").exists()
 
 
@@ -264,3 +264,12 @@ def test_a_scene_box_with_a_400_digit_integer_ends_in_one_line(tmp_path, capsys)
     path = _scene(tmp_path, lambda d: d["tracks"][0]["observed"][0].__setitem__(2, 10 ** 400))
     assert cli.main(["explain", path]) == 2
     assert "box coordinates must be finite numbers within" in _err(capsys)
+
+
+@pytest.mark.parametrize("argv", [["explain", "s.json", "--track=--"], ["bench-scale", "--sizes=--", "--from-json", "x"],
+                                  ["solve", "x.lp", "--const=--"]])
+def test_double_dash_values_of_other_options_end_in_one_usage_error(capsys, argv):
+    # the same argparse gap without choices: --track=-- reached explain() as [] (fuzz_cli seed 1 input 127)
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2 and "got '--'" in capsys.readouterr().err
