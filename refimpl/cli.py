@@ -493,6 +493,37 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_occlusion_suite(args: argparse.Namespace) -> int:
+    from .occlusion import SCENARIOS, write_suite
+    out = Path(args.out)
+    taken = [s.name for s in SCENARIOS if (out / s.name).exists() and any((out / s.name).iterdir())]
+    if taken and not args.force:
+        raise UserError(f"{out / taken[0]} exists and is not empty (pass --force to overwrite the suite there)")
+    for path in write_suite(out, args.seed):
+        print(path)
+    return EXIT_OK
+
+
+def cmd_bench_occlusion(args: argparse.Namespace) -> int:
+    from .benchmarks import write_section
+    from .occlusion_bench import format_results, parse_variant, run_suite
+    from .occlusion import SCENARIOS
+    variants = [v.strip() for v in args.trackers.split(",") if v.strip()]
+    for v in variants:
+        try:
+            parse_variant(v)
+        except ValueError as exc:
+            raise UserError(f"--trackers: {exc}") from None
+    progress = Progress(len(SCENARIOS), "occlusion suite", enabled=not args.quiet)
+    text = format_results(run_suite(variants, args.seed, progress.step))
+    command = f"refimpl bench-occlusion --trackers {','.join(variants)} --seed {args.seed}"
+    body = f"Command: `{command}`\n\n{text}"
+    print(text)
+    if args.out != "-":
+        write_section(args.out, "<!-- bench-occlusion:begin -->", "<!-- bench-occlusion:end -->", body)
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------------------------------
 # Parser
 # ---------------------------------------------------------------------------------------
@@ -662,6 +693,24 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--data", default="../shared/data", help="benchmark data root for --throughput")
     sc.add_argument("--quiet", action="store_true", help="no progress bar")
     sc.set_defaults(func=cmd_bench_scale)
+
+    oc = sub.add_parser("occlusion-suite", help="write the long-occlusion suite (docs/occlusion.md) as "
+                                                "MOTChallenge sequences: DIR/<scenario>/{det,gt,seqinfo.ini}")
+    oc.add_argument("--out", required=True, metavar="DIR", help="folder to write the scenarios into")
+    oc.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    oc.add_argument("--force", action="store_true", help="overwrite scenario folders that exist")
+    oc.set_defaults(func=cmd_occlusion_suite)
+
+    bo = sub.add_parser("bench-occlusion", help="baseline vs abduction on the long-occlusion suite: identity kept, "
+                                                "hide/unhide events on time (writes docs/occlusion.md)")
+    bo.add_argument("--trackers", default="baseline,cpsat",
+                    help="comma-separated variants: baseline, a backend, backend+hold, backend+oru, "
+                         "backend+hold+oru (default baseline,cpsat)")
+    bo.add_argument("--seed", type=int, default=0, help="suite seed (default 0)")
+    bo.add_argument("--out", default="docs/occlusion.md",
+                    help="markdown file whose generated section is replaced (default docs/occlusion.md; - for none)")
+    bo.add_argument("--quiet", action="store_true", help="no progress bar")
+    bo.set_defaults(func=cmd_bench_occlusion)
 
     q = sub.add_parser("query", help="ask a scene a question (docs/reasoning.md): tracks | track T | hidden_by T | "
                                       "holds_at T FRAME | events FROM TO [T] | relation T REL | "

@@ -120,14 +120,22 @@ class AbductionTracker:
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
-                 compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True):
-        """``sink``: results rows and events are handed to it as soon as they are final (a frame's
+                 compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False,
+                 sink: ResultSink | None = None, keep_records: bool = True):
+        """hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
+        frozen (BoxKalman.predict(hold=True)); reupdate_on_resume: a resume re-runs the filter along
+        the box interpolated over the gap (BoxKalman.reupdate).  Both off by default (issue 12,
+        item 4; measured in docs/tracking.md).
+
+        ``sink``: results rows and events are handed to it as soon as they are final (a frame's
         rows once no later frame can add any: bridged-gap interpolation reaches back at most
         ``bridge_gap`` frames), instead of being kept; with ``keep_records=False`` as well, the
         tracker forgets everything a later frame does not need (finished tracks, all but the last
         observed box of a live one), so its memory does not grow with the sequence; then
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
+        self.hold_hidden = hold_hidden
+        self.reupdate_on_resume = reupdate_on_resume
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
         self.min_hits = min_hits
@@ -151,7 +159,7 @@ class AbductionTracker:
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        predicted = np.array([self._bounded(self._predict(t)) for t in tracks]).reshape(-1, 4)
+        predicted = np.array([self._bounded(self._predict(t, self.hold_hidden)) for t in tracks]).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         detections = tuple(
@@ -184,10 +192,10 @@ class AbductionTracker:
         return np.array([x1, y1, bw, bh])
 
     @staticmethod
-    def _predict(trk: _Track) -> np.ndarray:
+    def _predict(trk: _Track, hold: bool = False) -> np.ndarray:
         """Kalman prediction; a filter whose state degenerated restarts, motionless, at the last observed box."""
         try:
-            return trk.kalman.predict()
+            return trk.kalman.predict(hold)
         except InvalidPrediction:
             trk.kalman = BoxKalman(trk.observed[max(trk.observed)])
             return trk.kalman.predict()
@@ -249,7 +257,7 @@ class AbductionTracker:
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
-            self._observe(trk, frame, boxes[j])
+            self._observe(trk, frame, boxes[j], resumed=True)
             if trk.bridged and self.sink is not None:
                 self._pend_gap(trk, last, frame)
         for trk_id in hyp.halts:
@@ -290,9 +298,12 @@ class AbductionTracker:
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
 
-    def _observe(self, trk: _Track, frame: int, box: np.ndarray) -> None:
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray, resumed: bool = False) -> None:
         """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
-        trk.kalman.update(box)
+        if resumed and self.reupdate_on_resume:
+            trk.kalman.reupdate(box)  # observation-centric re-update along the gap
+        else:
+            trk.kalman.update(box)
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
         self._confirm(trk, frame)
@@ -345,7 +356,8 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
-                   compact_history: bool = True, sink: ResultSink | None = None,
+                   compact_history: bool = True, hold_hidden: bool = False,
+                   reupdate_on_resume: bool = False, sink: ResultSink | None = None,
                    keep_records: bool = True) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
@@ -361,7 +373,7 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
-                               sink, keep_records)
+                               hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()
