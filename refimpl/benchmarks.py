@@ -434,28 +434,11 @@ def throughput_report(result: ThroughputResult, command: str) -> str:
 # docs/benchmarks.md, JSON
 # ---------------------------------------------------------------------------------------
 
+from .outputs import section_text, write_section  # noqa: E402  (re-exported for the report writers)
+
+
 class BenchmarkFileError(Exception):
     """A saved benchmark JSON file (``--from-json``) that is not one this module wrote: one line, exit 2."""
-
-
-def section_text(path: str | os.PathLike, begin: str, end: str, body: str) -> str:
-    """The markdown file's text with the block between the begin/end markers replaced (appended if absent)."""
-    p = Path(path)
-    text = p.read_text(encoding="utf-8") if p.exists() else "# Benchmarks\n"
-    block = f"{begin}\n{body.rstrip()}\n{end}"
-    if begin in text and end in text:
-        head, rest = text.split(begin, 1)
-        _, tail = rest.split(end, 1)
-        text = head + block + tail
-    else:
-        text = text.rstrip() + "\n\n" + block + "\n"
-    return text
-
-
-def write_section(path: str | os.PathLike, begin: str, end: str, body: str) -> None:
-    """Replace the text between the begin/end markers of a markdown file (append them if absent), atomically."""
-    from .outputs import write_atomic
-    write_atomic(path, section_text(path, begin, end, body))
 
 
 def save_json(path: str | os.PathLike, result: ScaleResult | ThroughputResult) -> None:

@@ -331,16 +331,8 @@ SWEEP_BEGIN, SWEEP_END = "<!-- detectors-sweep:begin -->", "<!-- detectors-sweep
 
 def write_section(path: str | os.PathLike, begin: str, end: str, body: str) -> None:
     """Replace the text between the markers of a markdown file (appended if absent), atomically."""
-    p = Path(path)
-    text = p.read_text(encoding="utf-8") if p.exists() else "# Detectors\n"
-    block = f"{begin}\n{body.rstrip()}\n{end}"
-    if begin in text and end in text:
-        head, rest = text.split(begin, 1)
-        _, tail = rest.split(end, 1)
-        text = head + block + tail
-    else:
-        text = text.rstrip() + "\n\n" + block + "\n"
-    io.write_text_atomic(p, text)
+    from .outputs import write_section as write
+    write(path, begin, end, body, title="# Detectors")
 
 
 def _quality_json(q: DetectionQuality) -> dict:

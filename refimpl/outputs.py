@@ -284,3 +284,23 @@ def write_atomic(path: str | os.PathLike, data: str | bytes) -> None:
     """Write text or bytes to path atomically (the rules of the module doc)."""
     with atomic_file(path, binary=isinstance(data, bytes)) as fh:
         fh.write(data)
+
+
+def section_text(path: str | os.PathLike, begin: str, end: str, body: str, title: str = "# Benchmarks") -> str:
+    """A markdown file's text with the block between the begin/end markers replaced (appended if
+    absent; a missing file starts with ``title``): how the report commands update docs/*.md."""
+    p = Path(path)
+    text = p.read_text(encoding="utf-8") if p.exists() else title + "\n"
+    block = f"{begin}\n{body.rstrip()}\n{end}"
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        _, tail = rest.split(end, 1)
+        text = head + block + tail
+    else:
+        text = text.rstrip() + "\n\n" + block + "\n"
+    return text
+
+
+def write_section(path: str | os.PathLike, begin: str, end: str, body: str, title: str = "# Benchmarks") -> None:
+    """Replace the text between the begin/end markers of a markdown file (append them if absent), atomically."""
+    write_atomic(path, section_text(path, begin, end, body, title))
