@@ -16,9 +16,9 @@ Both write their markdown tables between marker comments of docs/benchmarks.md (
 the file is prose and is kept), a PNG plot (docs/scalability.png) and optionally the raw
 per-frame results as JSON, from which ``--from-json`` redraws tables and plot without solving.
 
-Backends: ``cpsat`` (CpSatSolver(): the fast exact path, the full CP-SAT model where it
-declines), ``cpsat-full`` (CpSatSolver(fast_path=False): every frame through the full CP-SAT
-model) and ``clingo`` (the ASP encoding).  Throughput also has ``baseline`` (SORT).
+Backends: every name of the registry refimpl.solvers.BACKENDS (``cpsat``: the fast exact path,
+the full CP-SAT model where it declines; ``cpsat-full``: every frame through the full CP-SAT
+model; ``clingo``: the ASP encoding).  Throughput also has ``baseline`` (SORT).
 """
 
 from __future__ import annotations
@@ -35,8 +35,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-SCALE_BACKENDS = ("cpsat", "cpsat-full", "clingo")
-THROUGHPUT_TRACKERS = ("baseline", "cpsat", "cpsat-full", "clingo")
+from .solvers import BACKENDS as SCALE_BACKENDS, get_solver
+
+THROUGHPUT_TRACKERS = ("baseline",) + SCALE_BACKENDS
 DEFAULT_SIZES = (5, 10, 20, 50, 100, 200)
 DEFAULT_OVERLAPS = (0.2, 0.5, 0.8)
 DEFAULT_SEEDS = 10
@@ -61,20 +62,6 @@ class _NoProgress:
 
     def step(self, what: str) -> None:
         pass
-
-
-def make_solver(backend: str):
-    """A solver by benchmark backend name (see the module docstring)."""
-    if backend == "cpsat":
-        from .solvers.cpsat import CpSatSolver
-        return CpSatSolver()
-    if backend == "cpsat-full":
-        from .solvers.cpsat import CpSatSolver
-        return CpSatSolver(fast_path=False)
-    if backend == "clingo":
-        from .solvers.clingo_backend import ClingoSolver
-        return ClingoSolver()
-    raise ValueError(f"unknown backend {backend!r} (choose from {', '.join(SCALE_BACKENDS)})")
 
 
 def machine_note() -> str:
@@ -142,7 +129,7 @@ def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] 
     for b in backends:
         if b not in SCALE_BACKENDS:
             raise ValueError(f"unknown backend {b!r} (choose from {', '.join(SCALE_BACKENDS)})")
-    solvers = {b: make_solver(b) for b in backends}
+    solvers = {b: get_solver(b) for b in backends}
     runs: list[FrameRun] = []
     bar = progress(len(sizes) * len(overlaps) * seeds, "bench-scale")
     started = time.perf_counter()
@@ -375,7 +362,7 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
     for k, (bench, name, seq) in enumerate(plan):
         order = list(trackers[k % len(trackers):]) + list(trackers[:k % len(trackers)])
         for tr in order:
-            solver = None if tr == "baseline" else make_solver(tr)
+            solver = None if tr == "baseline" else get_solver(tr)
             t0 = time.perf_counter()
             if tr == "baseline":
                 sort_sequence(seq)

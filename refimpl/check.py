@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from .constants import resolve_constants
 from .events import EventState, poss
 from .hypothesis import Cost, Hypothesis
-from .solvers.common import tiebreak_weights
+from .solvers.common import tiebreak_level
 from .spec import FrameProblem, parse_term
 
 _ACTION_ARITY = {"assign": 2, "resume": 2, "start": 1, "ignore_det": 1,
@@ -170,23 +170,15 @@ def _well_formed_event(atom: str) -> bool:
 def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) -> Cost:
     """The five-level cost vector of an answer (docs/model-spec.md section 5)."""
     iou = problem.iou_map
-    w, r, k = tiebreak_weights(problem)
     kinds = Counter()
-    level10 = level0 = 0
+    level10 = 0
     for atom in actions:
         term = parse_term(atom)
         args = tuple(a.name for a in term.args)
         kinds[term.name] += 1
         if term.name == "assign":
             level10 -= iou.get(args, 0) + 1
-        if term.name in ("assign", "resume"):
-            level0 += w.get(args, 0)
-    for atom in event_atoms:
-        event = parse_term(atom).args[0]
-        if event.name == "hides_behind":
-            level0 += r.get((event.args[0].name, event.args[1].name), 0)
-        elif event.name == "unhides_from_behind":
-            level0 += k.get(event.args[1].name, 0)
+    level0 = tiebreak_level(problem, actions, event_atoms)  # the canonical tie-break, one definition
     level3 = 10 * (kinds["ignore_det"] + kinds["ignore_trk"])
     level2 = kinds["resume"] + 5 * kinds["end"] + 5 * kinds["start"]
     level1 = sum(c[f"cost_{name}"] for name in event_names)

@@ -10,8 +10,10 @@ import warnings
 from pathlib import Path
 from typing import Callable, Sequence
 
+from .solvers import BACKENDS
+
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
-TRACKERS = ("baseline", "cpsat", "clingo")
+TRACKERS = ("baseline",) + BACKENDS
 BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
@@ -22,10 +24,11 @@ class UserError(Exception):
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     from .io import InputFormatError
-    from .solvers import NoAdmissibleHypothesis, SolverUnavailable
+    from .solvers import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout
     from .spec import ProblemFormatError
     from .scene import SceneError
-    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError)
+    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis,
+            SolveTimeout, SceneError)
 
 
 # ---------------------------------------------------------------------------------------
@@ -225,19 +228,25 @@ def cmd_table6(args: argparse.Namespace) -> int:
 def cmd_diff(args: argparse.Namespace) -> int:
     from . import io
     from .diff import DiffReport, diff_sequence
+    from .solvers import check_time_limit
     backends = tuple(b.strip() for b in args.backends.split(","))
-    if len(backends) != 2 or any(b not in ("cpsat", "clingo") for b in backends) or backends[0] == backends[1]:
-        raise UserError(f"--backends takes two different backends out of cpsat,clingo, got {args.backends!r}")
+    if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
+        raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
+                        f"got {args.backends!r}")
+    try:
+        time_limit = check_time_limit(args.time_limit)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
     if args.benchmark:
         seqs = [io.load_detections(s) for s in io.benchmark_sequences(args.benchmark, args.data)]
     elif args.dets:
         seqs = [_load_sequence(args)]
     else:
         raise UserError("give --dets PATH (one sequence) or --benchmark NAME (every sequence of a benchmark)")
-    total = DiffReport(backends)  # type: ignore[arg-type]
-    progress = Progress(len(seqs), f"diff {backends[0]},{backends[1]}", enabled=not args.quiet)
+    total = DiffReport(backends)
+    progress = Progress(len(seqs), f"diff {','.join(backends)}", enabled=not args.quiet)
     for seq in seqs:
-        report = diff_sequence(seq, backends)  # type: ignore[arg-type]
+        report = diff_sequence(seq, backends, time_limit=time_limit)
         total.add(report)
         print(f"{seq.name}: {report.summary()}")
         if report.first_divergence:
@@ -331,7 +340,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("solve", help="abduce the best hypothesis for one frame problem (fact file)")
     s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
-    s.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    s.add_argument("--backend", choices=BACKENDS, default="cpsat")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--time-limit", type=float, default=None, metavar="SECONDS")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
@@ -374,7 +383,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
     t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    t6.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    t6.add_argument("--backend", choices=BACKENDS, default="cpsat")
     t6.add_argument("--datasets", help="comma-separated subset of mot15,kitti-car,kitti-ped,mot17-sim,mot20-01-sim")
     t6.add_argument("--out", help="also write the markdown table to this file")
     t6.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -387,7 +396,12 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
     x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
     x.add_argument("--data", default="../shared/data", help="benchmark data root (with --benchmark)")
-    x.add_argument("--backends", default="cpsat,clingo", help="FIRST,SECOND (default cpsat,clingo)")
+    x.add_argument("--backends", default="cpsat-full,clingo",
+                   help=f"FIRST,SECOND[,THIRD] out of {','.join(BACKENDS)}: track with the first, re-solve every "
+                        "frame with the others (default cpsat-full,clingo)")
+    x.add_argument("--time-limit", type=float, default=20.0, metavar="SECONDS",
+                   help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
+                        "is reported as such")
     x.add_argument("--quiet", action="store_true", help="no progress bar")
     x.set_defaults(func=cmd_diff)
 

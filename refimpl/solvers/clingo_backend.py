@@ -27,9 +27,13 @@ from typing import Sequence
 from ..constants import model_dir, resolve_constants
 from ..hypothesis import Hypothesis
 from ..spec import FrameProblem
-from . import NoAdmissibleHypothesis, SolverUnavailable
+from . import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
+from .common import event_term, tiebreak_facts, tiebreak_level
+from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
-from .common import tiebreak_facts
+
+POLL = 0.1
+"""Seconds between two checks of clingo's asynchronous search (time limit, SIGINT)."""
 
 PRIORITIES = (10, 3, 2, 1, 0)
 """The cost levels of the model (docs/model-spec.md section 5), highest first."""
@@ -83,7 +87,8 @@ class ClingoSolver:
 
     name = "clingo"
 
-    def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None):
+    def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
+                 decompose: bool = True, part_nodes: int = 16):
         try:
             import clingo
         except ImportError:
@@ -92,6 +97,8 @@ class ClingoSolver:
             raise ValueError(f"threads must be >= 1, got {threads}")
         self._clingo = clingo
         self.threads = int(threads)
+        self.decompose = decompose
+        self.part_nodes = int(part_nodes)
         self.model_files = (
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
@@ -120,58 +127,92 @@ class ClingoSolver:
         return ctl, messages
 
     def solve(self, problem: FrameProblem, time_limit: float | None = None) -> Hypothesis:
-        """The optimal hypothesis, or with ``time_limit`` (seconds) the best found in time."""
+        """The optimal hypothesis, or with ``time_limit`` (seconds) the best found in time (the
+        time-out contract of refimpl.solvers).  The frame is solved per sub-problem of independent
+        components (refimpl.solvers.decompose) unless ``decompose=False``."""
         started = time.perf_counter()
-        deadline = None if time_limit is None else started + max(0.0, float(time_limit))
-        ctl, messages = self._control(problem)
+        time_limit = check_time_limit(time_limit)
+        deadline = None if time_limit is None else started + time_limit
+        parts = split(problem, self.part_nodes) if self.decompose else [Part(problem, frozenset())]
+        whole = len(parts) == 1
+        actions: list[str] = []
+        events: list[str] = []
+        optimal = True
+        cost: dict[int, int] = {}
+        for n, part in enumerate(parts):
+            now = time.perf_counter()
+            if deadline is not None and now >= deadline:
+                found = None
+            else:
+                share = None if deadline is None else (deadline - now) / (len(parts) - n)
+                found = self._solve_one(part.problem, share)
+            if found is None:  # out of time without a model: the obvious answer of this part
+                fallback = obvious_hypothesis(part.problem, self.name)
+                if fallback is None:
+                    limit = "none" if time_limit is None else f"{time_limit:g} s"
+                    raise SolveTimeout(f"no answer at t={problem.time} within the time limit ({limit})")
+                atoms = list(fallback.actions) + list(fallback.events)
+                part_optimal = False
+            else:
+                atoms, cost, part_optimal = found
+            optimal = optimal and part_optimal
+            acts = [a for a in atoms if not a.startswith("occurs_at(")]
+            evs = [a for a in atoms if a.startswith("occurs_at(")]
+            if not whole:
+                acts, evs = own_atoms(part, acts, evs)
+            actions += acts
+            events += evs
+        if whole and cost and optimal is not None and found is not None:
+            levels = [(p, cost.get(p, 0)) for p in PRIORITIES[:-1]]
+        else:  # several parts (or the fallback): the levels of the merged answer
+            from ..check import recompute_cost
+            names = [event_term(e).split("(", 1)[0] for e in events]
+            levels = list(recompute_cost(problem, actions, names, events, resolve_constants(problem))[:-1])
+        levels.append((PRIORITIES[-1], tiebreak_level(problem, actions, events)))
+        return Hypothesis(
+            time=problem.time,
+            actions=tuple(actions),
+            events=tuple(events),
+            cost=tuple(levels),
+            optimal=optimal,
+            backend=self.name,
+            solve_ms=(time.perf_counter() - started) * 1000.0,
+        )
 
-        t0 = time.perf_counter()
+    def _solve_one(self, problem: FrameProblem, time_limit: float | None):
+        """(shown atoms, cost by priority, proven optimal) of one clingo call, or None when the
+        time ran out before any model; NoAdmissibleHypothesis when the program has no model."""
+        started = time.perf_counter()
+        deadline = None if time_limit is None else started + time_limit
+        ctl, messages = self._control(problem)
         try:
             ctl.ground([("base", [])])
         except RuntimeError as exc:
             msgs = "; ".join(messages) or str(exc)
             raise RuntimeError(f"clingo could not ground the model: {msgs}") from None
+        if deadline is not None and time.perf_counter() >= deadline:
+            return None  # grounding used the time up (it counts; it cannot be stopped half-way)
 
         best = _Best()
         timed_out = False
         with ctl.solve(on_model=best.on_model, async_=True) as handle:
-            if deadline is None:
-                handle.wait()
-            else:
-                finished = False
-                while not finished:
-                    remaining = deadline - time.perf_counter()
-                    if remaining <= 0:
-                        break
-                    finished = handle.wait(remaining)
-                if not finished:
+            # short waits: a SIGINT raises KeyboardInterrupt here within POLL seconds, and
+            # leaving the with block cancels the search
+            while True:
+                wait = POLL if deadline is None else min(POLL, deadline - time.perf_counter())
+                if wait <= 0:
                     handle.cancel()
                     timed_out = True
+                    break
+                if handle.wait(wait):
+                    break
             result = handle.get()
-        solve_ms = (time.perf_counter() - t0) * 1000.0
-
         if best.atoms is None:
-            # an interrupted search says nothing about satisfiability: use the fallback answer
-            fallback = obvious_hypothesis(problem, self.name, solve_ms) if timed_out else None
-            if fallback is not None:
-                return fallback
-            if result.unsatisfiable and not timed_out:
+            if timed_out:
+                return None
+            if result.unsatisfiable:
                 raise NoAdmissibleHypothesis(
                     f"no admissible hypothesis at t={problem.time}: every candidate answer breaks a rule of the model")
-            limit = f"{time_limit:g} s" if time_limit is not None else "none"
-            raise NoAdmissibleHypothesis(
-                f"no hypothesis found at t={problem.time} within the time limit ({limit})")
-
+            return None
         optimal = (bool(result.exhausted) and not timed_out) or best.proven
-        actions = [a for a in best.atoms if not a.startswith("occurs_at(")]
-        events = [a for a in best.atoms if a.startswith("occurs_at(")]
-        cost = tuple((p, best.cost.get(p, 0)) for p in PRIORITIES)
-        return Hypothesis(
-            time=problem.time,
-            actions=tuple(actions),
-            events=tuple(events),
-            cost=cost,
-            optimal=optimal,
-            backend=self.name,
-            solve_ms=solve_ms,
-        )
+        return best.atoms, best.cost, optimal
