@@ -27,6 +27,7 @@ import pytest
 from ortools.sat.python import cp_model
 
 from framegen import random_frame
+from plain_tiebreak import plain_tiebreak as _plain_tiebreak
 from refimpl.constants import resolve_constants
 from refimpl.events import EventState
 from refimpl.geometry import intersection_area
@@ -71,55 +72,6 @@ def _compare(frames, min_fast_share):
 
 
 # -- the pieces --------------------------------------------------------------------------------
-
-def _plain_tiebreak(problem: FrameProblem):
-    """The canonical tie-break (refimpl/solvers/common.py docstring) written out the slow way:
-    components by repeated flooding over the admissible pairs, indices by a plain sort."""
-    from refimpl.events import EFFECTS, EVENT_NAMES
-    from refimpl.solvers.cpsat import assignment_constraints, resume_constraints
-
-    consts = resolve_constants(problem)
-    iou = problem.iou_map
-    tracks = {t.id: t for t in problem.tracks}
-    dets = {d.id: d for d in problem.detections}
-    pairs = [(t, d) for t, d, _ in problem.iou
-             if (assignment_constraints if tracks[t].state == "active" else resume_constraints)(
-                 problem, consts, iou, tracks[t], dets[d])]
-    nat = natural_key
-    pair = {}
-    todo = [t.id for t in problem.tracks] + [d.id for d in problem.detections]
-    done = set()
-    for start in todo:
-        if start in done:
-            continue
-        comp, frontier = {start}, [start]
-        while frontier:
-            x = frontier.pop()
-            for t, d in pairs:
-                for a, b in ((t, d), (d, t)):
-                    if a == x and b not in comp:
-                        comp.add(b)
-                        frontier.append(b)
-        done |= comp
-        mine = sorted((p for p in pairs if p[0] in comp), key=lambda p: (nat(p[0]), nat(p[1])))
-        pair.update({p: 2 ** q for q, p in enumerate(mine)})
-    event = {}
-    named = {}
-    for h in problem.history:
-        args = [str(a) for a in h.event.args]
-        if len(args) == 2 and args[0] in tracks and args[1] in tracks and args[1] != args[0]:
-            named.setdefault(args[0], set()).add(args[1])
-    for t1 in problem.tracks:
-        over = sorted((t2 for t2 in problem.tracks if t2.id != t1.id and intersection_area(t1.box, t2.box) > 0),
-                      key=lambda t2: (-intersection_area(t1.box, t2.box), nat(t2.id)))
-        others = [t2.id for t2 in over] + sorted(named.get(t1.id, set()) - {t2.id for t2 in over}, key=nat)
-        evs = [f"{n}({t1.id})" for n in EVENT_NAMES if EFFECTS[n][0] == 1]
-        evs += [f"{n}({t1.id},{o})" for n in EVENT_NAMES if EFFECTS[n][0] == 2 for o in others]
-        event.update({e: i for i, e in enumerate(evs)})
-    for d in problem.detections:
-        event.update({e: i for i, e in enumerate(f"{n}({d.id})" for n in EVENT_NAMES if EFFECTS[n][0] == 1)})
-    return pair, event
-
 
 def _mixed_frames(seed: int, n: int):
     rng = random.Random(seed)
