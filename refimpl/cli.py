@@ -238,7 +238,8 @@ def cmd_diff(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if args.benchmark:
-        seqs = [io.load_detections(s) for s in io.benchmark_sequences(args.benchmark, args.data)]
+        from .table6 import load_dataset  # real and simulated (*-sim) benchmarks alike
+        seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
     elif args.dets:
         seqs = [_load_sequence(args)]
     else:
