@@ -244,7 +244,7 @@ def test_sigint_interrupts_a_long_clingo_search_within_a_second():
             return self.wrapped, messages
 
     # 100 tracks, overlap 0.8, not decomposed: the search takes far longer than a second
-    solver = _Solver(decompose=False)
+    solver = _Solver(decompose=False, isolate=False)
     try:
         with pytest.raises(KeyboardInterrupt):
             solver.solve(synthetic_frame(100, 0.8, 2))
@@ -266,3 +266,41 @@ def test_sigint_is_not_swallowed_by_cp_sat():
     finally:
         timer.cancel()
     assert time.perf_counter() - started < 0.3 + 1.0
+
+
+def test_sigint_interrupts_the_isolated_clingo_worker_within_a_second():
+    pytest.importorskip("clingo")
+    from refimpl.solvers.clingo_backend import ClingoSolver
+
+    solver = ClingoSolver(decompose=False)  # clingo in a child process (the default)
+    p = synthetic_frame(100, 0.8, 2)
+    solver._worker.solve_one(synthetic_frame(5, 0.2, 0), None)  # the child is up
+    first = solver._worker._proc
+    sent: list[float] = []
+
+    def fire():
+        sent.append(time.perf_counter())
+        os.kill(os.getpid(), signal.SIGINT)
+
+    timer = threading.Timer(1.0, fire)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            solver.solve(p)
+    finally:
+        timer.cancel()
+    assert sent and time.perf_counter() - sent[0] < 1.0
+    assert not first.is_alive()  # the busy child was killed, not left running
+    assert solver.solve(synthetic_frame(5, 0.2, 0)).optimal  # and a new one serves the next solve
+
+
+def test_the_clingo_worker_is_recycled_and_answers_do_not_change():
+    pytest.importorskip("clingo")
+    from refimpl.solvers.clingo_backend import ClingoSolver
+
+    frames = [synthetic_frame(8, 0.5, s) for s in range(5)]
+    recycled = ClingoSolver(recycle=2, decompose=False)
+    inline = ClingoSolver(isolate=False, decompose=False)
+    for p in frames:
+        assert recycled.solve(p).answer == inline.solve(p).answer
+    assert recycled._worker.started == 3  # 5 solves, 2 per child

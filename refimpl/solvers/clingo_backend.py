@@ -83,12 +83,19 @@ class _Best:
 
 
 class ClingoSolver:
-    """Solves a FrameProblem with clingo and the ASP model in model/*.lp."""
+    """Solves a FrameProblem with clingo and the ASP model in model/*.lp.
+
+    Options: ``threads`` (clingo's --parallel-mode), ``model_files``, ``decompose`` (default True:
+    per sub-problem of independent components, ``part_nodes`` own nodes each), ``isolate``
+    (default True: clingo runs in a child process replaced every ``recycle`` solves, see
+    refimpl.solvers.clingo_worker; False: in this process, whose memory then grows with every
+    symbol clingo sees)."""
 
     name = "clingo"
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
-                 decompose: bool = True, part_nodes: int = 16):
+                 decompose: bool = True, part_nodes: int = 16, isolate: bool = True,
+                 recycle: int | None = None):
         try:
             import clingo
         except ImportError:
@@ -102,6 +109,12 @@ class ClingoSolver:
         self.model_files = (
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
+        self.isolate = isolate
+        self._worker = None
+        if isolate:  # clingo in a child process (refimpl.solvers.clingo_worker): bounded memory
+            from .clingo_worker import DEFAULT_RECYCLE, ClingoWorker
+            self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files},
+                                        DEFAULT_RECYCLE if recycle is None else recycle)
 
     # ------------------------------------------------------------------------------------
     def control(self, problem: FrameProblem, extra: str = ""):
@@ -145,7 +158,8 @@ class ClingoSolver:
                 found = None
             else:
                 share = None if deadline is None else (deadline - now) / (len(parts) - n)
-                found = self._solve_one(part.problem, share)
+                found = (self._worker.solve_one(part.problem, share) if self._worker is not None
+                         else self._solve_one(part.problem, share))
             if found is None:  # out of time without a model: the obvious answer of this part
                 fallback = obvious_hypothesis(part.problem, self.name)
                 if fallback is None:
