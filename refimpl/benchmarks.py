@@ -130,6 +130,8 @@ def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] 
         if b not in SCALE_BACKENDS:
             raise ValueError(f"unknown backend {b!r} (choose from {', '.join(SCALE_BACKENDS)})")
     solvers = {b: get_solver(b) for b in backends}
+    for solver in solvers.values():  # untimed warm-up: imports, clingo's worker process start
+        solver.solve(synthetic_frame(2, 0.2, 0))
     runs: list[FrameRun] = []
     bar = progress(len(sizes) * len(overlaps) * seeds, "bench-scale")
     started = time.perf_counter()
