@@ -272,7 +272,7 @@ def test_sigint_interrupts_the_isolated_clingo_worker_within_a_second():
     pytest.importorskip("clingo")
     from refimpl.solvers.clingo_backend import ClingoSolver
 
-    solver = ClingoSolver(decompose=False)  # clingo in a child process (the default)
+    solver = ClingoSolver(decompose=False, inline_solves=0)  # clingo in a child process
     p = synthetic_frame(100, 0.8, 2)
     solver._worker.solve_one(synthetic_frame(5, 0.2, 0), None)  # the child is up
     first = solver._worker._proc
@@ -299,7 +299,7 @@ def test_the_clingo_worker_is_recycled_and_answers_do_not_change():
     from refimpl.solvers.clingo_backend import ClingoSolver
 
     frames = [synthetic_frame(8, 0.5, s) for s in range(5)]
-    recycled = ClingoSolver(recycle=2, decompose=False)
+    recycled = ClingoSolver(recycle=2, decompose=False, inline_solves=0)
     inline = ClingoSolver(isolate=False, decompose=False)
     for p in frames:
         assert recycled.solve(p).answer == inline.solve(p).answer

@@ -35,6 +35,10 @@ from .fallback import obvious_hypothesis
 POLL = 0.1
 """Seconds between two checks of clingo's asynchronous search (time limit, SIGINT)."""
 
+INLINE_SOLVES = 500
+"""Solves a ClingoSolver runs in its own process before it moves clingo to a worker process: a
+single frame (refimpl solve) pays no process start, a sequence's memory stays bounded."""
+
 PRIORITIES = (10, 3, 2, 1, 0)
 """The cost levels of the model (docs/model-spec.md section 5), highest first."""
 
@@ -87,15 +91,15 @@ class ClingoSolver:
 
     Options: ``threads`` (clingo's --parallel-mode), ``model_files``, ``decompose`` (default True:
     per sub-problem of independent components, ``part_nodes`` own nodes each), ``isolate``
-    (default True: clingo runs in a child process replaced every ``recycle`` solves, see
-    refimpl.solvers.clingo_worker; False: in this process, whose memory then grows with every
-    symbol clingo sees)."""
+    (default True: after ``inline_solves`` solves in this process, clingo runs in a child process
+    replaced every ``recycle`` solves, see refimpl.solvers.clingo_worker; False: always in this
+    process, whose memory then grows with every symbol clingo sees)."""
 
     name = "clingo"
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = 16, isolate: bool = True,
-                 recycle: int | None = None):
+                 recycle: int | None = None, inline_solves: int = INLINE_SOLVES):
         try:
             import clingo
         except ImportError:
@@ -110,6 +114,8 @@ class ClingoSolver:
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
         self.isolate = isolate
+        self.inline_solves = int(inline_solves)
+        self._calls = 0
         self._worker = None
         if isolate:  # clingo in a child process (refimpl.solvers.clingo_worker): bounded memory
             from .clingo_worker import DEFAULT_RECYCLE, ClingoWorker
@@ -158,7 +164,9 @@ class ClingoSolver:
                 found = None
             else:
                 share = None if deadline is None else (deadline - now) / (len(parts) - n)
-                found = (self._worker.solve_one(part.problem, share) if self._worker is not None
+                self._calls += 1
+                found = (self._worker.solve_one(part.problem, share)
+                         if self._worker is not None and self._calls > self.inline_solves
                          else self._solve_one(part.problem, share))
             if found is None:  # out of time without a model: the obvious answer of this part
                 fallback = obvious_hypothesis(part.problem, self.name)
