@@ -73,6 +73,15 @@ def _parse_const(text: str) -> tuple[str, int]:
         raise argparse.ArgumentTypeError(f"expected NAME=INTEGER, got {text!r}") from None
 
 
+def _time_limit(value):
+    """A --time-limit value as the solvers' time-out contract takes it, else a UserError."""
+    from .solvers import check_time_limit
+    try:
+        return check_time_limit(value)
+    except ValueError as exc:
+        raise UserError(f"--time-limit: {exc}") from None
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     from .solvers import get_solver
     from .spec import ProblemFormatError, read_problem, with_constants
@@ -85,7 +94,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         resolve_constants(problem)  # an unknown #const name is the file's (or --const's) mistake
     except ProblemFormatError as exc:
         raise ProblemFormatError(exc.reason, args.file) from None
-    hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
+    hyp = get_solver(args.backend).solve(problem, time_limit=_time_limit(args.time_limit))
     violations = ()
     if args.check:
         from .check import check_answer
@@ -126,7 +135,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     seq = _load_sequence(args)
     if args.backend == "baseline":
         if args.check or args.time_limit is not None or args.scene:
-            raise UserError("--check, --time-limit and --scene need an abduction backend (cpsat or clingo); "
+            raise UserError(f"--check, --time-limit and --scene need an abduction backend ({', '.join(BACKENDS)}); "
                             "the baseline abduces no events")
         rows, events = _run_tracker(seq, args.backend)
     else:
@@ -158,7 +167,7 @@ def _track_abduction(seq, args: argparse.Namespace):
             found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
-    result = track_sequence(seq, backend=args.backend, time_limit=args.time_limit,
+    result = track_sequence(seq, backend=args.backend, time_limit=_time_limit(args.time_limit),
                             observer=check if args.check else None)
     if result.not_optimal_frames:
         print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
@@ -228,15 +237,11 @@ def cmd_table6(args: argparse.Namespace) -> int:
 def cmd_diff(args: argparse.Namespace) -> int:
     from . import io
     from .diff import DiffReport, diff_sequence
-    from .solvers import check_time_limit
     backends = tuple(b.strip() for b in args.backends.split(","))
     if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
         raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
                         f"got {args.backends!r}")
-    try:
-        time_limit = check_time_limit(args.time_limit)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
+    time_limit = _time_limit(args.time_limit)
     if args.benchmark:
         from .table6 import load_dataset  # real and simulated (*-sim) benchmarks alike
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
@@ -281,10 +286,14 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_demo(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table
+    backends = [b.strip() for b in args.backends.split(",")]
+    unknown = [b for b in backends if b not in TRACKERS]
+    if unknown:
+        raise UserError(f"--backends takes trackers out of {','.join(TRACKERS)}, got {','.join(unknown)!r}")
     seq = io.demo_sequence_paths()
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)
     print(f"refimpl demo: {seq.name} ({len(dets.frames)} frames, bundled MOT15 sample)\n")
-    for backend in args.backends.split(","):
+    for backend in backends:
         t0 = time.perf_counter()
         rows, events = _run_tracker(dets, backend)
         secs = time.perf_counter() - t0
@@ -408,7 +417,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
     d.add_argument("--backends", default="baseline,cpsat",
-                   help="comma-separated trackers to run: baseline, cpsat, clingo (default baseline,cpsat)")
+                   help=f"comma-separated trackers to run out of {', '.join(TRACKERS)} (default baseline,cpsat)")
     d.set_defaults(func=cmd_demo)
 
     sc = sub.add_parser("bench-scale", help="time the backends on synthetic frames (or, with --throughput, "
