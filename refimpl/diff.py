@@ -70,7 +70,8 @@ class DiffReport:
     """Answers passed through the checker."""
     first_divergence: Divergence | None = None
     divergences: list[int] = field(default_factory=list)
-    unproven_frames: list[int] = field(default_factory=list)
+    unproven_frames: list[tuple[int, tuple[str, ...]]] = field(default_factory=list)
+    """(frame, the backends that did not prove it optimal in time)."""
 
     @property
     def ok(self) -> bool:
@@ -87,7 +88,14 @@ class DiffReport:
         return (f"{' vs '.join(self.backends)}: {self.frames} frames, {self.proven} proven optimal by every "
                 f"backend: {self.cost_equal} equal cost vectors, {self.answer_equal} equal answers, "
                 f"{self.ties} ties (different answers, equal cost, all valid); {self.not_proven} not proven "
-                f"optimal within the time limit; {self.violations} rule violations in {self.checked} checked answers")
+                f"optimal within the time limit{self._unproven()}; {self.violations} rule violations in "
+                f"{self.checked} checked answers")
+
+    def _unproven(self) -> str:
+        if not self.unproven_frames:
+            return ""
+        shown = ", ".join(f"{t} ({'+'.join(b)})" for t, b in self.unproven_frames[:5])
+        return f" (frame {shown}{', ...' if len(self.unproven_frames) > 5 else ''})"
 
 
 def _explain(answers: Sequence[Hypothesis]) -> str:
@@ -120,7 +128,7 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
         explanation = "; ".join(bad) if bad else None
         if not all(h.optimal for h in answers):
             report.not_proven += 1
-            report.unproven_frames.append(problem.time)
+            report.unproven_frames.append((problem.time, tuple(h.backend for h in answers if not h.optimal)))
         else:
             report.proven += 1
             same_cost = all(h.cost == hyp.cost for h in answers)
