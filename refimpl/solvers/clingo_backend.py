@@ -122,6 +122,11 @@ class ClingoSolver:
             self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files},
                                         DEFAULT_RECYCLE if recycle is None else recycle)
 
+    @property
+    def child_cpu_seconds(self) -> float:
+        """CPU time clingo's worker processes spent in this solver's solves (benchmarks add it)."""
+        return 0.0 if self._worker is None else self._worker.cpu_seconds
+
     # ------------------------------------------------------------------------------------
     def control(self, problem: FrameProblem, extra: str = ""):
         """A clingo Control with the model and the problem loaded, not yet grounded.

@@ -43,8 +43,10 @@ def _serve(conn, options: dict) -> None:
         if job is None:
             return
         problem, time_limit = job
+        cpu = time.process_time()
         try:
-            conn.send(("ok", solver._solve_one(problem, time_limit)))
+            result = solver._solve_one(problem, time_limit)
+            conn.send(("ok", result, time.process_time() - cpu))
         except Exception as exc:  # sent back and raised again in the parent
             conn.send(("error", type(exc).__name__, str(exc)))
 
@@ -60,6 +62,8 @@ class ClingoWorker:
         self._served = 0
         self.started = 0
         """Child processes started so far (tests and benchmarks read it)."""
+        self.cpu_seconds = 0.0
+        """CPU time the children spent in the solves they answered."""
 
     def _start(self) -> None:
         ctx = multiprocessing.get_context("spawn")  # no fork of a process with solver threads
@@ -119,6 +123,7 @@ class ClingoWorker:
             self._kill()
             raise
         if reply[0] == "ok":
+            self.cpu_seconds += reply[2]
             return reply[1]
         _, name, message = reply
         if name == "NoAdmissibleHypothesis":
