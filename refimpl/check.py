@@ -11,26 +11,19 @@ the reasoning over them is written again here.
 
 from __future__ import annotations
 
-from collections import Counter, defaultdict
+from collections import defaultdict
 from dataclasses import dataclass
 
 from .constants import resolve_constants
-from .events import EventState, poss
-from .hypothesis import Cost, Hypothesis
+from .events import EVENT_TABLE, EventState, poss
+from .hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
 from .solvers.common import tiebreak_level
 from .spec import FrameProblem, parse_term
 
-_ACTION_ARITY = {"assign": 2, "resume": 2, "start": 1, "ignore_det": 1,
-                 "end": 1, "halt": 1, "ignore_trk": 1}
-_EXPLAINS = {  # action -> the events that may explain it (explain_* rules)
-    "halt": ("hides_behind", "missing_detections"),
-    "resume": ("unhides_from_behind", "recover"),
-    "start": ("enters_fov",),
-    "end": ("leaves_fov", "lost", "noise"),
-}
-_EXPLAINED_BY = {e: a for a, events in _EXPLAINS.items() for e in events}
-_EVENT_ARITY = {"hides_behind": 2, "unhides_from_behind": 2}  # the others name one track or detection
-_EVENT_ARITY.update({e: 1 for e in _EXPLAINED_BY if e not in _EVENT_ARITY})
+_ACTION_ARITY = {a.name: len(a.args) for a in ACTION_TABLE.values()}
+_EXPLAINED_BY = {e.name: e.explains for e in EVENT_TABLE.values()}  # event -> the action it explains
+_EVENT_ARITY = {e.name: e.arity for e in EVENT_TABLE.values()}
+_EXPLAINED_ACTIONS = frozenset(_EXPLAINED_BY.values())
 
 
 @dataclass(frozen=True)
@@ -143,10 +136,7 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
             bad.append(Violation(f"poss_{event.name}", f"{atom}: its precondition does not hold"))
         explanations[(_EXPLAINED_BY[event.name], event.args[0].name)].append(str(event))
 
-    subjects = {("halt", a[0]) for n, a in actions if n == "halt"}
-    subjects |= {("resume", a[0]) for n, a in actions if n == "resume"}
-    subjects |= {("start", a[0]) for n, a in actions if n == "start"}
-    subjects |= {("end", a[0]) for n, a in actions if n == "end"}
+    subjects = {(n, a[0]) for n, a in actions if n in _EXPLAINED_ACTIONS}
     for action, subject in sorted(subjects | set(explanations)):
         found = explanations.get((action, subject), [])
         if (action, subject) not in subjects:
@@ -170,16 +160,17 @@ def _well_formed_event(atom: str) -> bool:
 def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) -> Cost:
     """The five-level cost vector of an answer (docs/model-spec.md section 5)."""
     iou = problem.iou_map
-    kinds = Counter()
-    level10 = 0
+    level = dict.fromkeys(PRIORITIES, 0)
     for atom in actions:
         term = parse_term(atom)
         args = tuple(a.name for a in term.args)
-        kinds[term.name] += 1
-        if term.name == "assign":
-            level10 -= iou.get(args, 0) + 1
-    level0 = tiebreak_level(problem, actions, event_atoms)  # the canonical tie-break, one definition
-    level3 = 10 * (kinds["ignore_det"] + kinds["ignore_trk"])
-    level2 = kinds["resume"] + 5 * kinds["end"] + 5 * kinds["start"]
-    level1 = sum(c[f"cost_{name}"] for name in event_names)
-    return ((10, level10), (3, level3), (2, level2), (1, level1), (0, level0))
+        spec = ACTION_TABLE.get(term.name)
+        if spec is None:
+            continue
+        if spec.level is not None:
+            level[spec.level] += spec.weight
+        if spec.likelihood_level is not None:
+            level[spec.likelihood_level] -= iou.get(args, 0)
+    level[TIEBREAK_LEVEL] += tiebreak_level(problem, actions, event_atoms)  # the canonical tie-break
+    level[EVENT_LEVEL] += sum(c[EVENT_TABLE[name].cost_constant] for name in event_names)
+    return tuple((p, level[p]) for p in PRIORITIES)

@@ -10,6 +10,8 @@ import warnings
 from pathlib import Path
 from typing import Callable, Sequence
 
+from .progress import Progress
+
 from .solvers import BACKENDS
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
@@ -27,36 +29,9 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .solvers import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout
     from .spec import ProblemFormatError
     from .scene import SceneError
-    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis,
-            SolveTimeout, SceneError)
-
-
-# ---------------------------------------------------------------------------------------
-# Progress
-# ---------------------------------------------------------------------------------------
-
-class Progress:
-    """A progress bar on stderr (a line per step when stderr is not a terminal)."""
-
-    def __init__(self, total: int, label: str, enabled: bool = True):
-        self.total, self.label, self.done, self.enabled = total, label, 0, enabled
-        self.tty = sys.stderr.isatty()
-        self.start = time.perf_counter()
-
-    def step(self, what: str) -> None:
-        self.done += 1
-        if not self.enabled:
-            return
-        width = 24
-        filled = int(width * self.done / max(self.total, 1))
-        bar = "#" * filled + "." * (width - filled)
-        secs = time.perf_counter() - self.start
-        line = f"{self.label} [{bar}] {self.done}/{self.total} {what} ({secs:.1f}s)"
-        if self.tty:
-            sys.stderr.write("\r\x1b[2K" + line + ("\n" if self.done == self.total else ""))
-        else:
-            sys.stderr.write(line + "\n")
-        sys.stderr.flush()
+    from .scaleout import ClusterError
+    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError,
+            ClusterError, SolveTimeout)
 
 
 # ---------------------------------------------------------------------------------------
@@ -116,13 +91,14 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return EXIT_FAILURE if violations else EXIT_OK
 
 
-def _load_sequence(args: argparse.Namespace):
+def _load_sequence(args: argparse.Namespace, path: str | None = None):
     from . import io
+    path = args.dets if path is None else path
     if args.format == "mot":
-        return io.read_mot_detections(args.dets)
+        return io.read_mot_detections(path)
     if args.cls is None:
         raise UserError("--format kitti needs --class Car|Pedestrian|Cyclist")
-    return io.read_kitti_detections(args.dets, args.cls)
+    return io.read_kitti_detections(path, args.cls)
 
 
 def _run_tracker(seq, backend: str):
@@ -130,56 +106,120 @@ def _run_tracker(seq, backend: str):
     return run_tracker(seq, backend)
 
 
+def _plan(args: argparse.Namespace):
+    """Where the tasks of a many-sequence command run (refimpl.scaleout)."""
+    from .scaleout import Plan
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers must be >= 1, got {args.workers}")
+    if args.workers is not None and args.scheduler is not None:
+        raise UserError("give --workers N (a local cluster) or --scheduler ADDRESS (an existing one), not both")
+    return Plan(workers=args.workers or 1, scheduler=args.scheduler)
+
+
+def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
+    """Where each --dets goes: --out for one, or DIR/<sequence>.txt with --out-dir."""
+    from .tasks import results_file_name
+    if (args.out is None) == (args.out_dir is None):
+        raise UserError("give --out FILE (one --dets) or --out-dir DIR (one results file per --dets)")
+    if args.out is not None:
+        if len(args.dets) > 1:
+            raise UserError(f"{len(args.dets)} --dets need --out-dir DIR (one results file per sequence), not --out")
+        return [args.out]
+    if args.events or args.events_json or args.scene:
+        raise UserError("--events, --events-json and --scene write one sequence's file: use them with --out")
+    seen: dict[str, str] = {}
+    for path in args.dets:
+        name = results_file_name(path)
+        if name in seen:
+            raise UserError(f"{seen[name]} and {path} would both write {Path(args.out_dir) / name}")
+        seen[name] = path
+    return [Path(args.out_dir) / name for name in seen]
+
+
+def _parse_img_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.split(","))
+        if w <= 0 or h <= 0:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected W,H (two positive integers, pixels), got {text!r}") from None
+    return w, h
+
+
+def _track_constants(args: argparse.Namespace) -> dict[str, int]:
+    """--const overrides, checked against the model's constants before any frame is tracked."""
+    from .constants import default_constants
+    consts = dict(args.const or [])
+    known = default_constants()
+    unknown = sorted(set(consts) - set(known))
+    if unknown:
+        raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+    if args.img_size is not None and {"img_width", "img_height"} & set(consts):
+        raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
+    return consts
+
+
 def cmd_track(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
     from . import io
-    seq = _load_sequence(args)
-    if args.backend == "baseline":
-        if args.check or args.time_limit is not None or args.scene:
-            raise UserError(f"--check, --time-limit and --scene need an abduction backend ({', '.join(BACKENDS)}); "
-                            "the baseline abduces no events")
-        rows, events = _run_tracker(seq, args.backend)
+    from .scaleout import run_tasks
+    from .tasks import TrackJob, track_job
+    if args.out_format == "kitti" and args.format != "kitti":
+        raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
+                        "it needs --format kitti")
+    if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
+                                       or args.img_size):
+        raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
+                        f"({', '.join(BACKENDS)}); the baseline abduces no events")
+    outs = _track_outputs(args)
+    plan = _plan(args)
+    constants = tuple(_track_constants(args).items()) if args.backend != "baseline" else ()
+    seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
+    if args.img_size is not None:
+        seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
+    time_limit = _time_limit(args.time_limit)
+    jobs = [TrackJob(seq, args.backend, time_limit, args.check, bool(args.scene), constants) for seq in seqs]
+    if len(jobs) == 1 and not plan.distributed:
+        # one sequence in this process: a bar per frame (long sequences take minutes)
+        bar = Progress(len(seqs[0].frames), seqs[0].name, enabled=not args.quiet and args.backend != "baseline",
+                       unit="frame")
+        with bar:
+            outputs = [track_job(jobs[0], on_frame=bar.step if args.backend != "baseline" else None)]
     else:
-        rows, events = _track_abduction(seq, args)
-    io.write_mot_results(args.out, rows, first_frame=seq.first_frame)
-    print(f"{seq.name}: {len(seq.frames)} frames, {len(set(rows[:, 1].tolist())) if len(rows) else 0} tracks"
-          f" -> {args.out}")
+        outputs = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet,
+                            describe=lambda job: job.seq.name)
+    failed = 0
+    for seq, out, path in zip(seqs, outputs, outs):  # input order: the same bytes however tasks ran
+        if out.not_optimal_frames:
+            print(f"refimpl track: {_prefix(seqs, seq)}{out.not_optimal_frames} of {out.frames} frames not proven "
+                  f"optimal within the time limit (best answer found used)", file=sys.stderr)
+        for line in out.violations:
+            print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
+        if args.check:
+            print(f"check: {_prefix(seqs, seq)}{out.checked} answers checked, {len(out.violations)} with violations")
+            if out.violations:
+                failed += len(out.violations)
+                continue  # a backend that broke the model writes no results
+        if args.scene:
+            from .scene import save_scene
+            save_scene(args.scene, out.scene)
+        io.write_results(path, out.rows, args.out_format, first_frame=seq.first_frame, object_class=args.cls)
+        print(f"{seq.name}: {len(seq.frames)} frames, {len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0} "
+              f"tracks -> {path}")
+    if failed:
+        raise CheckFailed(f"{failed} answers break a rule of the model")
     if args.events:
-        from .tracker import write_event_log
-        write_event_log(args.events, events)
+        from .io import write_event_log
+        write_event_log(args.events, outputs[0].events)
     if args.events_json:
-        from .tracker import write_event_log_json
-        write_event_log_json(args.events_json, events)
+        from .io import write_event_log_json
+        write_event_log_json(args.events_json, outputs[0].events)
     return EXIT_OK
 
 
-def _track_abduction(seq, args: argparse.Namespace):
-    """Algorithm 1 with the chosen backend, optionally checking every frame's answer."""
-    from .tracker import track_sequence
-    checked = violations = 0
-
-    def check(problem, hyp) -> None:
-        nonlocal checked, violations
-        from .check import check_answer
-        report = check_answer(problem, hyp)
-        checked += 1
-        if report.violations or report.cost != hyp.cost:
-            violations += 1
-            found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
-            print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
-
-    result = track_sequence(seq, backend=args.backend, time_limit=_time_limit(args.time_limit),
-                            observer=check if args.check else None)
-    if result.not_optimal_frames:
-        print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
-              f"within the time limit (best answer found used)", file=sys.stderr)
-    if args.check:
-        print(f"check: {checked} answers checked, {violations} with violations")
-        if violations:
-            raise CheckFailed(f"{violations} answers break a rule of the model")
-    if args.scene:
-        from .scene import save_scene, scene_from_result
-        save_scene(args.scene, scene_from_result(seq, result))
-    return result.rows, result.events
+def _prefix(seqs, seq) -> str:
+    return f"{seq.name}: " if len(seqs) > 1 else ""
 
 
 class CheckFailed(Exception):
@@ -189,26 +229,36 @@ class CheckFailed(Exception):
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table
-    if args.format == "mot":
-        gt = io.read_mot_ground_truth(args.gt)
+    from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
+    if args.format == "kitti" and args.cls is None:
+        raise UserError("--format kitti needs --class Car|Pedestrian")
+    if Path(args.results).is_dir():
+        run = evaluate_folder(args.results, args.gt, args.format, args.cls)
+        per_seq, overall = run.per_sequence, run.overall
+        if run.unscored:
+            print(f"refimpl eval: note: {len(run.unscored)} ground-truth sequence(s) without a results file "
+                  f"not scored: {', '.join(run.unscored)}", file=sys.stderr)
     else:
-        if args.cls is None:
-            raise UserError("--format kitti needs --class Car|Pedestrian")
-        gt = io.read_kitti_ground_truth(args.gt, args.cls)
-    results = io.read_mot_results(args.results, first_frame=gt.first_frame)
-    per_seq, overall = evaluate_many([(gt.name, gt, results)])
+        if Path(args.gt).is_dir():
+            raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
+        gt = read_ground_truth(args.gt, args.format, args.cls)
+        results = io.read_results(args.results, args.format, args.cls)
+        per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
+    if args.json:
+        io.write_text_atomic(args.json, json.dumps(metrics_json(per_seq, overall), indent=2) + "\n")
     return EXIT_OK
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from .evaluate import format_table
-    from .table6 import TITLES, load_dataset, run_benchmark
+    from .table6 import TITLES, load_dataset
+    from .tasks import RunRequest, run_requests
+    plan = _plan(args)
+    requests = [RunRequest(name, load_dataset(name, args.data), args.backend) for name in args.names]
+    runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
     report = {}
-    for name in args.names:
-        dataset = load_dataset(name, args.data)
-        progress = Progress(len(dataset), f"{name}/{args.backend}", enabled=not args.quiet)
-        run = run_benchmark(name, args.data, args.backend, progress.step, dataset=dataset)
+    for name, run in zip(args.names, runs):
         print(f"## {TITLES[name]} — {args.backend}\n")
         print(format_table(run.per_sequence, run.overall))
         print()
@@ -221,12 +271,22 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 
 
 def cmd_table6(args: argparse.Namespace) -> int:
-    from .table6 import format_table6, run_table6
-    datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else None
-    kwargs = {"datasets": datasets} if datasets else {}
-    runs = run_table6(args.data, args.backend,
-                      step_factory=None if args.quiet else (lambda label, n: Progress(n, label).step), **kwargs)
-    text = format_table6(runs)
+    from .table6 import DATASETS, TABLE6_DATASETS, BenchmarkRun, format_table6, load_dataset
+    from .tasks import RunRequest, run_requests
+    datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
+    unknown = [d for d in datasets if d not in DATASETS]
+    if unknown:
+        raise UserError(f"--datasets takes a comma-separated list out of {','.join(DATASETS)}, "
+                        f"got {','.join(unknown)!r}")
+    plan = _plan(args)
+    requests = []
+    for name in datasets:
+        dataset = load_dataset(name, args.data)
+        requests += [RunRequest(name, dataset, "baseline"), RunRequest(name, dataset, args.backend)]
+    summaries = run_requests(requests, plan, label="table6", quiet=args.quiet)
+    runs = [BenchmarkRun(r.dataset, r.tracker, s.per_sequence, s.overall, s.events, s.frames, s.seconds)
+            for r, s in zip(requests, summaries)]
+    text = format_table6([tuple(runs[i:i + 2]) for i in range(0, len(runs), 2)])
     print(text)
     if args.out:
         from .io import write_text_atomic
@@ -236,31 +296,51 @@ def cmd_table6(args: argparse.Namespace) -> int:
 
 def cmd_diff(args: argparse.Namespace) -> int:
     from . import io
-    from .diff import DiffReport, diff_sequence
+    from .diff import DiffReport
+    from .scaleout import run_tasks
+    from .tasks import DiffJob, diff_job
     backends = tuple(b.strip() for b in args.backends.split(","))
     if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
         raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
                         f"got {args.backends!r}")
     time_limit = _time_limit(args.time_limit)
+    plan = _plan(args)
     if args.benchmark:
         from .table6 import load_dataset  # real and simulated (*-sim) benchmarks alike
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
     elif args.dets:
-        seqs = [_load_sequence(args)]
+        seqs = [_load_sequence(args, path) for path in args.dets]
     else:
-        raise UserError("give --dets PATH (one sequence) or --benchmark NAME (every sequence of a benchmark)")
+        raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
     total = DiffReport(backends)
-    progress = Progress(len(seqs), f"diff {','.join(backends)}", enabled=not args.quiet)
-    for seq in seqs:
-        report = diff_sequence(seq, backends, time_limit=time_limit)
+    reports = run_tasks(diff_job, [DiffJob(seq, backends, time_limit) for seq in seqs], plan,
+                        label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name)
+    for seq, report in zip(seqs, reports):
         total.add(report)
         print(f"{seq.name}: {report.summary()}")
         if report.first_divergence:
             print(report.first_divergence.describe())
-        progress.step(seq.name)
     if len(seqs) > 1:
         print(f"TOTAL: {total.summary()}")
     return EXIT_OK if total.ok else EXIT_FAILURE
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .io import InputFormatError
+    from .sweep import format_sweep, plan_sweep, run_sweep, sweep_json
+    plan = _plan(args)
+    try:
+        sweep = plan_sweep(args.benchmark, args.data, args.backend, args.grid, split=args.split)
+    except InputFormatError:
+        raise
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    result = run_sweep(sweep, plan, quiet=args.quiet)
+    print(format_sweep(result), end="")
+    if args.json:
+        from .io import write_text_atomic
+        write_text_atomic(args.json, json.dumps(sweep_json(result), indent=2, default=float) + "\n")
+    return EXIT_OK
 
 
 def cmd_query(args: argparse.Namespace) -> int:
@@ -340,7 +420,28 @@ def _class_name(text: str) -> str:
     return CLASSES[key]
 
 
+def _add_scaleout(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="run the sequences as tasks on a local Dask cluster of N processes (docs/scale-out.md)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the tasks on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+
+
+def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
+    name, sep, values = text.partition("=")
+    try:
+        if not sep or not name.strip():
+            raise ValueError
+        parsed = tuple(int(v) for v in values.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NAME=INTEGER,INTEGER,..., got {text!r}") from None
+    if len(set(parsed)) != len(parsed):
+        raise argparse.ArgumentTypeError(f"a value is given twice in {text!r}")
+    return name.strip(), parsed
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from .io import RESULT_FORMATS
     p = argparse.ArgumentParser(
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
@@ -360,11 +461,22 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=cmd_solve)
 
     t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
-    t.add_argument("--dets", required=True, help="detections: MOTChallenge det.txt or KITTI PointRCNN file")
+    t.add_argument("--dets", required=True, nargs="+", metavar="PATH",
+                   help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir)")
     t.add_argument("--format", choices=("mot", "kitti"), default="mot")
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     t.add_argument("--backend", choices=TRACKERS, default="baseline")
-    t.add_argument("--out", required=True, help="results file (MOTChallenge format)")
+    t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti)")
+    t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
+                   "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
+    t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
+                   help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
+                        "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
+    t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant (repeatable; as solve --const; abduction backends)")
+    t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
+                   help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
+                        "1242,375 for KITTI, unknown otherwise)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
@@ -373,13 +485,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (cpsat or clingo backend)")
+    _add_scaleout(t)
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_track)
 
-    e = sub.add_parser("eval", help="CLEAR MOT and IDF1 of a results file against ground truth")
-    e.add_argument("results", help="results file (MOTChallenge format)")
-    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file")
+    e = sub.add_parser("eval", help="HOTA, CLEAR MOT and IDF1 of a results file, or of a folder of them "
+                                     "(one <SEQ>.txt per sequence), against ground truth")
+    e.add_argument("results", help="results file, or folder of <SEQ>.txt results files (MOTChallenge lines; "
+                                   "for --format kitti also the KITTI tracking format)")
+    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
+                   "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
     e.add_argument("--format", choices=("mot", "kitti"), default="mot")
     e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
+    e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
+                                  "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
@@ -389,6 +508,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--backend", choices=TRACKERS, default="baseline")
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
@@ -397,11 +517,12 @@ def build_parser() -> argparse.ArgumentParser:
     t6.add_argument("--datasets", help="comma-separated subset of mot15,kitti-car,kitti-ped,mot17-sim,mot20-01-sim")
     t6.add_argument("--out", help="also write the markdown table to this file")
     t6.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(t6)
     t6.set_defaults(func=cmd_table6)
 
     x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
                                      "exit 1 on any cost disagreement")
-    x.add_argument("--dets", help="detections of one sequence")
+    x.add_argument("--dets", nargs="+", metavar="PATH", help="detections of one or more sequences")
     x.add_argument("--format", choices=("mot", "kitti"), default="mot")
     x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
     x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
@@ -413,7 +534,24 @@ def build_parser() -> argparse.ArgumentParser:
                    help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
                         "is reported as such")
     x.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(x)
     x.set_defaults(func=cmd_diff)
+
+    sw = sub.add_parser("sweep", help="track and score a benchmark for every combination of model constants "
+                                      "(one task per setting and sequence); one table")
+    sw.add_argument("--benchmark", required=True, choices=BENCHMARKS, metavar="NAME",
+                    help=f"one of {', '.join(BENCHMARKS)}")
+    sw.add_argument("--grid", required=True, action="append", type=_parse_grid, metavar="NAME=V1,V2,...",
+                    help="a model constant and its integer values (repeatable; the settings are all combinations)")
+    sw.add_argument("--split", choices=("all", "tune", "val"), default="all",
+                    help="KITTI: tune = the 10 training sequences outside evaluate_tracking.seqmap.val, "
+                         "val = the 11 in it (default all)")
+    sw.add_argument("--backend", choices=BACKENDS, default="cpsat")
+    sw.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    sw.add_argument("--json", help="also write every setting's overall scores as JSON")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(sw)
+    sw.set_defaults(func=cmd_sweep)
 
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
     d.add_argument("--backends", default="baseline,cpsat",
@@ -476,7 +614,12 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    warnings.showwarning = _one_line_warning
+    with warnings.catch_warnings():  # one-line warnings for this command only, restored after it
+        warnings.showwarning = _one_line_warning
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         return args.func(args)
     except _user_errors() as exc:

@@ -1,4 +1,4 @@
-"""CLEAR MOT and IDF1 scores of tracking results against ground truth, computed with motmetrics.
+"""CLEAR MOT and IDF1 (motmetrics) and HOTA (TrackEval) of tracking results against ground truth.
 
 Per frame, before counting (the MOTChallenge devkit / KITTI devkit conventions):
 
@@ -15,8 +15,9 @@ The rest is motmetrics: a ``MOTAccumulator`` fed with the IoU distance ``1 - IoU
 distance > 1 - threshold cannot match) for every frame of the sequence, and its standard
 metrics.  MOTP is reported as MOTChallenge does, as an overlap (1 - mean distance).
 
-motmetrics 1.4.0 calls ``np.asfarray``, which NumPy 2 removed; ``_ensure_numpy_compat`` adds
-an equivalent before motmetrics is first used (never at import time of refimpl).
+motmetrics 1.4.0's ``distances.iou_matrix`` calls ``np.asfarray``, which NumPy 2 removed;
+``_iou_distances`` computes the same matrix with motmetrics' own ``boxiou`` instead, so NumPy is
+never patched.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from .geometry import iou_matrix, xywh_to_xyxy
+from .hota import ALPHA_KEY, combine_hota, hota_sequence
 from .io import GroundTruth
 
 DONTCARE_MIN_COVER = 0.5
@@ -44,32 +46,24 @@ _MM_METRICS = ("mota", "motp", "idf1", "idtp", "idfp", "idfn", "num_objects", "n
 
 
 # ---------------------------------------------------------------------------------------
-# NumPy 2 compatibility for motmetrics 1.4.0
-
-
-def _asfarray(a, dtype=np.float64):
-    """NumPy 1.x ``np.asfarray``: ``a`` as an array of a floating type (float64 unless dtype is inexact)."""
-    dtype = np.dtype(dtype)
-    if not np.issubdtype(dtype, np.inexact):
-        dtype = np.dtype(np.float64)
-    return np.asarray(a, dtype=dtype)
-
-
-def _ensure_numpy_compat() -> None:
-    """Give NumPy 2 back ``np.asfarray`` (removed in 2.0, still called by motmetrics 1.4.0).
-
-    Only sets the attribute if it is missing, so it is a no-op on NumPy 1.x; idempotent.
-    """
-    if not hasattr(np, "asfarray"):
-        np.asfarray = _asfarray
+# motmetrics, without touching NumPy
 
 
 def _motmetrics():
-    """motmetrics, imported lazily (it pulls in pandas) and made NumPy-2 safe."""
-    _ensure_numpy_compat()
+    """motmetrics, imported lazily (it pulls in pandas)."""
     import motmetrics
 
     return motmetrics
+
+
+def _iou_distances(mm, objs: np.ndarray, hyps: np.ndarray, max_iou: float) -> np.ndarray:
+    """motmetrics.distances.iou_matrix, computed with its own boxiou: that function calls
+    ``np.asfarray``, which NumPy 2 removed, and refimpl does not patch NumPy for everyone."""
+    if np.size(objs) == 0 or np.size(hyps) == 0:
+        return np.empty((0, 0))
+    objs, hyps = np.asarray(objs, dtype=np.float64), np.asarray(hyps, dtype=np.float64)
+    dist = 1 - mm.distances.boxiou(objs[:, None], hyps[None, :])
+    return np.where(dist > max_iou, np.nan, dist)
 
 
 # ---------------------------------------------------------------------------------------
@@ -172,9 +166,11 @@ def _preprocess(gt: GroundTruth, res: np.ndarray, iou_threshold: float,
 def evaluate_sequence(gt: GroundTruth, results, iou_threshold: float = 0.5) -> dict:
     """CLEAR MOT + IDF1 of (n, 6) ``frame, id, x, y, w, h`` results on one sequence.
 
-    Keys: mota, motp, idf1 (fractions; motp as overlap), mt, ml (counts), fp, fn, idsw, frag,
-    num_gt, num_frames, plus pt, num_matches, num_predictions, num_unique_objects, idtp, idfp,
-    idfn and the preprocessing counts removed_distractor / removed_dontcare.  A ratio with a zero
+    Keys: hota, deta, assa, mota, motp, idf1 (fractions; motp as overlap), mt, ml (counts), fp,
+    fn, idsw, frag, num_gt, num_frames, plus pt, num_matches, num_predictions, num_unique_objects,
+    idtp, idfp, idfn, the preprocessing counts removed_distractor / removed_dontcare, and
+    ``hota_alpha`` (TrackEval's per-alpha HOTA fields, used by ``combine``).  HOTA / DetA / AssA are
+    TrackEval's, computed on the same preprocessed rows and frames (``refimpl.hota``).  A ratio with a zero
     denominator (no targets, no matches) is NaN.  Frames evaluated: every frame of the ground
     truth plus any result frame outside it (those hypotheses are false positives).
     """
@@ -195,14 +191,23 @@ def evaluate_sequence(gt: GroundTruth, results, iou_threshold: float = 0.5) -> d
     h0, h1 = _frame_slices(res[:, 0], numbers)
     acc = mm.MOTAccumulator(auto_id=False)
     max_dist = 1.0 - iou_threshold
+    frame_gt_ids, frame_hyp_ids, frame_iou = [], [], []  # the same rows, for HOTA
     for k, frame in enumerate(numbers):
         oboxes, hboxes = o_boxes[o0[k]:o1[k]], res[h0[k]:h1[k], 2:6]
-        dists = mm.distances.iou_matrix(oboxes, hboxes, max_iou=max_dist)
-        acc.update(o_ids[o0[k]:o1[k]], res[h0[k]:h1[k], 1].astype(np.int64), dists, frameid=int(frame))
+        gids, hids = o_ids[o0[k]:o1[k]], res[h0[k]:h1[k], 1].astype(np.int64)
+        dists = _iou_distances(mm, oboxes, hboxes, max_dist)
+        acc.update(gids, hids, dists, frameid=int(frame))
+        frame_gt_ids.append(gids)
+        frame_hyp_ids.append(hids)
+        frame_iou.append(iou_matrix(oboxes, hboxes))
     s = mm.metrics.create().compute(acc, metrics=list(_MM_METRICS), return_dataframe=False)
+    hota = hota_sequence(frame_gt_ids, frame_hyp_ids, frame_iou)
 
     matches, num_gt, num_pred = int(s["num_detections"]), int(s["num_objects"]), int(s["num_predictions"])
     return {
+        "hota": hota["hota"],
+        "deta": hota["deta"],
+        "assa": hota["assa"],
         "mota": float(s["mota"]) if num_gt else math.nan,
         "motp": 1.0 - float(s["motp"]) if matches else math.nan,
         "idf1": float(s["idf1"]) if num_gt + num_pred else math.nan,
@@ -223,6 +228,7 @@ def evaluate_sequence(gt: GroundTruth, results, iou_threshold: float = 0.5) -> d
         "idfn": int(round(float(s["idfn"]))),
         "removed_distractor": removed_distractor,
         "removed_dontcare": removed_dontcare,
+        ALPHA_KEY: hota[ALPHA_KEY],
     }
 
 
@@ -234,7 +240,8 @@ def combine(per_sequence: Iterable[dict]) -> dict:
     """The overall row of several sequences, as MOT benchmarks compute it (from summed counts).
 
     MOTA = 1 - (FN + FP + IDSW) / num_gt, MOTP weighted by matches, IDF1 = 2 IDTP / (2 IDTP +
-    IDFP + IDFN), all over the summed counts.
+    IDFP + IDFN), all over the summed counts; HOTA / DetA / AssA as TrackEval combines sequences
+    (per-alpha TP / FN / FP summed, AssA weighted by TP, then the means over alpha).
     """
     rows = list(per_sequence)
     out = {k: sum(int(r[k]) for r in rows) for k in _COUNT_KEYS}
@@ -242,6 +249,7 @@ def combine(per_sequence: Iterable[dict]) -> dict:
     out["motp"] = _safe_div(sum(r["motp"] * r["num_matches"] for r in rows if r["num_matches"]),
                             out["num_matches"])
     out["idf1"] = _safe_div(2 * out["idtp"], 2 * out["idtp"] + out["idfp"] + out["idfn"])
+    out.update(combine_hota(rows))  # from the summed per-alpha counts (refimpl.hota)
     return out
 
 
@@ -261,12 +269,13 @@ def _pct(v: float) -> str:
 
 
 def format_table(per_sequence: dict[str, dict], overall: dict) -> str:
-    """A markdown table: one row per sequence plus OVERALL; MOTA/MOTP/IDF1 in percent."""
-    head = "| Sequence | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
-    rule = "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    """A markdown table: one row per sequence plus OVERALL; HOTA .. IDF1 in percent."""
+    head = "| Sequence | HOTA | DetA | AssA | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
+    rule = "|---|" + "---:|" * 12
 
     def row(name: str, r: dict) -> str:
-        cells = [name, _pct(r["mota"]), _pct(r["motp"]), _pct(r["idf1"]),
+        cells = [name, *(_pct(r[k]) for k in ("hota", "deta", "assa")),
+                 _pct(r["mota"]), _pct(r["motp"]), _pct(r["idf1"]),
                  *(str(int(r[k])) for k in ("mt", "ml", "fp", "fn", "idsw", "frag"))]
         return "| " + " | ".join(cells) + " |"
 

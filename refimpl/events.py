@@ -35,22 +35,16 @@ to ground them over the tracks of the problem).
 
 from __future__ import annotations
 
-from typing import Iterable, Mapping, Union
+from dataclasses import dataclass
+from typing import Callable, Iterable, Mapping, Union
 
-from .relations import near_border, overlapping_top
+from .geometry import intersection_area
+from .relations import near_border, outside_fov, overlapping_top
 from .spec import FrameProblem, HistoryEvent, Term, TrackPrediction, parse_term
 
 # ---------------------------------------------------------------------------------------
 # Fluents, values, initial values
 # ---------------------------------------------------------------------------------------
-
-FLUENT_VALUES: Mapping[str, tuple[str, ...]] = {
-    "visibility": ("fully_visible", "partially_visible", "not_visible"),
-    "hidden_by": ("true", "false"),
-    "clipped": ("true", "false"),
-    "in_fov": ("true", "false"),
-}
-"""possVal/2 of Appendix A (in_fov from the paper's fluent table)."""
 
 FLUENT_ARITY: Mapping[str, int] = {"visibility": 1, "hidden_by": 2, "clipped": 1, "in_fov": 1}
 
@@ -68,32 +62,27 @@ INITIAL_VALUE: Mapping[str, str] = {
 OTHERS = "*"
 """In an effect's argument list: every current track X other than the event's first argument."""
 
-EFFECTS: Mapping[str, tuple[int, tuple[tuple[str, tuple[Union[int, str], ...], str], ...]]] = {
+Effect = tuple[str, tuple[Union[int, str], ...], str]
+"""(fluent, argument positions of the event or OTHERS, value): one causesValue rule."""
+
+_EFFECTS: Mapping[str, tuple[Effect, ...]] = {
     # Appendix A: causesValue(hides_behind(T1,T2), visibility(T1), not_visible) and
     # causesValue(hides_behind(T1,T2), hidden_by(T1,T2), true).
-    "hides_behind": (2, (("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true"))),
+    "hides_behind": (("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true")),
     # refimpl decision (docs/model-spec.md): the inverse of hides_behind.
-    "unhides_from_behind": (2, (("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false"))),
+    "unhides_from_behind": (("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false")),
     # Appendix A: causesValue(missing_detections(T), clipped(T), true).
-    "missing_detections": (1, (("clipped", (0,), "true"),)),
+    "missing_detections": (("clipped", (0,), "true"),),
     # refimpl decision (docs/model-spec.md): recover resets everything halting may have set.
-    "recover": (1, (("clipped", (0,), "false"), ("visibility", (0,), "fully_visible"),
-                    ("hidden_by", (0, OTHERS), "false"))),
+    "recover": (("clipped", (0,), "false"), ("visibility", (0,), "fully_visible"),
+                ("hidden_by", (0, OTHERS), "false")),
     # refimpl decision (docs/model-spec.md), after the paper's in_fov fluent.
-    "enters_fov": (1, (("in_fov", (0,), "true"),)),
-    "leaves_fov": (1, (("in_fov", (0,), "false"),)),
+    "enters_fov": (("in_fov", (0,), "true"),),
+    "leaves_fov": (("in_fov", (0,), "false"),),
     # refimpl decision (docs/model-spec.md): the track ends, nothing to record.
-    "lost": (1, ()),
-    "noise": (1, ()),
+    "lost": (),
+    "noise": (),
 }
-"""event name -> (arity, ((fluent, argument positions or OTHERS, value), ...)).
-
-An event whose name is not here, or whose arity differs, has no effect (it matches no
-causesValue rule)."""
-
-EVENT_NAMES = tuple(EFFECTS)
-COST_CONSTANT: Mapping[str, str] = {name: f"cost_{name}" for name in EVENT_NAMES}
-"""The model constant holding each event's priority-1 cost."""
 
 FluentKey = tuple[str, ...]
 FluentLike = Union[Term, str, tuple]
@@ -213,14 +202,14 @@ class EventState:
         name, args = _event_parts(event)
         self._occurs.add((f"{name}({','.join(args)})" if args else name, t))
         # derived, not fluents (docs/model-spec.md section 2)
-        if name == "enters_fov" and len(args) == 1:
+        spec = EVENT_TABLE.get(name)
+        if spec is None or spec.arity != len(args):
+            return  # an unknown event, or a known one with another arity, has no effect
+        if name in _STARTING:
             self._started[args[0]] = max(t, self._started.get(args[0], t))
-        if (name == "hides_behind" and len(args) == 2) or (name == "missing_detections" and len(args) == 1):
+        if name in _HALTING:
             self._halted[args[0]] = max(t, self._halted.get(args[0], t))
-        spec = EFFECTS.get(name)
-        if spec is None or spec[0] != len(args):
-            return
-        for fluent, positions, value in spec[1]:
+        for fluent, positions, value in spec.effects:
             if OTHERS in positions:
                 self._set_others(args[positions[0]], value)  # type: ignore[index]
             else:
@@ -305,7 +294,8 @@ def _not_hidden(state: EventState, trk: str) -> bool:
 
 
 def poss_hides_behind(state: EventState, constants: Mapping[str, int],
-                      trk1: TrackPrediction, trk2: TrackPrediction) -> bool:
+                      trk1: TrackPrediction, trk2: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """Appendix A: poss(hides_behind(T1,T2)) :- position(overlapping_top,T1,T2),
     not holds_at(visibility(T1),not_visible), not holds_at(visibility(T2),not_visible).
     overlapping_top is refimpl.relations.overlapping_top (refimpl decision, docs/model-spec.md section 3)."""
@@ -317,14 +307,16 @@ def poss_hides_behind(state: EventState, constants: Mapping[str, int],
     )
 
 
-def poss_missing_detections(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_missing_detections(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """Appendix A: poss(missing_detections(T)) :- holds_at(clipped(T),false),
     not holds_at(visibility(T),not_visible)."""
     return state.holds_at(("clipped", trk.id), "false") and _not_hidden(state, trk.id)
 
 
 def poss_unhides_from_behind(state: EventState, constants: Mapping[str, int],
-                             trk1: TrackPrediction, trk2: TrackPrediction) -> bool:
+                             trk1: TrackPrediction, trk2: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """Section 4.1.1: poss(unhides_from_behind(T1,T2)) :- holds_at(visibility(T1),not_visible),
     not holds_at(visibility(T2),not_visible); refimpl decision (docs/model-spec.md): also
     T1 != T2 and holds_at(hidden_by(T1,T2),true)."""
@@ -336,65 +328,155 @@ def poss_unhides_from_behind(state: EventState, constants: Mapping[str, int],
     )
 
 
-def poss_recover(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_recover(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): clipped(T)=true or visibility(T)=not_visible."""
     return state.holds_at(("clipped", trk.id), "true") or state.holds_at(("visibility", trk.id), "not_visible")
 
 
-def poss_enters_fov(state: EventState, constants: Mapping[str, int], det_id: str) -> bool:
+def poss_enters_fov(state: EventState, constants: Mapping[str, int], det_id: str,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): always possible for a detection."""
     return True
 
 
-def poss_leaves_fov(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_leaves_fov(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): in_fov(T)=true and near_border(T)."""
     return state.holds_at(("in_fov", trk.id), "true") and near_border(
         trk.box, constants["img_width"], constants["img_height"], constants["border_margin"])
 
 
-def poss_lost(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
-    """refimpl decision (docs/model-spec.md): halted_at(T,Tm) and curr_time - Tm >= L, with
-    L = lost_after_hidden if visibility(T)=not_visible, else lost_after_missing."""
+def kept_in_mind(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+                 tracks: Mapping[str, TrackPrediction]) -> bool:
+    """refimpl rule (docs/model.md, "Out of sight, not out of mind"; grows from Section 4.1.2's
+    anticipate(unhides_from_behind(T1,T2),T) :- holds_at(hidden_by(T1,T2)), topology(proper_part,T1,T2)):
+    a hidden track is kept in mind while some current track T2 it is hidden_by still overlaps its
+    predicted box and that box is not entirely outside the field of view."""
+    if outside_fov(trk.box, constants["img_width"], constants["img_height"]):
+        return False
+    return any(t2 != trk.id and state.holds_at(("hidden_by", trk.id, t2), "true")
+               and intersection_area(trk.box, other.box) > 0 for t2, other in tracks.items())
+
+
+def poss_lost(state: EventState, constants: Mapping[str, int], trk: TrackPrediction, *,
+              tracks: Mapping[str, TrackPrediction]) -> bool:
+    """refimpl decision (docs/model.md): halted_at(T,Tm) and either curr_time - Tm >= L and T is not
+    kept in mind (L = lost_after_hidden if visibility(T)=not_visible, else lost_after_missing), or
+    curr_time - Tm >= lost_after_hidden_max (the safety bound, whatever the scene says)."""
     tm = state.halted_at(trk.id)
     if tm is None:
         return False
+    age = constants["curr_time"] - tm
+    if age >= constants["lost_after_hidden_max"]:
+        return True
     hidden = state.holds_at(("visibility", trk.id), "not_visible")
     limit = constants["lost_after_hidden"] if hidden else constants["lost_after_missing"]
-    return constants["curr_time"] - tm >= limit
+    return age >= limit and not kept_in_mind(state, constants, trk, tracks)
 
 
-def poss_noise(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+def poss_noise(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+        *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
     """refimpl decision (docs/model-spec.md): started_at(T,Tm) and curr_time - Tm <= noise_max_age."""
     tm = state.started_at(trk.id)
     return tm is not None and constants["curr_time"] - tm <= constants["noise_max_age"]
 
 
-POSS = {
-    "hides_behind": poss_hides_behind,
-    "missing_detections": poss_missing_detections,
-    "unhides_from_behind": poss_unhides_from_behind,
-    "recover": poss_recover,
-    "enters_fov": poss_enters_fov,
-    "leaves_fov": poss_leaves_fov,
-    "lost": poss_lost,
-    "noise": poss_noise,
-}
-"""event name -> poss function (state, constants, *arguments as TrackPrediction / det id)."""
+# ---------------------------------------------------------------------------------------
+# The event table: one place for everything refimpl knows about an event
+# ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class EventType:
+    """One abducible event of the paper's Table "Events" (Appendix A ``event/1``).
+
+    Every consumer derives what it needs from here: the event calculus (effects, started_at /
+    halted_at), the CP-SAT model and its fast path (which action it explains, its cost, its
+    precondition), the independent checker (arity, explanation rule, precondition), the scene
+    (episodes and sentences) and the plots (marker and colour).  model/events.lp holds the same
+    event as ASP rules; tests/test_event_table.py fails when the two disagree or a consumer
+    misses an event.
+    """
+
+    name: str
+    arity: int
+    """2 for a pair of tracks (Trk1, Trk2); 1 for one track (or, for ``start``, one detection)."""
+    explains: str
+    """The action it explains (explain_* rules): halt, resume, start or end."""
+    effects: tuple[Effect, ...]
+    """causesValue rules: (fluent, argument positions or OTHERS, value)."""
+    poss: Callable[..., bool]
+    """Its precondition: poss(state, constants, *arguments as TrackPrediction (or the det id for a
+    start), tracks=the frame's current tracks by id) -- some preconditions look at other tracks."""
+    phrase: str
+    """How a sentence says it happened to a track, followed by the second track for a pair event
+    ('went out of sight behind', 'came out from behind', 'was given up as lost', ...)."""
+    closing: str
+    """How a sentence says a halt ended with it ('reappeared', 'was detected again', ...); for a
+    halting event, how the scene calls the halt ('hidden' or 'missing')."""
+    marker: str
+    colour: str
+    """Its marker and colour in plots."""
+
+    @property
+    def cost_constant(self) -> str:
+        """The model constant holding its priority-1 cost (model/constants.lp)."""
+        return f"cost_{self.name}"
+
+
+EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
+    EventType("hides_behind", 2, "halt", _EFFECTS["hides_behind"], poss_hides_behind,
+              "went out of sight behind", "hidden", "v", "#d62728"),
+    EventType("missing_detections", 1, "halt", _EFFECTS["missing_detections"], poss_missing_detections,
+              "was missed by the detector", "missing", "x", "#e377c2"),
+    EventType("unhides_from_behind", 2, "resume", _EFFECTS["unhides_from_behind"], poss_unhides_from_behind,
+              "came out from behind", "reappeared", "^", "#9467bd"),
+    EventType("recover", 1, "resume", _EFFECTS["recover"], poss_recover,
+              "was detected again", "was detected again", "+", "#17becf"),
+    EventType("enters_fov", 1, "start", _EFFECTS["enters_fov"], poss_enters_fov,
+              "entered the field of view", "entered the field of view", ">", "#2ca02c"),
+    EventType("leaves_fov", 1, "end", _EFFECTS["leaves_fov"], poss_leaves_fov,
+              "left the field of view", "left the field of view", "<", "#8c564b"),
+    EventType("lost", 1, "end", _EFFECTS["lost"], poss_lost,
+              "was given up as lost", "was given up as lost", "s", "#000000"),
+    EventType("noise", 1, "end", _EFFECTS["noise"], poss_noise,
+              "was discarded as noise", "was discarded as noise", "D", "#bcbd22"),
+)}
+"""event name -> EventType, in the order of the paper's Table "Events"."""
+
+EXPLAINED_ACTIONS = ("halt", "resume", "start", "end")
+"""The actions that need exactly one explaining event (assign and the ignores need none)."""
+
+
+def explaining(action: str) -> tuple[EventType, ...]:
+    """The events that may explain an action, in table order (() for assign and the ignores)."""
+    return tuple(e for e in EVENT_TABLE.values() if e.explains == action)
+
+
+EVENT_NAMES = tuple(EVENT_TABLE)
+EFFECTS: Mapping[str, tuple[int, tuple[Effect, ...]]] = {n: (e.arity, e.effects) for n, e in EVENT_TABLE.items()}
+"""event name -> (arity, effects): an event whose name is not here, or whose arity differs, has
+no effect (it matches no causesValue rule)."""
+COST_CONSTANT: Mapping[str, str] = {n: e.cost_constant for n, e in EVENT_TABLE.items()}
+POSS: Mapping[str, Callable[..., bool]] = {n: e.poss for n, e in EVENT_TABLE.items()}
+_HALTING = frozenset(e.name for e in explaining("halt"))
+_STARTING = frozenset(e.name for e in explaining("start"))
 
 
 def poss(event: Union[Term, str], problem: FrameProblem, state: EventState,
          constants: Mapping[str, int]) -> bool:
     """poss(E) for one event over the problem's current tracks/detections; False for unknown ids."""
     name, args = _event_parts(event)
-    fn = POSS.get(name)
-    if fn is None or len(args) != EFFECTS[name][0]:
+    spec = EVENT_TABLE.get(name)
+    if spec is None or len(args) != spec.arity:
         return False
-    if name == "enters_fov":
+    fn = spec.poss
+    if spec.explains == "start":
         return any(d.id == args[0] for d in problem.detections)
     tracks = {t.id: t for t in problem.tracks}
     if any(a not in tracks for a in args):
         return False
-    return fn(state, constants, *(tracks[a] for a in args))
+    return fn(state, constants, *(tracks[a] for a in args), tracks=tracks)
 
 
 def possible_events(problem: FrameProblem, state: EventState,
@@ -406,14 +488,17 @@ def possible_events(problem: FrameProblem, state: EventState,
     """
     out: dict[str, bool] = {}
     tracks = problem.tracks
-    for t in tracks:
-        for name in ("missing_detections", "recover", "leaves_fov", "lost", "noise"):
-            out[f"{name}({t.id})"] = POSS[name](state, constants, t)
-    for t1 in tracks:
-        for t2 in tracks:
-            if t1.id != t2.id:
-                out[f"hides_behind({t1.id},{t2.id})"] = poss_hides_behind(state, constants, t1, t2)
-                out[f"unhides_from_behind({t1.id},{t2.id})"] = poss_unhides_from_behind(state, constants, t1, t2)
-    for d in problem.detections:
-        out[f"enters_fov({d.id})"] = poss_enters_fov(state, constants, d.id)
+    by_id = {t.id: t for t in tracks}
+    for spec in EVENT_TABLE.values():
+        if spec.explains == "start":
+            for d in problem.detections:
+                out[f"{spec.name}({d.id})"] = spec.poss(state, constants, d.id, tracks=by_id)
+        elif spec.arity == 1:
+            for t in tracks:
+                out[f"{spec.name}({t.id})"] = spec.poss(state, constants, t, tracks=by_id)
+        else:
+            for t1 in tracks:
+                for t2 in tracks:
+                    if t1.id != t2.id:
+                        out[f"{spec.name}({t1.id},{t2.id})"] = spec.poss(state, constants, t1, t2, tracks=by_id)
     return out

@@ -11,13 +11,59 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
-ACTIONS = ("assign", "start", "end", "halt", "resume", "ignore_det", "ignore_trk")
-EVENTS = (
-    "hides_behind", "unhides_from_behind", "missing_detections", "recover",
-    "enters_fov", "leaves_fov", "lost", "noise",
-)
+PRIORITIES = (10, 5, 3, 2, 1, 0)
+"""The cost levels, highest priority first (model/optimisation.lp, docs/model.md "Optimisation"):
+@10 matching likelihood and number of assignments (maximised), @5 matching likelihood of the
+resumed tracks (maximised; refimpl decision, evidence-based resume), @3 ignored detections and
+tracks, @2 resumed, ended and started tracks, @1 the cost of the abduced events, @0 the tie-break."""
+
+EVENT_LEVEL = 1
+"""The level at which each abduced event costs its cost_<event> constant."""
+TIEBREAK_LEVEL = 0
+
+
+@dataclass(frozen=True)
+class ActionType:
+    """One assignment action of the paper (Appendix A): its arguments and what it costs.
+
+    ``level``/``weight``: the action costs ``weight`` at priority ``level`` (None: no cost).
+    ``likelihood_level``: the action's matching likelihood ML = IoU x 100000 of its (track,
+    detection) pair is maximised there, i.e. it costs -ML at that level: assign at @10
+    (model/optimisation.lp level10_likelihood, with level10_count: -(ML + 1) in all), resume at @5
+    (level5_resume_likelihood).
+    """
+
+    name: str
+    args: tuple[str, ...]
+    """'trk' / 'det' for each argument."""
+    level: int | None
+    weight: int
+    likelihood_level: int | None = None
+
+
+ACTION_TABLE: dict[str, ActionType] = {a.name: a for a in (
+    ActionType("assign", ("trk", "det"), 10, -1, 10),
+    ActionType("start", ("det",), 2, 5),
+    ActionType("end", ("trk",), 2, 5),
+    ActionType("halt", ("trk",), None, 0),
+    ActionType("resume", ("trk", "det"), 2, 1, 5),
+    ActionType("ignore_det", ("det",), 3, 10),
+    ActionType("ignore_trk", ("trk",), 3, 10),
+)}
+"""action name -> ActionType; the one copy of model/optimisation.lp's per-action weights."""
 
 Cost = tuple[tuple[int, int], ...]
+
+
+def action_cost(name: str, likelihood: int = 0) -> tuple[int, ...]:
+    """The cost an action adds to each level, in PRIORITIES order (likelihood: the ML of its pair)."""
+    spec = ACTION_TABLE[name]
+    out = [0] * len(PRIORITIES)
+    if spec.level is not None:
+        out[PRIORITIES.index(spec.level)] += spec.weight
+    if spec.likelihood_level is not None:
+        out[PRIORITIES.index(spec.likelihood_level)] -= likelihood
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -41,6 +87,41 @@ class Hypothesis:
     def answer(self) -> tuple[str, ...]:
         """Actions and events together, sorted: what two backends must agree on."""
         return tuple(sorted(self.actions + self.events))
+
+    def _actions(self, name: str) -> tuple[tuple[str, ...], ...]:
+        return tuple(args for n, args in map(parse_action, self.actions) if n == name)
+
+    @property
+    def assignments(self) -> tuple[tuple[str, str], ...]:
+        """(track id, detection id) of every assign, in sorted atom order."""
+        return self._actions("assign")  # type: ignore[return-value]
+
+    @property
+    def resumes(self) -> tuple[tuple[str, str], ...]:
+        """(track id, detection id) of every resume."""
+        return self._actions("resume")  # type: ignore[return-value]
+
+    @property
+    def starts(self) -> tuple[str, ...]:
+        """Detection ids that start a new track."""
+        return tuple(a[0] for a in self._actions("start"))
+
+    @property
+    def halts(self) -> tuple[str, ...]:
+        return tuple(a[0] for a in self._actions("halt"))
+
+    @property
+    def ends(self) -> tuple[str, ...]:
+        return tuple(a[0] for a in self._actions("end"))
+
+    @property
+    def event_terms(self) -> tuple[tuple[str, tuple[str, ...]], ...]:
+        """(event name, argument ids) of every abduced event, in sorted atom order."""
+        out = []
+        for atom in self.events:
+            inner = atom[len("occurs_at("):atom.rindex(",")] if atom.startswith("occurs_at(") else atom
+            out.append(parse_action(inner))
+        return tuple(out)
 
     def to_json_dict(self) -> dict:
         return {

@@ -59,6 +59,11 @@ decimals, written atomically (temporary file in the same folder, then ``os.repla
 numbers are written as the tracker numbered them, so KITTI results stay 0-based: pass
 ``first_frame=0`` to ``write_mot_results`` / ``read_mot_results`` for them.
 
+KITTI tracking results (``write_kitti_results`` / ``read_kitti_results``): the label_02 layout
+plus a score, ``frame id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry score``, space
+separated, 0-based frames, what TrackEval's Kitti2DBox reads; unknown 3D fields are written as
+KITTI's "unknown" values.  ``read_results`` reads either format for evaluation.
+
 Frame numbers above ``MAX_FRAME`` (100 000) are rejected as typos everywhere, since a
 sequence is materialised and tracked frame by frame (the longest MOTChallenge / KITTI
 sequences have a few thousand frames; 100 000 empty frames already take about 10 s to track).
@@ -72,12 +77,13 @@ zero-area box) in KITTI files: the trackers' boxes could not be written back.
 from __future__ import annotations
 
 import configparser
+import json
 import os
 import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -92,6 +98,7 @@ _KITTI_LABEL_TYPES = (
     "Car", "Van", "Truck", "Pedestrian", "Person", "Person_sitting",
     "Cyclist", "Tram", "Misc", "DontCare",
 )
+_KITTI_RESULT_TYPE = {"car": "Car", "pedestrian": "Pedestrian", "cyclist": "Cyclist"}
 _KITTI_TARGETS = {
     "car": (("Car",), ("Van",)),
     "pedestrian": (("Pedestrian",), ("Person", "Person_sitting")),
@@ -603,14 +610,8 @@ def write_text_atomic(path, text: str) -> None:
         raise
 
 
-def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> None:
-    """Write (n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results, sorted, atomically.
-
-    The lines go to a temporary file in the target folder which then replaces the target, so a
-    crash never leaves a partial results file.  Bad rows raise ValueError before anything is
-    written.  Frames are written as given; ``first_frame`` (1 MOT, 0 KITTI) is the smallest allowed.
-    """
-    path = Path(path)
+def _sorted_result_rows(rows, first_frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validated (n, 6) ``frame, id, x, y, w, h`` rows sorted by (frame, id), and their int frames / ids."""
     a = np.asarray(rows, dtype=float)
     if a.size == 0:
         a = a.reshape(0, 6)
@@ -631,10 +632,127 @@ def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> No
     if len(a) > 1 and np.any((frames[1:] == frames[:-1]) & (ids[1:] == ids[:-1])):
         k = int(np.flatnonzero((frames[1:] == frames[:-1]) & (ids[1:] == ids[:-1]))[0])
         raise ValueError(f"duplicate (frame {frames[k]}, id {ids[k]}) in results")
+    return a, frames, ids
+
+
+def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> None:
+    """Write (n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results, sorted, atomically.
+
+    The lines go to a temporary file in the target folder which then replaces the target, so a
+    crash never leaves a partial results file.  Bad rows raise ValueError before anything is
+    written.  Frames are written as given; ``first_frame`` (1 MOT, 0 KITTI) is the smallest allowed.
+    """
+    a, frames, ids = _sorted_result_rows(rows, first_frame)
     text = "".join(
         f"{f},{i},{_fmt2(r[2])},{_fmt2(r[3])},{_fmt2(r[4])},{_fmt2(r[5])},1,-1,-1,-1\n"
         for f, i, r in zip(frames, ids, a))
     write_text_atomic(path, text)
+
+
+def write_kitti_results(path: str | os.PathLike, rows, object_class: str) -> None:
+    """Write (n, 6) ``frame, id, x, y, w, h`` rows (0-based frames) as KITTI tracking results.
+
+    One space-separated line per box, ``frame id type truncated occluded alpha x1 y1 x2 y2 h w l
+    x y z ry score`` (the layout of KITTI's label_02 plus a score, what TrackEval's Kitti2DBox
+    reads), sorted by (frame, id), written atomically.  ``type`` is the KITTI spelling of the
+    class (Car, Pedestrian, Cyclist); what a 2D tracker does not know is written with KITTI's
+    "unknown" values: truncated and occluded -1, alpha and ry -10, h w l -1, x y z -1000; the
+    score is 1 (results rows carry none).  x1 and y1 are x and y rounded to two decimals, and
+    x2 = x1 + w, y2 = y1 + h with w and h rounded to two decimals, so the file holds exactly the
+    boxes of the MOTChallenge results file of the same rows.
+    """
+    name = _KITTI_RESULT_TYPE[_object_type(object_class, path)]
+    a, frames, ids = _sorted_result_rows(rows, 0)
+    r = np.round(a[:, 2:6], 2)
+    lines = []
+    for f, i, (x, y, w, h) in zip(frames, ids, r):
+        lines.append(f"{f} {i} {name} -1 -1 -10 {_fmt2(x)} {_fmt2(y)} {_fmt2(x + w)} {_fmt2(y + h)} "
+                     "-1 -1 -1 -1000 -1000 -1000 -10 1\n")
+    write_text_atomic(path, "".join(lines))
+
+
+def read_kitti_results(path: str | os.PathLike, object_class: str, allow_empty: bool = False) -> np.ndarray:
+    """KITTI tracking results of one class as an (n, 6) array ``frame, id, x, y, w, h`` (0-based frames).
+
+    17 or 18 space-separated fields (``write_kitti_results``; label_02 without a score works too).
+    Rows of other KITTI types are skipped (a KITTI submission holds Car and Pedestrian in one
+    file; as in TrackEval only the evaluated class is read); a type outside the KITTI vocabulary,
+    a negative id, x2 <= x1 or y2 <= y1 are errors.  An empty file is an error unless ``allow_empty``.
+    """
+    path = Path(path)
+    otype = _object_type(object_class, path)
+    try:
+        lines = _read_lines(path)
+    except InputFormatError as exc:
+        if allow_empty and exc.reason.startswith("empty file"):
+            return np.zeros((0, 6))
+        raise
+    rows = _split(path, lines, None, 17, 18, "frame id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry [score]")
+    linenos = [n for n, _ in lines]
+    for fields, lineno in zip(rows, linenos):
+        if fields[2] not in _KITTI_LABEL_TYPES:
+            raise InputFormatError(f"unknown object type {fields[2]!r} (KITTI types: {', '.join(_KITTI_LABEL_TYPES)})",
+                                   path, lineno)
+    keep = [k for k, fields in enumerate(rows) if fields[2] == _KITTI_RESULT_TYPE[otype]]
+    rows, linenos = [rows[k] for k in keep], [linenos[k] for k in keep]
+    if not rows:
+        return np.zeros((0, 6))
+    a = _numbers(path, linenos, rows, [0, 1, 6, 7, 8, 9], ("frame", "id", "x1", "y1", "x2", "y2"))
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    ids = _check_integral(path, linenos, a[:, 1], "id")
+    _check_min_frame(path, linenos, frames, 0)
+    bad = _first_bad(ids < 0)
+    if bad is not None:
+        raise InputFormatError(f"negative track id {ids[bad]}", path, linenos[bad])
+    _check_coordinates(path, linenos, a[:, 2:6], ("x1", "y1", "x2", "y2"))
+    boxes = np.column_stack([a[:, 2], a[:, 3], a[:, 4] - a[:, 2], a[:, 5] - a[:, 3]])
+    _check_positive_size(path, linenos, boxes)
+    _check_unique(path, linenos, frames, ids)
+    return np.column_stack([frames.astype(float), ids.astype(float), boxes])
+
+
+RESULT_FORMATS = ("mot", "kitti")
+"""Results file formats ``write_results`` writes (``--out-format``)."""
+
+
+def write_results(path: str | os.PathLike, rows, out_format: str, first_frame: int = 1,
+                  object_class: str | None = None) -> None:
+    """Write results rows as MOTChallenge (``mot``) or KITTI tracking (``kitti``, needs the class) lines."""
+    if out_format == "mot":
+        write_mot_results(path, rows, first_frame=first_frame)
+    elif out_format == "kitti":
+        if object_class is None:
+            raise ValueError("KITTI tracking results need the object class")
+        write_kitti_results(path, rows, object_class)
+    else:
+        raise ValueError(f"unknown results format {out_format!r} (known: {', '.join(RESULT_FORMATS)})")
+
+
+def read_results(path: str | os.PathLike, data_format: str, object_class: str | None = None,
+                 allow_empty: bool = False) -> np.ndarray:
+    """The results of one sequence as (n, 6) ``frame, id, x, y, w, h`` for evaluation on ``data_format``.
+
+    ``mot``: a MOTChallenge results file (1-based frames).  ``kitti``: 0-based frames, either in
+    the KITTI tracking format (``write_kitti_results``, rows of ``object_class``) or as
+    MOTChallenge lines (what ``refimpl track --format kitti`` writes by default), told apart by
+    the separator of the first line (comma: MOTChallenge).
+    """
+    path = Path(path)
+    if data_format == "mot":
+        return read_mot_results(path, allow_empty=allow_empty, first_frame=1)
+    if data_format != "kitti":
+        raise ValueError(f"unknown format {data_format!r} (mot or kitti)")
+    try:
+        first = _read_lines(path)[0][1]
+    except InputFormatError as exc:
+        if allow_empty and exc.reason.startswith("empty file"):
+            return np.zeros((0, 6))
+        raise
+    if "," in first:
+        return read_mot_results(path, allow_empty=allow_empty, first_frame=0)
+    if object_class is None:
+        raise ValueError("KITTI tracking results need the object class")
+    return read_kitti_results(path, object_class, allow_empty=allow_empty)
 
 
 # ---------------------------------------------------------------------------------------
@@ -872,3 +990,19 @@ def demo_sequence_paths() -> BenchmarkSequence:
         raise InputFormatError("bundled demo sequence not found (expected data/demo/TUD-Campus in "
                                "the checkout or the refimpl.data package)", checkout)
     return found
+
+
+# ---------------------------------------------------------------------------------------
+# Event log files
+# ---------------------------------------------------------------------------------------
+
+def write_event_log(path: str, events: Iterable) -> None:
+    """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
+    write_text_atomic(path, "".join(f"{e}.\n" for e in events))
+
+
+def write_event_log_json(path: str, events: Iterable) -> None:
+    """The event sequence as JSON lines: time, event name, arguments and the atom."""
+    lines = [json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
+                         "atom": str(e)}) for e in events]
+    write_text_atomic(path, "".join(line + "\n" for line in lines))

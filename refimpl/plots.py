@@ -16,23 +16,17 @@ from __future__ import annotations
 import os
 
 from .scene import (EgoRegion, Scene, SceneError, SceneTrack, _runs, frame_relations, holds_at, load_scene)
+from .events import EVENT_TABLE
 from .spec import natural_key
 
 OBSERVED_COLOUR = "#1f77b4"
 RESUMED_COLOUR = "#ff7f0e"
 ENDED_COLOUR = "#9a9a9a"
 
-EVENT_STYLE = {
-    # event name -> (marker, colour, label)
-    "enters_fov": (">", "#2ca02c", "enters_fov"),
-    "leaves_fov": ("<", "#8c564b", "leaves_fov"),
-    "hides_behind": ("v", "#d62728", "hides_behind"),
-    "unhides_from_behind": ("^", "#9467bd", "unhides_from_behind"),
-    "missing_detections": ("x", "#e377c2", "missing_detections"),
-    "recover": ("+", "#17becf", "recover"),
-    "lost": ("s", "#000000", "lost"),
-    "noise": ("D", "#bcbd22", "noise"),
-}
+EVENT_STYLE = {name: (e.marker, e.colour, name) for name, e in EVENT_TABLE.items()}
+"""event name -> (marker, colour, label), from the event table (refimpl.events)."""
+PAIR_EVENTS = frozenset(name for name, e in EVENT_TABLE.items() if e.arity == 2)
+"""Events joined to the second track's row by a dotted line."""
 
 MIN_OBSERVED = 3
 """Tracks observed in fewer frames (the tracker's min_hits) are left out unless named."""
@@ -118,7 +112,7 @@ def plot_timeline(scene: Scene, out: str, tracks: list[SceneTrack] | None = None
             continue
         marker, colour, _ = style
         y = row[subject]
-        if e.event.name in ("hides_behind", "unhides_from_behind") and len(e.event.args) == 2:
+        if e.event.name in PAIR_EVENTS and len(e.event.args) == 2:
             other = str(e.event.args[1])
             if other in row:
                 ax.plot([e.time, e.time], [y, row[other]], linestyle=":", color=colour, linewidth=0.9, zorder=2)
@@ -139,7 +133,7 @@ def plot_timeline(scene: Scene, out: str, tracks: list[SceneTrack] | None = None
                Patch(color=ENDED_COLOUR, label="halted, then ended (or still halted)")]
     handles += [Line2D([], [], marker=m, color=c, linestyle="none", markeredgewidth=1.5, label=lab)
                 for name, (m, c, lab) in EVENT_STYLE.items() if name in used]
-    if used & {"hides_behind", "unhides_from_behind"}:
+    if used & PAIR_EVENTS:
         handles.append(Line2D([], [], color="#d62728", linestyle=":", label="dotted: joins a hidden track to its occluder"))
     fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.75 / fig_h, 1, 1))  # 0.75 in at the bottom for the legend

@@ -4,7 +4,7 @@ Boxes are (x, y, w, h) sequences in image pixels: top-left corner, width, height
 downwards.  A box spans the closed extent [x, x + w] x [y, y + h]; for integer boxes this is the
 pixel grid with pixels x .. x + w - 1, so two boxes with x + w == x' share an edge but no pixel.
 
-The first three functions (overlapping_top, near_border, area) are pure integer functions that give
+The first four functions (overlapping_top, near_border, outside_fov, area) are pure integer functions that give
 exactly what the ASP encoding computes from box2d/5 facts.  The rest implement the relations of
 Table 2 that apply to axis-aligned boxes over time and accept integers or floats:
 
@@ -51,6 +51,17 @@ def near_border(b: Box, img_width: int, img_height: int, margin: int) -> bool:
         or y <= margin
         or (img_width > 0 and x + w >= img_width - margin)
         or (img_height > 0 and y + h >= img_height - margin)
+    )
+
+
+def outside_fov(b: Box, img_width: int, img_height: int) -> bool:
+    """The box lies entirely outside the field of view (no pixel inside a known border); 0 = size unknown."""
+    x, y, w, h = b
+    return (
+        x + w <= 0
+        or y + h <= 0
+        or (img_width > 0 and x >= img_width)
+        or (img_height > 0 and y >= img_height)
     )
 
 

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, Mapping, Sequence
 
 from . import relations as rel
-from .events import EventState
+from .events import EVENT_TABLE, EventState, explaining
 from .spec import HistoryEvent, ProblemFormatError, Term, natural_key, parse_term
 
 SCENE_FORMAT = "refimpl-scene"
@@ -164,6 +164,11 @@ def _track_lives(tracks: Iterable[SceneTrack], last_frame: int) -> dict[str, tup
     return {t.id: (t.first_frame, t.last_frame(last_frame)) for t in tracks if t.observed or t.halted}
 
 
+_HIDDEN_BY_PAIRS = frozenset(e.name for e in EVENT_TABLE.values()
+                              if any(f == "hidden_by" and pos == (0, 1) for f, pos, _ in e.effects))
+"""Events that set hidden_by(T1, T2) for the pair they name."""
+
+
 def fluent_timelines(events: Iterable[HistoryEvent], lives: Mapping[str, tuple[int, int]]
                      ) -> dict[str, tuple[tuple[int, int, str], ...]]:
     """Replay the events with EventState frame by frame: each fluent's (from, to, value) intervals.
@@ -179,7 +184,7 @@ def fluent_timelines(events: Iterable[HistoryEvent], lives: Mapping[str, tuple[i
     for e in events:
         by_time.setdefault(e.time, []).append(e.event)
     pairs = sorted({(str(e.event.args[0]), str(e.event.args[1])) for e in events
-                    if e.event.name in ("hides_behind", "unhides_from_behind") and len(e.event.args) == 2},
+                    if e.event.name in _HIDDEN_BY_PAIRS and len(e.event.args) == 2},
                    key=lambda p: (natural_key(p[0]), natural_key(p[1])))
     fluents: list[tuple[str, tuple[str, ...], int, int]] = []  # (atom, key, first, last)
     for trk in sorted(lives, key=natural_key):
@@ -373,7 +378,9 @@ def load_scene(path: str | os.PathLike) -> Scene:
 # Episodes: what the event log says happened to each track
 # ---------------------------------------------------------------------------------------
 
-ENDINGS = ("lost", "noise", "leaves_fov")
+ENDINGS = tuple(e.name for e in explaining("end"))
+_HALTS = {e.name: e for e in explaining("halt")}
+_RESUMES = tuple(e.name for e in explaining("resume"))
 
 
 @dataclass(frozen=True)
@@ -409,12 +416,11 @@ def episodes(scene: Scene) -> list[Episode]:
             out.append(Episode(name, "", e.time))
             continue
         trk = args[0]
-        if name in ("hides_behind", "missing_detections"):
+        if name in _HALTS:
             if trk in open_halt:  # a second halt without a resume closes the first
                 out.append(replace(open_halt.pop(trk), end=e.time, end_event=name))
-            open_halt[trk] = Episode("hidden" if name == "hides_behind" else "missing", trk, e.time,
-                                     args[1] if name == "hides_behind" and len(args) > 1 else None)
-        elif name in ("unhides_from_behind", "recover") + ENDINGS and trk in open_halt:
+            open_halt[trk] = Episode(_HALTS[name].closing, trk, e.time, args[1] if len(args) > 1 else None)
+        elif name in _RESUMES + ENDINGS and trk in open_halt:
             ep = open_halt.pop(trk)
             out.append(replace(ep, end=e.time, end_event=name))
         else:
@@ -442,7 +448,7 @@ def hiding_episodes(scene: Scene) -> list[HidingEpisode]:
     for ep in episodes(scene):
         if ep.kind != "hidden":
             continue
-        resumed = ep.end if ep.end_event in ("unhides_from_behind", "recover") else None
+        resumed = ep.end if ep.end_event in _RESUMES else None
         out.append(HidingEpisode(ep.track, ep.other or "", ep.start, resumed, ep.end_event or "open"))
     return out
 
@@ -463,44 +469,27 @@ def _later(a: int, b: int) -> str:
     return f"{n} frame{'s' if n != 1 else ''} later"
 
 
-_CLOSE = {
-    "hidden": {"unhides_from_behind": "reappeared", "recover": "was recovered", "lost": "was given up as lost",
-               "noise": "was discarded as noise", "leaves_fov": "left the field of view"},
-    "missing": {"recover": "was detected again", "unhides_from_behind": "reappeared",
-                "lost": "was given up as lost", "noise": "was discarded as noise",
-                "leaves_fov": "left the field of view"},
-}
-
-
 def explain_episode(scene: Scene, ep: Episode) -> str:
-    """One plain-English sentence for an episode."""
+    """One plain-English sentence for an episode (phrases from the event table, refimpl.events)."""
     who = _who(scene, ep.track, True) if ep.track else ""
-    if ep.kind in ("hidden", "missing"):
-        if ep.kind == "hidden":
-            head = f"{who} went out of sight behind {_who(scene, ep.other or '?', False)} at frame {ep.start}"
-        else:
-            head = f"{who} was missed by the detector at frame {ep.start}"
+    halt = next((e for e in _HALTS.values() if e.closing == ep.kind), None)
+    if halt is not None:
+        other = f" {_who(scene, ep.other or '?', False)}" if halt.arity == 2 else ""
+        head = f"{who} {halt.phrase}{other} at frame {ep.start}"
         if ep.end is None:
-            state = "hidden" if ep.kind == "hidden" else "missing"
-            return f"{head} and was still {state} at the end of the sequence (frame {scene.last_frame})."
-        verb = _CLOSE[ep.kind].get(ep.end_event or "", f"ended with {ep.end_event}")
+            return f"{head} and was still {ep.kind} at the end of the sequence (frame {scene.last_frame})."
+        closing = EVENT_TABLE.get(ep.end_event or "")
+        verb = closing.closing if closing is not None else f"ended with {ep.end_event}"
         return f"{head} and {verb} at frame {ep.end}, {_later(ep.start, ep.end)}."
-    if ep.kind == "enters_fov":
-        return f"{who} entered the field of view at frame {ep.start}."
-    if ep.kind == "leaves_fov":
-        return f"{who} left the field of view at frame {ep.start}."
-    if ep.kind == "lost":
-        return f"{who} was given up as lost at frame {ep.start}."
-    if ep.kind == "noise":
-        t = scene._by_id.get(ep.track)
-        since = f", seen since frame {t.first_frame}," if t is not None else ""
-        return f"{who}{since} was discarded as noise at frame {ep.start}."
-    if ep.kind == "unhides_from_behind":
-        return f"{who} came out from behind {_who(scene, ep.other or '?', False)} at frame {ep.start}."
-    if ep.kind == "recover":
-        return f"{who} was detected again at frame {ep.start}."
-    args = f"({ep.track}{',' + ep.other if ep.other else ''})" if ep.track else ""
-    return f"Event {ep.kind}{args} occurred at frame {ep.start}."
+    spec = EVENT_TABLE.get(ep.kind)
+    if spec is None or not ep.track:
+        args = f"({ep.track}{',' + ep.other if ep.other else ''})" if ep.track else ""
+        return f"Event {ep.kind}{args} occurred at frame {ep.start}."
+    since = ""
+    if spec.name == "noise" and ep.track in scene._by_id:
+        since = f", seen since frame {scene._by_id[ep.track].first_frame},"
+    other = f" {_who(scene, ep.other or '?', False)}" if spec.arity == 2 else ""
+    return f"{who}{since} {spec.phrase}{other} at frame {ep.start}."
 
 
 def explain(scene: Scene, track: str | None = None) -> list[str]:

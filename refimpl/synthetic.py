@@ -182,15 +182,6 @@ def iou_facts(tracks: Sequence[TrackPrediction], detections: Sequence[Detection]
                  for a, t in enumerate(tracks) for b, d in enumerate(detections) if ml[a, b] > 0)
 
 
-def hideable_tracks(problem: FrameProblem, hide_overlap: int = HIDE_OVERLAP) -> list[str]:
-    """Tracks T1 for which some T2 satisfies overlapping_top(T1, T2): those that can hide behind another."""
-    out = []
-    for t1 in problem.tracks:
-        if any(t2.id != t1.id and overlapping_top(t1.box, t2.box, hide_overlap) for t2 in problem.tracks):
-            out.append(t1.id)
-    return out
-
-
 def suite_file_name(n_tracks: int, overlap: float, seed: int) -> str:
     """File name of one suite problem: n{n}_o{overlap}_s{seed}.lp (overlap as 0.2, 0.5, ...)."""
     return f"n{int(n_tracks)}_o{overlap:g}_s{int(seed)}.lp"

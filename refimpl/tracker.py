@@ -23,22 +23,26 @@ defaults are this conservative.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
-from typing import Callable, Iterable, Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 
-from .io import write_text_atomic
 from .geometry import integer_box, iou_matrix, scale_iou
-from .hypothesis import Hypothesis, parse_action
+from .events import explaining
+from .hypothesis import Hypothesis
 from .motion import BoxKalman, InvalidPrediction
 from .solvers import Solver, get_solver
-from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, parse_term
+from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 
 DEFAULT_MIN_HITS = 3
 DEFAULT_BRIDGE_GAP = 2
 DEFAULT_BRIDGE_CONF = 90
+_RESUMING = frozenset(e.name for e in explaining("resume"))
+_STARTING = frozenset(e.name for e in explaining("start"))
+HIDDEN_MAX_SECONDS = 10.0
+"""The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
+frame rate (docs/model.md 3.14); without a frame rate the model's default in frames applies."""
 MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
@@ -184,32 +188,23 @@ class AbductionTracker:
 
     def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
                hyp: Hypothesis) -> None:
-        new_ids: dict[str, str] = {}
-        ended: list[str] = []
-        for atom in hyp.actions:  # sorted atom strings: a deterministic order
-            kind, args = parse_action(atom)
-            if kind in ("assign", "resume"):
-                trk = self.tracks[args[0]]
-                box = boxes[int(args[1].rsplit("_", 1)[1])]
-                trk.kalman.update(box)
-                if kind == "resume":
-                    last = max(trk.observed)
-                    conf = int(confidences[int(args[1].rsplit("_", 1)[1])])
-                    trk.bridged = (frame - last - 1 <= self.bridge_gap and conf >= self.bridge_conf
-                                   and last in trk.confirmed)
-                    if trk.bridged:
-                        trk.gaps.append((last, frame))
-                    trk.state = "active"
-                trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
-                trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
-                self._confirm(trk, frame)
-            elif kind == "halt":
-                self.tracks[args[0]].state = "halted"
-            elif kind == "end":
-                ended.append(args[0])
+        index = {_det_id(j): j for j in range(len(boxes))}
+        for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
+            self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
+        for trk_id, det_id in hyp.resumes:
+            trk, j = self.tracks[trk_id], index[det_id]
+            last = max(trk.observed)
+            trk.bridged = (frame - last - 1 <= self.bridge_gap and int(confidences[j]) >= self.bridge_conf
+                           and last in trk.confirmed)
+            if trk.bridged:
+                trk.gaps.append((last, frame))
+            trk.state = "active"
+            self._observe(trk, frame, boxes[j])
+        for trk_id in hyp.halts:
+            self.tracks[trk_id].state = "halted"
         # start: new identities in detection order, so ids do not depend on atom sorting
-        starts = sorted((int(a[len("start(det_"):-1]) for a in hyp.actions if a.startswith("start(")))
-        for j in starts:
+        new_ids: dict[str, str] = {}
+        for j in sorted(index[d] for d in hyp.starts):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
             kalman = BoxKalman(boxes[j])
@@ -218,20 +213,20 @@ class AbductionTracker:
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
-        for atom in hyp.events:
-            event = self._rename(parse_term(atom).args[0], new_ids)
+        for name, args in hyp.event_terms:
+            event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
             logged = HistoryEvent(event, frame)
             self.events.append(logged)
-            owner = event.args[0].name
-            if owner in self.tracks:
-                trk = self.tracks[owner]
-                if self.compact_history and event.name in ("unhides_from_behind", "recover"):
-                    # a resume leaves every fluent of the track at its initial value (visible,
-                    # unclipped, hidden by none, in view): only its start event still matters
-                    trk.history = [e for e in trk.history if e.event.name == "enters_fov"]
-                else:
-                    trk.history.append(logged)
-        for trk_id in ended:
+            owner = self.tracks.get(event.args[0].name)
+            if owner is None:
+                continue
+            if self.compact_history and name in _RESUMING:
+                # a resume leaves every fluent of the track at its initial value (visible,
+                # unclipped, hidden by none, in view): only its start event still matters
+                owner.history = [e for e in owner.history if e.event.name in _STARTING]
+            else:
+                owner.history.append(logged)
+        for trk_id in hyp.ends:
             trk = self.tracks.pop(trk_id)
             trk.ended_at = frame
             self.finished.append(trk)
@@ -239,15 +234,18 @@ class AbductionTracker:
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
 
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray) -> None:
+        """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
+        trk.kalman.update(box)
+        trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
+        trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
+        self._confirm(trk, frame)
+
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
         frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed."""
         if trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged:
             trk.confirmed.add(frame)
-
-    @staticmethod
-    def _rename(event: Term, new_ids: Mapping[str, str]) -> Term:
-        return Term(event.name, tuple(Term(new_ids.get(a.name, a.name)) for a in event.args))
 
     # -- results -----------------------------------------------------------------------------
     def result_rows(self) -> np.ndarray:
@@ -282,30 +280,17 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
                    compact_history: bool = True) -> TrackingResult:
-    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border."""
+    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
+    the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS)."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
         merged.setdefault("img_height", int(seq.image_size[1]))
+    if getattr(seq, "fps", None):
+        merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * seq.fps))))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     return tracker.result()
-
-
-# ---------------------------------------------------------------------------------------
-# Event log files
-# ---------------------------------------------------------------------------------------
-
-def write_event_log(path: str, events: Iterable[HistoryEvent]) -> None:
-    """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
-    write_text_atomic(path, "".join(f"{e}.\n" for e in events))
-
-
-def write_event_log_json(path: str, events: Iterable[HistoryEvent]) -> None:
-    """The event sequence as JSON lines: time, event name, arguments and the atom."""
-    lines = [json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
-                         "atom": str(e)}) for e in events]
-    write_text_atomic(path, "".join(line + "\n" for line in lines))

@@ -28,7 +28,7 @@ from refimpl.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "data" / "examples"
-PRIORITIES = (10, 3, 2, 1, 0)
+PRIORITIES = (10, 5, 3, 2, 1, 0)
 
 
 def solver_for(backend: str):
@@ -121,7 +121,7 @@ def test_bus_t235_car_hides_behind_bus(backend):
     #      E = bit length of 7 + 7 (trk_12, trk_13 overlap: 6 arity-1 events + 2 each) + 4 * 5 +
     #      6 * 5 (dets) = 64 -> 7: 640; hides_behind(trk_13,trk_12) is trk_13's event 6,
     #      enters_fov(det_5) det_5's event 2                                 = 648
-    assert h.cost == ((10, -454480), (3, 0), (2, 5), (1, 2), (0, (5 << 7) + 6 + 2))
+    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, (5 << 7) + 6 + 2))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -138,7 +138,7 @@ def test_bus_t268_car_unhides_from_behind_bus(backend):
     # @10: -(89636 + 97815 + 95528 + 93506 + 94945 + 5) = -(471430 + 5) = -471435
     # @2: one resume = 1; @1: unhides_from_behind = 1
     # @0: the canonical tie-break by its plain definition (tests/plain_tiebreak.py)
-    assert h.cost == ((10, -471435), (3, 0), (2, 1), (1, 1), (0, plain_level0(problem, h.actions, h.events)))
+    assert h.cost == ((10, -471435), (5, -76713), (3, 0), (2, 1), (1, 1), (0, plain_level0(problem, h.actions, h.events)))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -172,7 +172,7 @@ def test_kitti_0020_t79(backend):
     # @3: 3 ignore_det * 10 = 30;  @2: 2 ends * 5 + 4 starts * 5 = 30
     # @1: leaves_fov 1 + lost 3 + 4 enters_fov = 8
     # @0: the canonical tie-break by its plain definition (tests/plain_tiebreak.py)
-    assert h.cost == ((10, -692182), (3, 30), (2, 30), (1, 8), (0, plain_level0(problem, h.actions, h.events)))
+    assert h.cost == ((10, -692182), (5, 0), (3, 30), (2, 30), (1, 8), (0, plain_level0(problem, h.actions, h.events)))
 
 
 def test_bus_t268_file_is_canonical_and_its_ious_are_computed():
@@ -232,7 +232,7 @@ def test_halted_track_is_not_assigned(backend):
     h = solve(backend, p)
     check_well_formed(p, h)
     assert h.answer == ("ignore_det(det_1)", "ignore_trk(trk_1)")
-    assert h.cost == ((10, 0), (3, 20), (2, 0), (1, 0), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 20), (2, 0), (1, 0), (0, 0))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -280,7 +280,7 @@ def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
     # @2: resume 1; @1: recover 2; @0: the pair (trk_1,det_1) is 2^0 of its component, shifted by
     # E = bit length of 5 + 5 (two nodes, six arity-1 events each, largest index 5) = 4: 16;
     # recover is trk_1's event 1 (missing_detections, recover, ...): 17
-    assert h.cost == ((10, 0), (3, 0), (2, 1), (1, 2), (0, 17))
+    assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, 17))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -334,10 +334,10 @@ def test_start_needs_confidence_above_threshold(backend, conf, started):
     if started:
         assert h.answer == ("occurs_at(enters_fov(det_1),10)", "start(det_1)")
         # @0: enters_fov is det_1's event 2 (missing_detections, recover, enters_fov, ...)
-        assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 1), (0, 2))
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 2))
     else:
         assert h.answer == ("ignore_det(det_1)",)
-        assert h.cost == ((10, 0), (3, 10), (2, 0), (1, 0), (0, 0))
+        assert h.cost == ((10, 0), (5, 0), (3, 10), (2, 0), (1, 0), (0, 0))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -370,7 +370,7 @@ def test_halted_track_is_not_halted_again(backend):
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
     # @0: leaves_fov is trk_1's event 3 (missing_detections, recover, enters_fov, leaves_fov)
-    assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 1), (0, 3))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 3))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -380,7 +380,7 @@ def test_unexplainable_end_does_not_happen_so_the_track_is_ignored(backend):
     p = frame([], [trk(1, "halted")])
     h = solve(backend, p)
     assert h.answer == ("ignore_trk(trk_1)",)
-    assert h.cost == ((10, 0), (3, 10), (2, 0), (1, 0), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 10), (2, 0), (1, 0), (0, 0))
 
 
 # --- explain_halt, poss_hides_behind, poss_missing_detections -----------------------------------
@@ -401,7 +401,7 @@ def test_halt_is_explained_by_hides_behind_an_overlapping_top_track(backend):
     # @0: trk_1 and trk_2 overlap, so each has its 6 arity-1 events and hides_behind /
     # unhides_from_behind of the other (largest index 7), det_2 its 6 (5): E = bit length of 19
     # = 5; the pair (trk_2,det_2) is 2^0 << 5 = 32; hides_behind(trk_1,trk_2) is trk_1's event 6
-    assert h.cost == ((10, -90001), (3, 0), (2, 0), (1, 1), (0, 32 + 6))
+    assert h.cost == ((10, -90001), (5, 0), (3, 0), (2, 0), (1, 1), (0, 32 + 6))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -552,13 +552,14 @@ def test_leaves_fov_needs_in_fov(backend):
     ("hides_behind(trk_1,trk_2)", 11, False),
 ])
 def test_lost_needs_enough_time_since_halting(backend, event, halted, lost):
-    # trk_2 is an active track far away, with its own detection
+    # trk_2 is an active track far away, with its own detection: it never covers trk_1, so a hidden
+    # trk_1 is not kept in mind and lost_after_hidden applies
     p = frame([det(2, box=(600, 600, 40, 40))], [trk(1, "halted"), trk(2, box=(600, 600, 40, 40))],
               [("trk_2", "det_2", 90000)], [hist(event, halted)], time=40)
     h = solve(backend, p)
     if lost:
         assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "end(trk_1)", ev("lost(trk_1)", 40)]))
-        assert h.cost[1:4] == ((3, 0), (2, 5), (1, 3))
+        assert h.cost[1:5] == ((5, 0), (3, 0), (2, 5), (1, 3))
     else:
         assert h.answer == ("assign(trk_2,det_2)", "ignore_trk(trk_1)")
 
@@ -593,7 +594,7 @@ def test_noise_only_for_young_tracks(backend, started, noise):
     if noise:  # 10 - 7 = 3 <= noise_max_age = 3
         assert h.answer == tuple(sorted(["end(trk_1)", ev("noise(trk_1)")]))
         # @0: noise is trk_1's event 5 (missing_detections, recover, enters_fov, leaves_fov, lost, noise)
-        assert h.cost == ((10, 0), (3, 0), (2, 5), (1, 2), (0, 5))
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 2), (0, 5))
     else:
         assert h.answer == ("ignore_trk(trk_1)",)
 
@@ -618,7 +619,7 @@ def test_every_start_is_explained_by_enters_fov(backend):
     assert h.actions == ("start(det_1)", "start(det_2)", "start(det_3)")
     assert h.events == tuple(ev(f"enters_fov(det_{i})") for i in range(1, 4))
     # @0: enters_fov is each detection's event 2: 3 * 2
-    assert h.cost == ((10, 0), (3, 0), (2, 15), (1, 3), (0, 6))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 15), (1, 3), (0, 6))
 
 
 # --- optimisation ----------------------------------------------------------------------------------
@@ -647,7 +648,7 @@ def test_more_assignments_beat_a_higher_likelihood_sum_only_by_the_count(backend
 def test_empty_frame_reports_all_levels(backend):
     h = solve(backend, frame())
     assert h.answer == ()
-    assert h.cost == ((10, 0), (3, 0), (2, 0), (1, 0), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 0), (1, 0), (0, 0))
     assert h.optimal
 
 
@@ -731,3 +732,23 @@ def test_unsatisfiable_problem_raises(backend):
     with pytest.raises(NoAdmissibleHypothesis) as info:
         solve(backend, p)
     assert "\n" not in str(info.value)
+
+
+# --- level5_resume_likelihood: evidence-based resume ------------------------------------------
+
+@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
+@pytest.mark.parametrize("exact", [0, 1])
+def test_resume_prefers_the_likelier_detection(backend, exact):
+    # trk_1 halted at 9 (clipped). Two detections could resume it: det_<exact> lies exactly on its
+    # prediction (IoU 1.0 = 100000), the other overlaps it at IoU 0.38. Levels 10..1 tie (one resume
+    # + recover, one start + enters_fov); level 5 takes the likelier pair whatever the id order.
+    other = 1 - exact
+    p = frame([det(0), det(1)], [trk(1, "halted")],
+              [("trk_1", f"det_{exact}", 100000), ("trk_1", f"det_{other}", 38000)],
+              [hist("missing_detections(trk_1)", 9)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted([f"resume(trk_1,det_{exact})", ev("recover(trk_1)"),
+                                     f"start(det_{other})", ev(f"enters_fov(det_{other})")]))
+    # @5: -100000; @2: resume 1 + start 5; @1: recover 2 + enters_fov 1;
+    # @0: w = (k+1)^2 over the pairs in natural order (trk_1,det_0) k=0, (trk_1,det_1) k=1
+    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, (exact + 1) ** 2))

@@ -165,40 +165,41 @@ def test_format_table_prints_percentages_and_an_overall_row():
     per, overall = ev.evaluate_many([("TWO", TWO_OBJECTS, HYPS)])
     table = ev.format_table(per, overall)
     lines = table.strip().splitlines()
-    assert lines[0] == "| Sequence | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
+    assert lines[0] == "| Sequence | HOTA | DetA | AssA | MOTA | MOTP | IDF1 | MT | ML | FP | FN | IDs | Frag |"
+    # HOTA / DetA / AssA in percent with one decimal (their values are tested in test_hota.py)
+    r = per["TWO"]
+    hota = " | ".join(f"{100 * r[k]:.1f}" for k in ("hota", "deta", "assa"))
     # MOTA 0.5 -> 50.0; MOTP (4 + 9/11)/5 = 0.9636 -> 96.4; IDF1 2/3 -> 66.7
-    assert lines[2] == "| TWO | 50.0 | 96.4 | 66.7 | 1 | 0 | 1 | 1 | 1 | 0 |"
-    assert lines[3].startswith("| OVERALL | 50.0 | 96.4 | 66.7 |")
+    assert lines[2] == f"| TWO | {hota} | 50.0 | 96.4 | 66.7 | 1 | 0 | 1 | 1 | 1 | 0 |"
+    assert lines[3].startswith(f"| OVERALL | {hota} | 50.0 | 96.4 | 66.7 |")
 
 
-def test_asfarray_replacement_matches_numpy1_semantics():
-    assert ev._asfarray([1, 2]).dtype == np.float64
-    assert ev._asfarray(np.array([1, 2], dtype=np.float32), dtype=np.float32).dtype == np.float32
-    assert ev._asfarray([1, 2], dtype=int).dtype == np.float64  # non-inexact dtype -> float64
+def test_iou_distances_equal_motmetrics_on_numpy1_semantics():
+    # motmetrics' iou_matrix: 1 - IoU, NaN above max_iou. Boxes (x, y, w, h): a = (0,0,10,10);
+    # b = (5,0,10,10) overlaps a by 50 px of 150 in union -> IoU 1/3, distance 2/3 (> 0.5: NaN);
+    # c = a -> distance 0.
+    import motmetrics as mm
+    d = ev._iou_distances(mm, np.array([[0, 0, 10, 10]]), np.array([[5, 0, 10, 10], [0, 0, 10, 10]]), 0.5)
+    assert np.isnan(d[0, 0]) and d[0, 1] == 0.0
+    d = ev._iou_distances(mm, np.array([[0, 0, 10, 10]]), np.array([[5, 0, 10, 10]]), 0.7)
+    assert d[0, 0] == pytest.approx(2 / 3)
+    assert ev._iou_distances(mm, np.zeros((0, 4)), np.array([[0, 0, 1, 1]]), 0.5).shape == (0, 0)
 
 
 @pytest.mark.skipif(int(np.__version__.split(".")[0]) < 2, reason="np.asfarray exists before NumPy 2")
-def test_numpy2_compat_lets_motmetrics_run_end_to_end():
-    # A fresh interpreter, so no earlier test has patched numpy already.
+def test_motmetrics_runs_end_to_end_without_patching_numpy():
+    # A fresh interpreter: evaluating must neither need nor add np.asfarray (no process-wide patch).
     script = textwrap.dedent("""
         import numpy as np
-        import motmetrics as mm
         import refimpl.evaluate as ev
         from refimpl.io import GroundTruth
-        assert not hasattr(np, "asfarray"), "importing refimpl.evaluate must not patch numpy"
-        try:
-            mm.distances.iou_matrix([[0, 0, 1, 1]], [[0, 0, 1, 1]])
-        except AttributeError:
-            pass
-        else:
-            raise SystemExit("motmetrics no longer needs np.asfarray")
         gt = GroundTruth(name="s", frames=np.array([1, 2]), ids=np.array([1, 1]),
                             boxes=np.array([[0, 0, 10, 10], [0, 0, 10, 10]], float),
                             considered=np.array([True, True]), distractor=np.array([False, False]),
                             dontcare=np.zeros((0, 5)), first_frame=1, num_frames=2)
         r = ev.evaluate_sequence(gt, np.array([[1, 4, 0, 0, 10, 10], [2, 4, 0, 0, 10, 10]]))
         assert r["mota"] == 1.0 and r["idf1"] == 1.0, r
-        assert hasattr(np, "asfarray")
+        assert not hasattr(np, "asfarray"), "evaluating must not patch numpy"
         print("ok", np.__version__)
     """)
     env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))

@@ -295,11 +295,36 @@ def test_lost_thresholds_depend_on_visibility():
     t1 = TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40))
     p = _problem([H("missing_detections(trk_1)", 17)], t=20)
     c = resolve_constants(p)
-    assert poss_lost(EventState.from_problem(p), c, t1)  # 20 - 17 >= lost_after_missing = 3
+    assert poss_lost(EventState.from_problem(p), c, t1, tracks={t.id: t for t in p.tracks})  # 20 - 17 >= lost_after_missing = 3
     p = _problem([H("missing_detections(trk_1)", 18)], t=20)
-    assert not poss_lost(EventState.from_problem(p), c, t1)
+    assert not poss_lost(EventState.from_problem(p), c, t1, tracks={t.id: t for t in p.tracks})
     p = _problem([H("hides_behind(trk_1,trk_2)", 0)], t=30)
     c = resolve_constants(p)
-    assert poss_lost(EventState.from_problem(p), c, t1)
-    assert not poss_lost(EventState.from_problem(_problem([H("hides_behind(trk_1,trk_2)", 1)], t=30)), c, t1)
+    assert not poss_lost(EventState.from_problem(_problem([H("hides_behind(trk_1,trk_2)", 1)], t=30)), c, t1, tracks={})
     assert not poss_noise(EventState.from_problem(p), c, t1)
+
+
+def _lost(history, t, tracks, consts=()):
+    p = _problem(history, t=t, tracks=tracks, consts=consts)
+    by_id = {x.id: x for x in p.tracks}
+    return poss_lost(EventState.from_problem(p), resolve_constants(p), by_id["trk_1"], tracks=by_id)
+
+
+def test_a_hidden_track_is_kept_in_mind_while_its_occluder_still_covers_it():
+    hidden = [H("hides_behind(trk_1,trk_2)", 0)]
+    t1 = TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40))
+    behind = TrackPrediction("trk_2", "car", "active", (110, 105, 60, 50))  # overlaps trk_1: 40 x 35 px
+    away = TrackPrediction("trk_2", "car", "active", (300, 105, 60, 50))    # disjoint from trk_1
+    # 30 frames after hiding (>= lost_after_hidden = 30): kept in mind while the occluder overlaps
+    assert not _lost(hidden, 30, (t1, behind))
+    # the anticipated position has come out from behind the occluder: lost becomes possible
+    assert _lost(hidden, 30, (t1, away))
+    # the occluder itself is gone (no longer a current track): lost becomes possible
+    assert _lost(hidden, 30, (t1,))
+    # the predicted box left the field of view (x = 700 >= img_width 640): lost becomes possible
+    out = TrackPrediction("trk_1", "car", "halted", (700, 100, 50, 40))
+    over = TrackPrediction("trk_2", "car", "active", (690, 100, 60, 50))
+    assert not _lost(hidden, 30, (out, over))
+    assert _lost(hidden, 30, (out, over), consts=(("img_width", 640),))
+    # the safety bound: lost_after_hidden_max = 300 frames after hiding, whatever the scene says
+    assert not _lost(hidden, 299, (t1, behind)) and _lost(hidden, 300, (t1, behind))

@@ -18,7 +18,7 @@ def test_obvious_hypothesis_ignores_detections_and_halts_active_tracks(examples)
     assert h is not None and not h.optimal
     assert sorted(a for a in h.actions if a.startswith("halt(")) == sorted(f"halt({t.id})" for t in p.tracks)
     # 6 ignored detections x 10 @3; 6 missing_detections x cost 2 @1; nothing else
-    assert h.cost == ((10, 0), (3, 6 * 10), (2, 0), (1, 6 * 2), (0, 0))
+    assert h.cost == ((10, 0), (5, 0), (3, 6 * 10), (2, 0), (1, 6 * 2), (0, 0))
 
 
 def test_obvious_hypothesis_is_refused_where_it_breaks_a_rule(examples):

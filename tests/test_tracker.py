@@ -9,7 +9,8 @@ import pytest
 
 from refimpl import io
 from refimpl.io import DetectionFrame, DetectionSequence
-from refimpl.tracker import track_sequence, write_event_log, write_event_log_json
+from refimpl.io import write_event_log, write_event_log_json
+from refimpl.tracker import track_sequence
 
 BACKENDS = ["cpsat", "clingo"]
 

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Sequence
 
 from ..constants import model_dir, resolve_constants
-from ..hypothesis import Hypothesis
+from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..spec import FrameProblem
 from . import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
 from .common import event_term, tiebreak_facts, tiebreak_level
@@ -39,7 +39,6 @@ INLINE_SOLVES = 500
 """Solves a ClingoSolver runs in its own process before it moves clingo to a worker process: a
 single frame (refimpl solve) pays no process start, a sequence's memory stays bounded."""
 
-PRIORITIES = (10, 3, 2, 1, 0)
 """The cost levels of the model (docs/model-spec.md section 5), highest first."""
 
 _INSTALL_HINT = "the clingo backend needs clingo: pip install 'refimpl[asp]'"
@@ -190,17 +189,17 @@ class ClingoSolver:
             actions += acts
             events += evs
         if whole and cost and optimal is not None and found is not None:
-            levels = [(p, cost.get(p, 0)) for p in PRIORITIES[:-1]]
+            levels = {p: cost.get(p, 0) for p in PRIORITIES}
         else:  # several parts (or the fallback): the levels of the merged answer
             from ..check import recompute_cost
             names = [event_term(e).split("(", 1)[0] for e in events]
-            levels = list(recompute_cost(problem, actions, names, events, resolve_constants(problem))[:-1])
-        levels.append((PRIORITIES[-1], tiebreak_level(problem, actions, events)))
+            levels = dict(recompute_cost(problem, actions, names, events, resolve_constants(problem)))
+        levels[TIEBREAK_LEVEL] = tiebreak_level(problem, actions, events)
         return Hypothesis(
             time=problem.time,
             actions=tuple(actions),
             events=tuple(events),
-            cost=tuple(levels),
+            cost=tuple((p, levels[p]) for p in PRIORITIES),
             optimal=optimal,
             backend=self.name,
             solve_ms=(time.perf_counter() - started) * 1000.0,

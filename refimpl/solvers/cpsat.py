@@ -36,20 +36,8 @@ import numpy as np
 from ortools.sat.python import cp_model
 
 from ..constants import resolve_constants
-from ..events import (
-    COST_CONSTANT,
-    EventState,
-    fluent_key,
-    poss_enters_fov,
-    poss_hides_behind,
-    poss_leaves_fov,
-    poss_lost,
-    poss_missing_detections,
-    poss_noise,
-    poss_recover,
-    poss_unhides_from_behind,
-)
-from ..hypothesis import Hypothesis
+from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key
+from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, Hypothesis, action_cost
 from ..relations import area
 from ..spec import Detection, FrameProblem, TrackPrediction
 from . import NoAdmissibleHypothesis, SolveTimeout, check_time_limit
@@ -57,15 +45,53 @@ from .common import intersection_matrix, tiebreak_level, tiebreak_weights
 from .decompose import DEFAULT_PART_NODES, Part, own_atoms, split
 from .fallback import obvious_hypothesis
 
-PRIORITIES = (10, 3, 2, 1, 0)
-"""The cost levels, highest priority first (docs/model-spec.md section 5)."""
+_EVENT_AT = PRIORITIES.index(EVENT_LEVEL)
+_TIE_AT = PRIORITIES.index(TIEBREAK_LEVEL)
+
+
+def _cost(action: str, likelihood: int = 0, event: int = 0, tiebreak: int = 0) -> tuple[int, ...]:
+    """An action's cost vector in PRIORITIES order, with its explaining event's cost and tie-break."""
+    out = list(action_cost(action, likelihood))
+    out[_EVENT_AT] += event
+    out[_TIE_AT] += tiebreak
+    return tuple(out)
+
+
+def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
+                     state: EventState) -> Sequence[TrackPrediction]:
+    """The second tracks worth testing poss for a pair event of tracks[i]: every other track, narrowed
+    (as a speed-up only, same answers) by what the precondition needs first: hides_behind needs
+    overlapping_top (the top matrix), unhides_from_behind needs the track not_visible."""
+    if spec.name == "hides_behind":
+        return [tracks[j] for j in np.flatnonzero(top[i]).tolist()]
+    if spec.name == "unhides_from_behind" and not _hidden(state, tracks[i].id):
+        return ()
+    return [t2 for t2 in tracks if t2.id != tracks[i].id]
+
+
+def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
+                  state: EventState, constants: Mapping[str, int],
+                  by_id: Mapping[str, TrackPrediction]) -> list[tuple[EventType, tuple[str, ...]]]:
+    """The possible events explaining ``action`` of tracks[i]: (event type, argument ids), in
+    event-table order, pair events by their candidate order."""
+    t = tracks[i]
+    out: list[tuple[EventType, tuple[str, ...]]] = []
+    for spec in explaining(action):
+        if spec.arity == 1:
+            if spec.poss(state, constants, t, tracks=by_id):
+                out.append((spec, (t.id,)))
+        else:
+            out.extend((spec, (t.id, t2.id)) for t2 in _pair_candidates(spec, i, tracks, top, state)
+                       if spec.poss(state, constants, t, t2, tracks=by_id))
+    return out
+
 
 EXPLANATION = -1
-"""AbductionModel.objectives key of the tie-break's explanation part (solved after level 0)."""
+"""AbductionModel.objectives key of the tie-break's explanation part (solved after the pair part)."""
 
 TIEBREAK_WORD_BITS = 60
 """CP-SAT's sums are 64-bit: the tie-break's pair part is solved in chunks that keep every sum
-below 2^59 (common.tiebreak_levels)."""
+below 2^59 (common.py, solve_lexicographic)."""
 
 
 class CpSatFailure(RuntimeError):
@@ -126,8 +152,8 @@ class AbductionModel:
     events: dict[str, cp_model.IntVar] = field(default_factory=dict)
     """event ('hides_behind(trk_13,trk_12)', 'enters_fov(det_3)') -> Boolean."""
     objectives: dict[int, list[tuple[int, cp_model.IntVar]]] = field(default_factory=dict)
-    """priority -> [(coefficient, Boolean)], minimised.  Level 0 holds the tie-break's pair part
-    (coefficients 2^q, Python integers of any size); EXPLANATION its explanation part."""
+    """priority -> [(coefficient, Boolean)], minimised.  TIEBREAK_LEVEL holds the tie-break's pair
+    part (coefficients 2^q, Python integers of any size); EXPLANATION its explanation part."""
     tiebreak_shift: int = 0
     """E of the tie-break (common.py): level 0 = pair part * 2^E + explanation part."""
 
@@ -159,28 +185,33 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
     iou = problem.iou_map
     inter = intersection_matrix([t.box for t in problem.tracks])
     tb = tiebreak_weights(problem, inter)
-    w = tb.pair
+    w = tb.pair  # 2^q per pair; events: tb.event (common.py)
     am.tiebreak_shift = tb.shift
     # Only pairs with an iou/3 fact can be assigned or resumed, and hides_behind(T, T2) needs
     # overlapping_top(T, T2): the loops below skip everything else before calling the rules
     # (same candidates, same variable order as testing every pair, without n^2 Python calls).
     paired = {t for t, _, _ in problem.iou}
+    by_id = {t.id: t for t in problem.tracks}
     top = _overlapping_top_matrix(problem.tracks, inter, constants["hide_overlap"])
     obj = am.objectives
-    cost = {name: constants[c] for name, c in COST_CONSTANT.items()}
+    cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
 
-    def action(atom: str) -> cp_model.IntVar:
+    def action(atom: str, name: str, likelihood: int = 0) -> cp_model.IntVar:
         v = model.new_bool_var(atom)
         am.actions[atom] = v
+        for p, c in zip(PRIORITIES, action_cost(name, likelihood)):
+            if c:
+                obj[p].append((c, v))
         return v
 
-    def event(atom: str, name: str) -> cp_model.IntVar:
-        v = model.new_bool_var(atom)
-        am.events[atom] = v
-        if cost[name]:
-            obj[1].append((cost[name], v))
-        if tb.event.get(atom):
-            obj[EXPLANATION].append((tb.event[atom], v))
+    def event(spec: EventType, args: tuple[str, ...]) -> cp_model.IntVar:
+        v = model.new_bool_var(f"{spec.name}({','.join(args)})")
+        am.events[f"{spec.name}({','.join(args)})"] = v
+        if cost[spec.name]:
+            obj[EVENT_LEVEL].append((cost[spec.name], v))
+        tie = tb.event.get(f"{spec.name}({','.join(args)})", 0)
+        if tie:
+            obj[EXPLANATION].append((tie, v))
         return v
 
     per_trk: dict[str, list[cp_model.IntVar]] = {t.id: [] for t in problem.tracks}
@@ -191,68 +222,46 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
             # assign(T, D): assignment_constraints
             for d in (problem.detections if t.id in paired else ()):
                 if assignment_constraints(problem, constants, iou, t, d):
-                    a = action(f"assign({t.id},{d.id})")
+                    a = action(f"assign({t.id},{d.id})", "assign", iou[(t.id, d.id)])
                     per_trk[t.id].append(a)
                     per_det[d.id].append(a)
-                    obj[10].append((-(iou[(t.id, d.id)] + 1), a))
-                    obj[0].append((w[(t.id, d.id)], a))
-            # halt(T) <=> exactly one of hides_behind(T, T2), missing_detections(T)   (explain_halt)
-            hides = [t2 for t2 in (problem.tracks[j] for j in np.flatnonzero(top[i]).tolist())
-                     if poss_hides_behind(state, constants, t, t2)]
-            missing = poss_missing_detections(state, constants, t)
-            if hides or missing:
-                h = action(f"halt({t.id})")
+                    obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
+            # halt(T) <=> exactly one of its possible explanations   (explain_halt)
+            halts = _explanations("halt", i, problem.tracks, top, state, constants, by_id)
+            if halts:
+                h = action(f"halt({t.id})", "halt")
                 per_trk[t.id].append(h)
-                expl = []
-                for t2 in hides:
-                    e = event(f"hides_behind({t.id},{t2.id})", "hides_behind")
-                    expl.append(e)
-                if missing:
-                    expl.append(event(f"missing_detections({t.id})", "missing_detections"))
-                model.add(sum(expl) == h)
+                model.add(sum(event(spec, args) for spec, args in halts) == h)
         else:  # halted
-            # end(T) <=> exactly one of leaves_fov(T), lost(T), noise(T)   (explain_end)
-            ends = [(name, fn) for name, fn in (("leaves_fov", poss_leaves_fov), ("lost", poss_lost),
-                                                ("noise", poss_noise)) if fn(state, constants, t)]
+            # end(T) <=> exactly one of its possible explanations   (explain_end)
+            ends = _explanations("end", i, problem.tracks, top, state, constants, by_id)
             if ends:
-                en = action(f"end({t.id})")
+                en = action(f"end({t.id})", "end")
                 per_trk[t.id].append(en)
-                obj[2].append((5, en))
-                model.add(sum(event(f"{name}({t.id})", name) for name, _ in ends) == en)
-            ig = action(f"ignore_trk({t.id})")
-            per_trk[t.id].append(ig)
-            obj[3].append((10, ig))
-            # resume(T, D) <=> exactly one of unhides_from_behind(T, T2), recover(T)   (explain_resume)
+                model.add(sum(event(spec, args) for spec, args in ends) == en)
+            per_trk[t.id].append(action(f"ignore_trk({t.id})", "ignore_trk"))
+            # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
             resumable = [d for d in (problem.detections if t.id in paired else ())
                          if resume_constraints(problem, constants, iou, t, d)]
-            # poss_unhides_from_behind(T, _) needs visibility(T) = not_visible
-            unhides = [t2 for t2 in (problem.tracks if _hidden(state, t.id) else ())
-                       if poss_unhides_from_behind(state, constants, t, t2)]
-            recover = poss_recover(state, constants, t)
-            if resumable and (unhides or recover):
+            expl = _explanations("resume", i, problem.tracks, top, state, constants, by_id) if resumable else []
+            if resumable and expl:
                 res = []
                 for d in resumable:
-                    a = action(f"resume({t.id},{d.id})")
+                    a = action(f"resume({t.id},{d.id})", "resume", iou[(t.id, d.id)])
                     res.append(a)
                     per_trk[t.id].append(a)
                     per_det[d.id].append(a)
-                    obj[2].append((1, a))
-                    obj[0].append((w[(t.id, d.id)], a))
-                expl = [event(f"unhides_from_behind({t.id},{t2.id})", "unhides_from_behind") for t2 in unhides]
-                if recover:
-                    expl.append(event(f"recover({t.id})", "recover"))
-                model.add(sum(expl) == sum(res))
+                    obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
+                model.add(sum(event(spec, args) for spec, args in expl) == sum(res))
 
     for d in problem.detections:
-        # start(D) <=> enters_fov(D)   (explain_start)
-        if start_constraints(constants, d) and poss_enters_fov(state, constants, d.id):
-            s = action(f"start({d.id})")
+        # start(D) <=> exactly one of its possible explanations (enters_fov)   (explain_start)
+        starts = [spec for spec in explaining("start") if spec.poss(state, constants, d.id, tracks=None)]
+        if start_constraints(constants, d) and starts:
+            s = action(f"start({d.id})", "start")
             per_det[d.id].append(s)
-            obj[2].append((5, s))
-            model.add(event(f"enters_fov({d.id})", "enters_fov") == s)
-        ig = action(f"ignore_det({d.id})")
-        per_det[d.id].append(ig)
-        obj[3].append((10, ig))
+            model.add(sum(event(spec, (d.id,)) for spec in starts) == s)
+        per_det[d.id].append(action(f"ignore_det({d.id})", "ignore_det"))
 
     for t in problem.tracks:
         if not per_trk[t.id]:
@@ -380,15 +389,16 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     # levels 10..1, then the tie-break: its pair part in chunks small enough for 64-bit sums
     # (powers of two 2^q -> chunk q // width, coefficient 2^(q % width); comparing the chunks
     # most significant first compares the integers), then its explanation part
-    levels: list[tuple[int, list[tuple[int, cp_model.IntVar]]]] = [(p, am.objectives[p]) for p in PRIORITIES[:-1]]
-    pair_terms = am.objectives[PRIORITIES[-1]]
+    levels: list[tuple[int, list[tuple[int, cp_model.IntVar]]]] = [
+        (p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
+    pair_terms = am.objectives[TIEBREAK_LEVEL]
     width = max(1, TIEBREAK_WORD_BITS - 1 - max(len(pair_terms), 1).bit_length())
     chunked: dict[int, list[tuple[int, cp_model.IntVar]]] = {}
     for c, v in pair_terms:
         q = c.bit_length() - 1
         chunked.setdefault(q // width, []).append((1 << (q % width), v))
-    levels += [(0, chunked[j]) for j in sorted(chunked, reverse=True)]
-    levels.append((0, am.objectives.get(EXPLANATION, [])))
+    levels += [(TIEBREAK_LEVEL, chunked[j]) for j in sorted(chunked, reverse=True)]
+    levels.append((TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, [])))
     groups = _pack_levels(levels)
 
     for i, group in enumerate(groups):
@@ -450,10 +460,10 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     if solution is None:
         raise SolveTimeout(f"no answer at t={am.time} within the time limit "
                            f"({'none' if time_limit is None else f'{time_limit:g} s'})")
-    cost = tuple((p, _level_value(am.objectives[p], solution)) for p in PRIORITIES[:-1])
     level0 = (_level_value(pair_terms, solution) << am.tiebreak_shift) + _level_value(
         am.objectives.get(EXPLANATION, []), solution)
-    cost += ((PRIORITIES[-1], level0),)
+    cost = tuple((p, level0 if p == TIEBREAK_LEVEL else _level_value(am.objectives[p], solution))
+                 for p in PRIORITIES)
     values = {atom: solution[v.index] for atom, v in list(am.actions.items()) + list(am.events.items())}
     return LexResult(values, cost, optimal, tuple(statuses))
 
@@ -714,51 +724,50 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     tb = tiebreak_weights(problem, inter)
     ev = tb.event  # level 0 of an explaining event: its index (common.py)
     w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
-    cost = {name: constants[c] for name, c in COST_CONSTANT.items()}
+    cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
     top = _overlapping_top_matrix(tracks, inter, constants["hide_overlap"])
     t_index = {t.id: i for i, t in enumerate(tracks)}
     d_index = {d.id: j for j, d in enumerate(dets)}
     paired = {tid for tid, _ in iou}
+    by_id = {t.id: t for t in tracks}
+
+    def priced(found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:
+        return [((cost[spec.name], ev.get(f"{spec.name}({','.join(args)})", 0)), f"{spec.name}({','.join(args)})")
+                for spec, args in found]
 
     # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
     solo_t: list[_Option] = []
     resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
     for i, t in enumerate(tracks):
         if t.state == "active":
-            expl = [((cost["hides_behind"], ev.get(f"hides_behind({t.id},{t2.id})", 0)), f"hides_behind({t.id},{t2.id})")
-                    for t2 in (tracks[j] for j in np.flatnonzero(top[i]).tolist())
-                    if poss_hides_behind(state, constants, t, t2)]
-            if poss_missing_detections(state, constants, t):
-                expl.append(((cost["missing_detections"], ev.get(f"missing_detections({t.id})", 0)), f"missing_detections({t.id})"))
+            expl = priced(_explanations("halt", i, tracks, top, state, constants, by_id))
             if not expl:
                 raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
             (c1, c0), event, tie = _cheapest(expl)
-            solo_t.append(_Option(f"halt({t.id})", event, (0, 0, 0, c1, c0), tie))
+            solo_t.append(_Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie))
         else:
-            options = [_Option(f"ignore_trk({t.id})", None, (0, 10, 0, 0, 0))]
-            ends = [((cost[name], ev.get(f"{name}({t.id})", 0)), f"{name}({t.id})") for name, fn in
-                    (("leaves_fov", poss_leaves_fov), ("lost", poss_lost), ("noise", poss_noise))
-                    if fn(state, constants, t)]
+            options = [_Option(f"ignore_trk({t.id})", None, _cost("ignore_trk"))]
+            ends = priced(_explanations("end", i, tracks, top, state, constants, by_id))
             if ends:
                 (c1, c0), event, tie = _cheapest(ends)
-                options.append(_Option(f"end({t.id})", event, (0, 0, 5, c1, c0), tie))
+                options.append(_Option(f"end({t.id})", event, _cost("end", event=c1, tiebreak=c0), tie))
             solo_t.append(_best_solo(options))
             if t.id not in paired:
                 continue  # no iou/3 pair: no resume, no explanation needed
-            expl = [((cost["unhides_from_behind"], ev.get(f"unhides_from_behind({t.id},{t2.id})", 0)), f"unhides_from_behind({t.id},{t2.id})")
-                    for t2 in (tracks if _hidden(state, t.id) else ())
-                    if poss_unhides_from_behind(state, constants, t, t2)]
-            if poss_recover(state, constants, t):
-                expl.append(((cost["recover"], ev.get(f"recover({t.id})", 0)), f"recover({t.id})"))
+            expl = priced(_explanations("resume", i, tracks, top, state, constants, by_id))
             if expl:
                 resume_expl[i] = _cheapest(expl)
 
     # -- solo options of the detections ---------------------------------------------------------
     solo_d: list[_Option] = []
     for d in dets:
-        options = [_Option(f"ignore_det({d.id})", None, (0, 10, 0, 0, 0))]
-        if start_constraints(constants, d) and poss_enters_fov(state, constants, d.id):
-            options.append(_Option(f"start({d.id})", f"enters_fov({d.id})", (0, 0, 5, cost["enters_fov"], ev.get(f"enters_fov({d.id})", 0))))
+        options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
+        starts = [((cost[spec.name], ev.get(f"{spec.name}({d.id})", 0)), f"{spec.name}({d.id})")
+                  for spec in explaining("start")
+                  if spec.poss(state, constants, d.id, tracks=None)]
+        if start_constraints(constants, d) and starts:
+            (c1, c0), event, tie = _cheapest(starts)
+            options.append(_Option(f"start({d.id})", event, _cost("start", event=c1, tiebreak=c0), tie))
         solo_d.append(_best_solo(options))
 
     # -- pair options (edges): assign for active tracks, resume for halted ones ------------------
@@ -770,10 +779,13 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         t, d = tracks[i], dets[j]
         if t.state == "active":
             if assignment_constraints(problem, constants, iou, t, d):
-                edges.append((i, j, _Option(f"assign({tid},{did})", None, (-(iou[(tid, did)] + 1), 0, 0, 0, w[(tid, did)]))))
+                edges.append((i, j, _Option(f"assign({tid},{did})", None,
+                                            _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))))
         elif i in resume_expl and resume_constraints(problem, constants, iou, t, d):
             (c1, c0), event, tie = resume_expl[i]
-            edges.append((i, j, _Option(f"resume({tid},{did})", event, (0, 0, 1, c1, w[(tid, did)] + c0), tie)))
+            edges.append((i, j, _Option(f"resume({tid},{did})", event,
+                                        _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0),
+                                        tie)))
 
     # -- one integer per cost vector, in the lexicographic order ---------------------------------
     bound = sum(abs(c) for o in solo_t + solo_d for c in o.cost) + sum(abs(c) for _, _, o in edges for c in o.cost)
@@ -913,7 +925,7 @@ class CpSatSolver:
         whole = len(parts) == 1
         actions: list[str] = []
         events: list[str] = []
-        totals = dict.fromkeys(PRIORITIES[:-1], 0)
+        totals = dict.fromkeys((p for p in PRIORITIES if p != TIEBREAK_LEVEL), 0)
         optimal = True
         for n, part in enumerate(parts):
             now = time.perf_counter()
@@ -938,8 +950,8 @@ class CpSatSolver:
             events += [f"occurs_at({e},{t})" for e in evs]
         if not optimal and deadline is not None and time.perf_counter() > deadline:
             self.stats["timeout"] += 1
-        cost = tuple((p, totals[p]) for p in PRIORITIES[:-1])
-        cost += ((PRIORITIES[-1], tiebreak_level(problem, actions, events)),)
+        level0 = tiebreak_level(problem, actions, events)
+        cost = tuple((p, level0 if p == TIEBREAK_LEVEL else totals[p]) for p in PRIORITIES)
         return Hypothesis(time=t, actions=tuple(actions), events=tuple(events), cost=cost,
                           optimal=optimal, backend=self.name,
                           solve_ms=(time.perf_counter() - start) * 1000.0)

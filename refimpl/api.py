@@ -1,0 +1,196 @@
+"""The library interface in the shape trackers are used in: ``Tracker(...).update(dets) -> tracks``.
+
+One call per frame: detections in as an (N, 5) array ``x1, y1, x2, y2, score`` with scores in
+0..1, tracks out as an (M, 5) array ``x1, y1, x2, y2, track_id``.  Behind it is the paper's
+Algorithm 1 (refimpl.tracker.AbductionTracker), so the rows returned for a frame are exactly
+the rows ``refimpl track`` writes for that frame, with one documented exception: the boxes
+``refimpl track`` interpolates inside a *bridged* gap (a confirmed track resumed after at most
+``bridge_gap`` hidden frames) are only known once the track resumes, so an online caller never
+gets them; ``result().rows`` (or ``interpolated_rows()``) has them after the fact.
+
+Scores map to the model's integer confidences 0..100 exactly as the MOTChallenge reader maps a
+file whose scores all lie in [0, 1] (refimpl.io): ``conf = floor(100 * score + 0.5)``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
+from .solvers import BACKENDS, get_solver
+from .spec import HistoryEvent
+from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker,
+                      TrackingResult)
+
+if TYPE_CHECKING:
+    from .scene import Scene
+
+__all__ = ["Tracker", "confidences_from_scores"]
+
+
+def confidences_from_scores(scores: ArrayLike) -> np.ndarray:
+    """Scores in [0, 1] as the paper's integer confidences 0..100 (round half up, as refimpl.io)."""
+    return np.floor(100.0 * np.asarray(scores, dtype=float) + 0.5).astype(np.int64)
+
+
+class Tracker:
+    """Online tracking by abduction, one ``update`` per frame.
+
+    backend: an abduction backend of refimpl.solvers.BACKENDS ('cpsat' or 'clingo').
+    constants: model constant overrides (names of model/constants.lp), e.g. {"iou_thresh": 20000}.
+    img_size: (width, height) of the images in pixels; sets img_width / img_height (the
+        field-of-view border).  Without it the border is not tested, as for a det.txt
+        without seqinfo.ini.
+    min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
+    object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
+    first_frame: the number of the first frame (1 as MOTChallenge, 0 as KITTI).
+    name, fps: carried into ``scene()``.
+    """
+
+    def __init__(self, backend: str = "cpsat", *, constants: Mapping[str, int] | None = None,
+                 img_size: tuple[int, int] | None = None, min_hits: int = DEFAULT_MIN_HITS,
+                 bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
+                 time_limit: float | None = None, object_type: str = "pedestrian", first_frame: int = 1,
+                 name: str = "sequence", fps: float | None = None) -> None:
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
+        merged = self._constants(constants)
+        if img_size is not None:
+            w, h = self._img_size(img_size)
+            merged.setdefault("img_width", w)
+            merged.setdefault("img_height", h)
+            img_size = (w, h)
+        for label, value in (("min_hits", min_hits), ("bridge_gap", bridge_gap), ("bridge_conf", bridge_conf),
+                             ("first_frame", first_frame)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+                raise ValueError(f"{label} must be a non-negative integer, got {value!r}")
+        if time_limit is not None and not time_limit > 0:
+            raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
+        self.object_type = self._type(object_type, "object_type")
+        self.backend = backend
+        self.name, self.fps, self.image_size = name, fps, img_size
+        self.first_frame = int(first_frame)
+        self._tracker = AbductionTracker(get_solver(backend), merged, int(min_hits), time_limit,
+                                         int(bridge_gap), int(bridge_conf))
+        self._frames: list[DetectionFrame] = []
+
+    # -- validation --------------------------------------------------------------------------
+    @staticmethod
+    def _constants(constants: Mapping[str, int] | None) -> dict[str, int]:
+        from .constants import default_constants
+        known = default_constants()
+        out: dict[str, int] = {}
+        for key, value in dict(constants or {}).items():
+            if key not in known:
+                raise ValueError(f"unknown model constant {key!r} (known: {', '.join(sorted(known))})")
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise ValueError(f"model constant {key} must be an integer, got {value!r}")
+            out[key] = int(value)
+        return out
+
+    @staticmethod
+    def _img_size(img_size: object) -> tuple[int, int]:
+        try:
+            w, h = img_size
+        except (TypeError, ValueError):
+            raise ValueError(f"img_size must be (width, height), got {img_size!r}") from None
+        if any(isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v <= 0 for v in (w, h)):
+            raise ValueError(f"img_size must be two positive integers (width, height), got {img_size!r}")
+        return int(w), int(h)
+
+    @staticmethod
+    def _type(name: object, what: str) -> str:
+        key = str(name).strip().lower()
+        if key not in OBJECT_TYPES:
+            raise ValueError(f"{what}: unknown object class {name!r} (known: {', '.join(OBJECT_TYPES)})")
+        return key
+
+    def _check(self, dets: ArrayLike,
+               classes: Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+        try:
+            a = np.asarray(dets, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError("dets must be a numeric (N, 5) array x1,y1,x2,y2,score") from None
+        if a.size == 0:
+            a = a.reshape(0, 5)
+        if a.ndim != 2 or a.shape[1] != 5:
+            raise ValueError(f"dets must be an (N, 5) array x1,y1,x2,y2,score; got shape {a.shape}")
+        bad = ~np.isfinite(a).all(axis=1)
+        if bad.any():
+            raise ValueError(f"dets row {int(np.flatnonzero(bad)[0])} contains NaN or inf")
+        bad = (np.abs(a[:, :4]) > MAX_COORD).any(axis=1)
+        if bad.any():
+            raise ValueError(f"dets row {int(np.flatnonzero(bad)[0])}: a coordinate beyond {MAX_COORD:g} px")
+        scores = a[:, 4]
+        bad = (scores < 0.0) | (scores > 1.0)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"dets row {k}: score {scores[k]:g} is outside 0..1")
+        boxes = np.column_stack([a[:, 0], a[:, 1], a[:, 2] - a[:, 0], a[:, 3] - a[:, 1]])
+        bad = (boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE)
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"dets row {k}: width {boxes[k, 2]:g} and height {boxes[k, 3]:g} must be >= "
+                             f"{MIN_DET_SIZE:g} px (x2 > x1, y2 > y1)")
+        if classes is None:
+            types = (self.object_type,) * len(a)
+        else:
+            if isinstance(classes, str) or len(classes) != len(a):
+                n = "a string" if isinstance(classes, str) else f"{len(classes)} entries"
+                raise ValueError(f"classes must be a sequence of one class per detection: {len(a)} detections, "
+                                 f"got {n}")
+            types = tuple(self._type(c, f"classes[{i}]") for i, c in enumerate(classes))
+        return boxes, scores, types
+
+    # -- tracking ----------------------------------------------------------------------------
+    @property
+    def frame(self) -> int:
+        """The number of the next frame ``update`` will process."""
+        return self.first_frame + len(self._frames)
+
+    def update(self, dets: ArrayLike, classes: Sequence[str] | None = None) -> np.ndarray:
+        """Track one frame; the (M, 5) rows x1, y1, x2, y2, track_id reported for it, by track id."""
+        boxes, scores, types = self._check(dets, classes)
+        frame = self.frame
+        conf = confidences_from_scores(scores)
+        self._tracker.step(frame, boxes, conf, types)
+        self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
+        rows = []
+        everyone = list(self._tracker.tracks.values()) + self._tracker.finished
+        for trk in everyone:
+            if frame in trk.confirmed:
+                x, y, w, h = trk.observed[frame]
+                rows.append((x, y, x + w, y + h, float(trk.id.rsplit("_", 1)[1])))
+        out = np.array(rows, dtype=float).reshape(-1, 5)
+        return out[np.argsort(out[:, 4], kind="stable")]
+
+    @property
+    def events(self) -> tuple[HistoryEvent, ...]:
+        """The abduced events so far, occurs_at(E, t) in time order (the paper's event sequence)."""
+        return tuple(self._tracker.events)
+
+    def result(self) -> TrackingResult:
+        """Everything so far as ``refimpl.tracker.track_sequence`` returns it (rows in MOT order
+        frame, id, x, y, w, h, including the interpolated rows of bridged gaps)."""
+        return self._tracker.result()
+
+    def interpolated_rows(self) -> np.ndarray:
+        """The (n, 6) MOT rows of bridged gaps that ``update`` could not report online."""
+        rows = self._tracker.result_rows()
+        observed = {(f, int(t.id.rsplit("_", 1)[1]))
+                    for t in list(self._tracker.tracks.values()) + self._tracker.finished for f in t.observed}
+        keep = [(int(r[0]), int(r[1])) not in observed for r in rows]
+        return rows[np.asarray(keep, dtype=bool)] if len(rows) else rows
+
+    def sequence(self) -> DetectionSequence:
+        """The detections given so far as a DetectionSequence (refimpl.io)."""
+        return DetectionSequence(self.name, tuple(self._frames), self.first_frame, self.image_size, self.fps)
+
+    def scene(self) -> "Scene":
+        """The scene so far (refimpl.scene.Scene): tracks, events and fluent timelines, for
+        refimpl.scene.query / explain and refimpl.plots."""
+        from .scene import scene_from_result
+        return scene_from_result(self.sequence(), self.result())

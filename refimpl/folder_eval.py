@@ -1,0 +1,135 @@
+"""Evaluation of a folder of results files (one per sequence) against a ground-truth root.
+
+Results: every ``<SEQ>.txt`` directly inside the results folder is the results file of sequence
+SEQ (hidden files, other extensions and subfolders are ignored); sequences are scored in sorted
+name order.  Ground truth of SEQ under the root ROOT:
+
+* ``mot``: the MOTChallenge layout ``ROOT/<SEQ>/gt/gt.txt``, with ``ROOT/<SEQ>/seqinfo.ini``
+  giving the sequence length when present (as in MOTChallenge's ``train/`` folders);
+* ``kitti``: ``ROOT/label_02/<SEQ>.txt`` when ROOT has a ``label_02`` folder (ROOT is KITTI's
+  ``tracking/training``, TrackEval's GT_FOLDER), otherwise ``ROOT/<SEQ>.txt`` (ROOT is the
+  ``label_02`` folder itself).
+
+A results file without ground truth is an error (one line naming the paths looked at); ground
+truth without a results file is allowed (e.g. scoring only KITTI's validation sequences) and
+listed in ``FolderEvaluation.unscored``.  An empty results file means "no tracks" (all FN).
+
+The scores are ``refimpl.evaluate``'s (HOTA from TrackEval, CLEAR and IDF1 from motmetrics, on
+the same preprocessed rows), and ``metrics_json`` names them as the MOT literature does.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import io
+from .evaluate import evaluate_many
+
+JSON_METRICS = (("HOTA", "hota"), ("DetA", "deta"), ("AssA", "assa"), ("MOTA", "mota"), ("MOTP", "motp"),
+                ("IDF1", "idf1"), ("IDs", "idsw"), ("Frag", "frag"), ("FP", "fp"), ("FN", "fn"),
+                ("MT", "mt"), ("ML", "ml"))
+"""(name in the JSON output, key of refimpl.evaluate's result) of every metric reported."""
+
+
+@dataclass(frozen=True)
+class SequenceFiles:
+    """One sequence of a results folder: its results file and ground-truth file."""
+
+    name: str
+    results: Path
+    gt: Path
+
+
+@dataclass(frozen=True)
+class FolderEvaluation:
+    """Per-sequence and overall scores of a results folder, and ground-truth sequences without results."""
+
+    per_sequence: dict
+    overall: dict
+    unscored: tuple[str, ...]
+
+
+def _kitti_label_dir(gt_root: Path) -> Path:
+    sub = gt_root / "label_02"
+    return sub if sub.is_dir() else gt_root
+
+
+def _gt_candidates(gt_root: Path, name: str, data_format: str) -> list[Path]:
+    if data_format == "mot":
+        return [gt_root / name / "gt" / "gt.txt"]
+    return [_kitti_label_dir(gt_root) / f"{name}.txt"]
+
+
+def _gt_sequences(gt_root: Path, data_format: str) -> list[str]:
+    """Names of the sequences that have ground truth under gt_root."""
+    if data_format == "mot":
+        return sorted(p.name for p in gt_root.iterdir() if (p / "gt" / "gt.txt").is_file())
+    return sorted(p.stem for p in _kitti_label_dir(gt_root).glob("*.txt") if not p.name.startswith("."))
+
+
+def pair_folder(results_dir: str | Path, gt_root: str | Path, data_format: str) -> tuple[list[SequenceFiles], tuple[str, ...]]:
+    """The (results, ground truth) file pairs of a results folder, and the gt sequences left unscored."""
+    results_dir, gt_root = Path(results_dir), Path(gt_root)
+    if data_format not in ("mot", "kitti"):
+        raise ValueError(f"unknown format {data_format!r} (mot or kitti)")
+    if not results_dir.is_dir():
+        raise io.InputFormatError("not a folder of results files", results_dir)
+    if not gt_root.is_dir():
+        raise io.InputFormatError("with a results folder, --gt must be the ground-truth root folder "
+                                  + ("(holding <SEQ>/gt/gt.txt)" if data_format == "mot"
+                                     else "(holding label_02/<SEQ>.txt or <SEQ>.txt)"), gt_root)
+    files = sorted(p for p in results_dir.glob("*.txt") if p.is_file() and not p.name.startswith("."))
+    if not files:
+        raise io.InputFormatError("no results files (<SEQ>.txt) in this folder", results_dir)
+    pairs = []
+    for f in files:
+        candidates = _gt_candidates(gt_root, f.stem, data_format)
+        found = next((c for c in candidates if c.is_file()), None)
+        if found is None:
+            raise io.InputFormatError(f"no ground truth for sequence {f.stem!r} (looked for "
+                                      f"{', '.join(str(c) for c in candidates)})", f)
+        pairs.append(SequenceFiles(f.stem, f, found))
+    scored = {p.name for p in pairs}
+    unscored = tuple(n for n in _gt_sequences(gt_root, data_format) if n not in scored)
+    return pairs, unscored
+
+
+def read_ground_truth(path: str | Path, data_format: str, object_class: str | None) -> io.GroundTruth:
+    """Ground truth of one sequence: MOTChallenge gt.txt (seqinfo.ini beside gt/ if any) or KITTI label_02."""
+    if data_format == "mot":
+        return io.read_mot_ground_truth(path)
+    if object_class is None:
+        raise ValueError("KITTI ground truth needs the object class")
+    return io.read_kitti_ground_truth(path, object_class)
+
+
+def evaluate_folder(results_dir: str | Path, gt_root: str | Path, data_format: str,
+                    object_class: str | None = None, iou_threshold: float = 0.5) -> FolderEvaluation:
+    """Score every results file of a folder against its ground truth (module doc for the layouts)."""
+    pairs, unscored = pair_folder(results_dir, gt_root, data_format)
+    triples = []
+    for p in pairs:
+        gt = read_ground_truth(p.gt, data_format, object_class)
+        results = io.read_results(p.results, data_format, object_class, allow_empty=True)
+        triples.append((p.name, gt, results))
+    per_sequence, overall = evaluate_many(triples, iou_threshold)
+    return FolderEvaluation(per_sequence, overall, unscored)
+
+
+def _json_value(v):
+    if isinstance(v, float):
+        return None if math.isnan(v) else v
+    return int(v)
+
+
+def metrics_json(per_sequence: dict, overall: dict) -> dict:
+    """``{"sequences": {name: {HOTA, DetA, AssA, MOTA, MOTP, IDF1, IDs, Frag, FP, FN, MT, ML}}, "overall": {...}}``.
+
+    Ratios are fractions in [0, 1] (null when undefined, e.g. MOTA without targets), counts integers.
+    """
+    def one(r: dict) -> dict:
+        return {name: _json_value(r[key]) for name, key in JSON_METRICS}
+
+    return {"sequences": {n: one(r) for n, r in per_sequence.items()}, "overall": one(overall)}

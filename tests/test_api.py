@@ -1,0 +1,167 @@
+"""refimpl.Tracker: frame-by-frame update() gives the rows `refimpl track` writes; bad input is refused."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import refimpl
+from refimpl import io
+from refimpl.api import confidences_from_scores
+from refimpl.cli import main
+from refimpl.tracker import DEFAULT_BRIDGE_GAP, track_sequence
+
+
+def _xyxys(frame) -> np.ndarray:
+    """A DetectionFrame as the API's (N, 5) x1, y1, x2, y2, score."""
+    b = frame.boxes
+    return np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], frame.scores]).reshape(-1, 5)
+
+
+def _online(seq):
+    tracker = refimpl.Tracker("cpsat", img_size=seq.image_size)
+    rows = []
+    for fr in seq.frames:
+        out = tracker.update(_xyxys(fr))
+        assert out.shape[1] == 5
+        assert list(out[:, 4]) == sorted(out[:, 4])  # by track id
+        rows += [[fr.frame, r[4], r[0], r[1], r[2] - r[0], r[3] - r[1]] for r in out]
+    return tracker, np.array(rows, dtype=float).reshape(-1, 6)
+
+
+def test_update_frame_by_frame_gives_the_rows_refimpl_track_writes(shared_data, tmp_path):
+    # KITTI-17 (145 frames, SORT's Faster R-CNN detections, scores 0.5..1 so the reader uses
+    # conf = round(100 * score), as the API does) has bridged gaps, so the one exception shows.
+    dets = shared_data / "MOT15" / "train" / "KITTI-17" / "det" / "det_sort_frcnn.txt"
+    out = tmp_path / "KITTI-17.txt"
+    assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(out), "--quiet"]) == 0
+    written = io.read_mot_results(out)
+    seq = io.read_mot_detections(dets)
+    tracker, online = _online(seq)
+
+    on = {(int(r[0]), int(r[1])): r for r in online}
+    filed = {(int(r[0]), int(r[1])): r for r in written}
+    assert len(on) == len(online)  # no (frame, id) twice
+    # every online row is in the file, with the same box to the file's two decimals
+    assert set(on) <= set(filed)
+    for key, r in on.items():
+        assert np.all(np.abs(r[2:] - filed[key][2:]) <= 0.005 + 1e-9), key
+    # ... and written through the same writer, byte for byte the file's lines
+    online_file = tmp_path / "online.txt"
+    io.write_mot_results(online_file, online)
+    file_lines = out.read_text().splitlines()
+    assert set(online_file.read_text().splitlines()) <= set(file_lines)
+
+    # The rows missing online are exactly the interpolated rows of bridged gaps: frames at which
+    # the track was not observed, strictly inside a gap of at most bridge_gap frames between two
+    # observed frames of that track, and halted there.
+    missing = set(filed) - set(on)
+    assert missing, "KITTI-17 should exercise a bridged gap"
+    records = {int(t.id.rsplit("_", 1)[1]): t for t in tracker.result().tracks}
+    for frame, tid in missing:
+        observed = [f for f, _ in records[tid].observed]
+        halted = {f for f, _ in records[tid].halted}
+        assert frame not in observed and frame in halted
+        before = max(f for f in observed if f < frame)
+        after = min(f for f in observed if f > frame)
+        assert after - before - 1 <= DEFAULT_BRIDGE_GAP
+    assert {(int(r[0]), int(r[1])) for r in tracker.interpolated_rows()} == missing
+    # the finished result equals the batch run's rows to float rounding of x2 - x1
+    batch = track_sequence(seq, backend="cpsat")
+    assert tracker.result().rows.shape == batch.rows.shape
+    assert np.allclose(tracker.result().rows, batch.rows, rtol=0, atol=1e-9)
+    assert tracker.events == batch.events
+
+
+def test_demo_sequence_events_and_scene():
+    seq = io.load_detections(io.demo_sequence_paths())
+    tracker, online = _online(seq)
+    batch = track_sequence(seq, backend="cpsat")
+    assert tracker.events == batch.events and len(tracker.events) > 0
+    scene = tracker.scene()
+    assert scene.name == "sequence" and scene.image_size == (640, 480)
+    assert {t.id for t in scene.tracks} == {r.id for r in batch.tracks}
+    # TUD-Campus has no bridged gap: online rows are all the rows
+    assert len(online) == len(batch.rows)
+
+
+def test_scores_map_to_confidences_as_the_mot_reader_does(tmp_path):
+    # half up: 0.005 -> floor(0.5 + 0.5) = 1, 0.0049 -> floor(0.49 + 0.5) = 0, 0.125 -> 13, 1 -> 100
+    scores = [0.005, 0.0049, 0.125, 0.5, 0.999, 1.0, 0.0]
+    path = tmp_path / "det.txt"
+    path.write_text("".join(f"1,-1,{10 * i},10,20,40,{s}\n" for i, s in enumerate(scores)))
+    read = io.read_mot_detections(path).frames[0].confidences
+    assert list(confidences_from_scores(scores)) == [1, 0, 13, 50, 100, 100, 0]
+    assert list(read) == list(confidences_from_scores(scores))
+
+
+def test_empty_frames_and_an_empty_list():
+    t = refimpl.Tracker()
+    assert t.update(np.zeros((0, 5))).shape == (0, 5)
+    assert t.update([]).shape == (0, 5)
+    assert t.frame == 3 and t.events == ()
+
+
+def test_classes_name_the_type_in_any_case():
+    t = refimpl.Tracker("cpsat", min_hits=1)
+    out = t.update([[10, 10, 60, 40, 0.9]], classes=["Car"])
+    # the first min_hits frames are written at once (SORT's rule): track 1 at the detection's box
+    assert out.tolist() == [[10.0, 10.0, 60.0, 40.0, 1.0]]
+    assert t.result().tracks[0].type == "car"
+
+
+@pytest.mark.parametrize("dets, classes, message", [
+    (np.zeros((3, 4)), None, "(N, 5)"),
+    ([[0, 0, 10, 10, np.nan]], None, "NaN or inf"),
+    ([[0, 0, np.inf, 10, 0.5]], None, "NaN or inf"),
+    ([[0, 0, 10, 10, 1.5]], None, "outside 0..1"),
+    ([[0, 0, 10, 10, -0.1]], None, "outside 0..1"),
+    ([[0, 0, 10, 10, 50]], None, "outside 0..1"),  # a 0..100 confidence, not a score
+    ([[10, 0, 10, 10, 0.5]], None, "x2 > x1"),
+    ([[0, 20, 10, 10, 0.5]], None, "x2 > x1"),
+    ([[0, 0, 10, 10, 0.5]], ["car", "car"], "1 detections, got 2 entries"),
+    ([[0, 0, 10, 10, 0.5]], "car", "got a string"),
+    ([[0, 0, 10, 10, 0.5]], ["truck"], "unknown object class 'truck'"),
+    ("boxes", None, "numeric"),
+])
+def test_bad_input_is_a_clear_error(dets, classes, message):
+    t = refimpl.Tracker()
+    with pytest.raises(ValueError) as err:
+        t.update(dets, classes)
+    assert message in str(err.value)
+    assert t.frame == 1  # nothing consumed
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"backend": "baseline"}, "backend must be one of cpsat, clingo"),
+    ({"constants": {"iou_treshold": 1}}, "unknown model constant 'iou_treshold'"),
+    ({"constants": {"iou_thresh": 0.3}}, "must be an integer"),
+    ({"img_size": (640,)}, "(width, height)"),
+    ({"img_size": (640, 0)}, "positive integers"),
+    ({"min_hits": -1}, "non-negative integer"),
+    ({"object_type": "Truck"}, "unknown object class"),
+])
+def test_bad_options_are_a_clear_error(kwargs, message):
+    with pytest.raises(ValueError) as err:
+        refimpl.Tracker(**kwargs)
+    assert message in str(err.value)
+
+
+def test_the_readme_example_runs():
+    # the README's Python API example, fed the bundled TUD-Campus detections frame by frame
+    import contextlib
+    import io as stdio
+    import re
+    from pathlib import Path
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    code = re.search(r"## Python API.*?```python\n(.*?)```", readme, re.S).group(1)
+    assert len(code.strip().splitlines()) <= 12
+    seq = io.load_detections(io.demo_sequence_paths())
+    scope = {"frames": [_xyxys(fr) for fr in seq.frames]}
+    out = stdio.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "README.md", "exec"), scope)
+    batch = track_sequence(seq, backend="cpsat")
+    # one printed line per written row (TUD-Campus has no bridged gap), then the first three events
+    assert len(out.getvalue().splitlines()) == len(batch.rows) + 1
+    assert scope["scene"].tracks

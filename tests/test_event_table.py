@@ -1,0 +1,126 @@
+"""The event table (refimpl.events.EVENT_TABLE) and the action/priority tables (refimpl.hypothesis)
+are the one place for each event's and action's knowledge: these tests pin them to the ASP
+encoding (model/*.lp) and prove that every consumer sees every event."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from refimpl.constants import default_constants, model_dir, resolve_constants
+from refimpl.events import EVENT_TABLE, EventState, explaining, possible_events
+from refimpl.hypothesis import ACTION_TABLE, PRIORITIES, action_cost
+from refimpl.plots import EVENT_STYLE
+from refimpl.scene import Episode, SceneTrack, explain_episode, make_scene
+from refimpl.solvers.cpsat import build_model
+from refimpl.spec import parse_facts
+
+
+def _lp(name: str) -> str:
+    text = (model_dir() / name).read_text(encoding="utf-8")
+    return "\n".join(line.split("%", 1)[0] for line in text.splitlines())  # drop comments
+
+
+def test_every_event_of_the_asp_encoding_is_in_the_table_with_its_arity():
+    # event(hides_behind(Trk1, Trk2)) :- ...   -> ('hides_behind', 2)
+    heads = re.findall(r"^event\((\w+)\(([^)]*)\)\)", _lp("events.lp"), flags=re.M)
+    asp = {name: len(args.split(",")) for name, args in heads}
+    assert asp == {name: e.arity for name, e in EVENT_TABLE.items()}
+
+
+def test_the_explain_rules_of_the_asp_encoding_match_the_table():
+    # each choice rule "1 { occurs_at(E1..) ; occurs_at(E2..) } 1 :- action(X)." names the events
+    # that explain that action; resumed(Trk) stands for resume(Trk, _)
+    rules = re.findall(r"1 \{(.*?)\} 1 :- (\w+)\(", _lp("events.lp"), flags=re.S)
+    asp = {}
+    for body, action in rules:
+        action = "resume" if action == "resumed" else action
+        asp[action] = tuple(re.findall(r"occurs_at\((\w+)\(", body))
+    assert asp == {a: tuple(e.name for e in explaining(a)) for a in ("halt", "resume", "start", "end")}
+
+
+def test_every_event_has_a_cost_constant_and_a_level1_cost_term():
+    constants = default_constants()
+    level1 = re.findall(r"cost_(\w+)@1", _lp("optimisation.lp"))
+    for name, e in EVENT_TABLE.items():
+        assert e.cost_constant in constants
+    assert sorted(level1) == sorted(EVENT_TABLE)
+
+
+def test_the_action_costs_and_priorities_are_those_of_optimisation_lp():
+    text = _lp("optimisation.lp")
+    # every level is reported: '#minimize { 0@P }.' once per priority, highest first
+    assert tuple(int(p) for p in re.findall(r"#minimize \{ 0@(\d+) \}", text)) == PRIORITIES
+    # 'W@P, ..., tag : action(...)' for the counted actions
+    found = {name: (int(p), int(w)) for w, p, name in
+             re.findall(r"(\d+)@(\d+), [\w, ]+ : (\w+)\(", text) if name in ACTION_TABLE and name != "assign"}
+    expected = {a.name: (a.level, a.weight) for a in ACTION_TABLE.values()
+                if a.level is not None and a.name != "assign"}
+    assert found == expected
+    # assign is maximised at @10: ML + 1 per assignment, i.e. a cost of -(ML + 1)
+    assert "#maximize { ML@10, Trk, Det : assign(Trk, Det), iou(Trk, Det, ML) }" in text
+    assert "#maximize { 1@10, Trk, Det, count : assign(Trk, Det) }" in text
+    assert action_cost("assign", 500) == (-501, 0, 0, 0, 0, 0)
+    assert action_cost("resume", 500) == (0, -500, 0, 1, 0, 0)
+    assert action_cost("halt") == (0, 0, 0, 0, 0, 0)
+
+
+# A frame in which every event of the table is possible (derivations in the comments):
+#   trk_1 (100,100,100,100) active, trk_2 (120,110,120,100) active: trk_2 covers 80*90 = 7200 px
+#     of trk_1's 10000 (> hide_overlap 10 %) and its bottom 210 >= 200, so overlapping_top:
+#     hides_behind(trk_1,trk_2) and missing_detections(trk_1) are possible;
+#   trk_3 halted, hidden behind trk_2 since 95 (not_visible, hidden_by): unhides_from_behind
+#     (trk_3,trk_2) and recover(trk_3) are possible, and det_0 (iou 90000, conf 90) can resume it;
+#   trk_4 halted, started and missing at 97, near the right border (x+w = 998 > 1000-10): at
+#     curr_time 100, noise (100-97 <= noise_max_age 3), lost (100-97 >= lost_after_missing 3)
+#     and leaves_fov are possible;
+#   det_0 (area 2500 > 100, conf 90 > 40) can start a track: enters_fov(det_0).
+FRAME = """
+#const curr_time=100.
+#const img_width=1000.
+#const img_height=500.
+det(det_0, car, 90).
+box2d(det_0, 132, 121, 50, 50).
+trk(trk_1, car). trk_state(trk_1, active). box2d(trk_1, 100, 100, 100, 100).
+trk(trk_2, car). trk_state(trk_2, active). box2d(trk_2, 120, 110, 120, 100).
+trk(trk_3, car). trk_state(trk_3, halted). box2d(trk_3, 130, 120, 50, 50).
+trk(trk_4, car). trk_state(trk_4, halted). box2d(trk_4, 978, 100, 20, 20).
+iou(trk_3, det_0, 90000).
+occurs_at(enters_fov(trk_1), 10).
+occurs_at(enters_fov(trk_2), 10).
+occurs_at(enters_fov(trk_3), 10).
+occurs_at(hides_behind(trk_3, trk_2), 95).
+occurs_at(enters_fov(trk_4), 97).
+occurs_at(missing_detections(trk_4), 97).
+"""
+
+
+@pytest.fixture(scope="module")
+def every_event_frame():
+    problem = parse_facts(FRAME)
+    return problem, EventState.from_problem(problem), resolve_constants(problem)
+
+
+def test_the_frame_makes_every_event_possible(every_event_frame):
+    problem, state, c = every_event_frame
+    possible = {atom.split("(")[0] for atom, ok in possible_events(problem, state, c).items() if ok}
+    assert possible == set(EVENT_TABLE)
+
+
+def test_the_cpsat_model_has_a_variable_for_every_event(every_event_frame):
+    problem, state, c = every_event_frame
+    am = build_model(problem, state, c)
+    assert {atom.split("(")[0] for atom in am.events} == set(EVENT_TABLE)
+
+
+def test_the_scene_has_a_sentence_and_the_plots_a_style_for_every_event():
+    scene = make_scene("t", [SceneTrack("trk_1", "car", ((1, (0.0, 0.0, 10.0, 10.0)),), (), None),
+                             SceneTrack("trk_2", "car", ((1, (0.0, 0.0, 10.0, 10.0)),), (), None)], [], 1, 20)
+    for name, e in EVENT_TABLE.items():
+        sentence = explain_episode(scene, Episode(name, "trk_1", 5, "trk_2" if e.arity == 2 else None))
+        assert e.phrase in sentence and not sentence.startswith("Event "), sentence
+        assert EVENT_STYLE[name][:2] == (e.marker, e.colour)
+    for halt in explaining("halt"):
+        ep = Episode(halt.closing, "trk_1", 5, "trk_2" if halt.arity == 2 else None, 9, "recover")
+        assert halt.phrase in explain_episode(scene, ep)
