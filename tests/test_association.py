@@ -750,5 +750,7 @@ def test_resume_prefers_the_likelier_detection(backend, exact):
     assert h.answer == tuple(sorted([f"resume(trk_1,det_{exact})", ev("recover(trk_1)"),
                                      f"start(det_{other})", ev(f"enters_fov(det_{other})")]))
     # @5: -100000; @2: resume 1 + start 5; @1: recover 2 + enters_fov 1;
-    # @0: w = (k+1)^2 over the pairs in natural order (trk_1,det_0) k=0, (trk_1,det_1) k=1
-    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, (exact + 1) ** 2))
+    # @0 (the canonical tie-break): one component, pairs in natural order (trk_1,det_0) 2^0 and
+    # (trk_1,det_1) 2^1, shifted by E = bit length of 5 + 5 + 5 (three nodes, six arity-1 events
+    # each) = 4; recover is trk_1's event 1, enters_fov the other detection's event 2
+    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, ((1 << exact) << 4) + 1 + 2))
