@@ -8,15 +8,23 @@ the memory back.  It also makes the time limit hard: grounding cannot be stopped
 process, but a child that overruns its limit by GRACE seconds is killed (the parent then uses the
 obvious answer, as for any search without a model).
 
-The child ignores SIGINT; the parent polls the pipe every POLL seconds, so a Ctrl-C raises
-KeyboardInterrupt in the parent within that time, and the child is killed.
+The child is a fresh interpreter (``python -m refimpl.solvers.clingo_worker FD``, in a session of
+its own) that talks over a multiprocessing Connection: unlike multiprocessing's spawn it never
+re-imports the caller's ``__main__``, so scripts without an ``if __name__ == "__main__"`` guard work,
+and a terminal's Ctrl-C does not reach it.  The parent polls the pipe every POLL seconds, so a
+Ctrl-C raises KeyboardInterrupt in the parent within that time, and the child is killed.
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.connection
+import os
 import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 from typing import Any
 
 from ..spec import FrameProblem
@@ -29,12 +37,13 @@ DEFAULT_RECYCLE = 4000
 """Solves per child process before it is replaced."""
 
 
-def _serve(conn, options: dict) -> None:
-    """The child's loop: (problem, time limit) in, ("ok", result) or ("error", type, message) out."""
+def _serve(conn) -> None:
+    """The child's loop: its options first, then (problem, time limit) in, ("ok", result, cpu
+    seconds) or ("error", type, message) out; None or a closed pipe ends it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides about interrupts
     from .clingo_backend import ClingoSolver
 
-    solver = ClingoSolver(**options, isolate=False)
+    solver = ClingoSolver(**conn.recv(), isolate=False)
     while True:
         try:
             job = conn.recv()
@@ -66,11 +75,15 @@ class ClingoWorker:
         """CPU time the children spent in the solves they answered."""
 
     def _start(self) -> None:
-        ctx = multiprocessing.get_context("spawn")  # no fork of a process with solver threads
-        parent, child = ctx.Pipe()
-        self._proc = ctx.Process(target=_serve, args=(child, self.options), daemon=True)
-        self._proc.start()
+        parent, child = multiprocessing.Pipe()
+        env = dict(os.environ)
+        root = str(Path(__file__).resolve().parents[2])  # this refimpl, also when not installed
+        env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        self._proc = subprocess.Popen([sys.executable, "-m", "refimpl.solvers.clingo_worker", str(child.fileno())],
+                                      pass_fds=(child.fileno(),), env=env, start_new_session=True,
+                                      stdin=subprocess.DEVNULL)
         child.close()
+        parent.send(self.options)
         self._conn = parent
         self._served = 0
         self.started += 1
@@ -85,10 +98,11 @@ class ClingoWorker:
             conn.send(None)
         except (OSError, ValueError):
             pass
-        proc.join(timeout=0.5)
-        if proc.is_alive():
+        try:
+            proc.wait(timeout=0.5)
+        except subprocess.TimeoutExpired:
             proc.kill()
-            proc.join()
+            proc.wait()
         conn.close()
 
     def _kill(self) -> None:
@@ -96,7 +110,7 @@ class ClingoWorker:
         self._proc = self._conn = None
         if proc is not None:
             proc.kill()
-            proc.join()
+            proc.wait()
             conn.close()
 
     def solve_one(self, problem: FrameProblem, time_limit: float | None) -> Any:
@@ -104,7 +118,7 @@ class ClingoWorker:
         child overran the limit by GRACE (killed); its exceptions are raised here again."""
         from . import NoAdmissibleHypothesis
 
-        if self._proc is not None and (self._served >= self.recycle or not self._proc.is_alive()):
+        if self._proc is not None and (self._served >= self.recycle or self._proc.poll() is not None):
             self.close()
         if self._proc is None:
             self._start()
@@ -116,8 +130,8 @@ class ClingoWorker:
                 if deadline is not None and time.perf_counter() > deadline:
                     self._kill()
                     return None
-                if not self._proc.is_alive():
-                    raise RuntimeError(f"the clingo worker process ended (exit code {self._proc.exitcode})")
+                if self._proc.poll() is not None:
+                    raise RuntimeError(f"the clingo worker process ended (exit code {self._proc.returncode})")
             reply = self._conn.recv()
         except BaseException:  # KeyboardInterrupt included: the child's state is unknown
             self._kill()
@@ -135,3 +149,7 @@ class ClingoWorker:
             self._kill()
         except Exception:
             pass
+
+
+if __name__ == "__main__":
+    _serve(multiprocessing.connection.Connection(int(sys.argv[1])))
