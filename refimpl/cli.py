@@ -563,8 +563,8 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--sizes", default="5,10,20,50,100,200", help="tracks per frame (default 5,10,20,50,100,200)")
     sc.add_argument("--overlaps", default="0.2,0.5,0.8", help="overlap shares (default 0.2,0.5,0.8)")
     sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
-    sc.add_argument("--backends", default="cpsat,cpsat-full,clingo",
-                    help="solvers to time (default cpsat,cpsat-full,clingo; cpsat-full = CP-SAT without the fast path)")
+    sc.add_argument("--backends", default=",".join(BACKENDS),
+                    help=f"solvers to time (default {','.join(BACKENDS)}; cpsat-full = CP-SAT without the fast path)")
     sc.add_argument("--time-limit", type=float, default=20.0, metavar="SECONDS",
                     help="per-frame time limit of every backend (default 20)")
     sc.add_argument("--out", default="docs/benchmarks.md",
