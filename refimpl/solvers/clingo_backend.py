@@ -167,7 +167,7 @@ class ClingoSolver:
             if deadline is not None and now >= deadline:
                 found = None
             else:
-                share = None if deadline is None else (deadline - now) / (len(parts) - n)
+                share = None if deadline is None else deadline - now  # all that is left: most parts are trivial
                 self._calls += 1
                 found = (self._worker.solve_one(part.problem, share)
                          if self._worker is not None and self._calls > self.inline_solves

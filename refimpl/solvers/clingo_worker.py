@@ -33,7 +33,7 @@ POLL = 0.1
 """Seconds between two checks of the pipe (time limit, SIGINT)."""
 GRACE = 1.0
 """Seconds a child may overrun its time limit (finishing its search, reporting) before it is killed."""
-DEFAULT_RECYCLE = 4000
+DEFAULT_RECYCLE = 1000
 """Solves per child process before it is replaced."""
 
 

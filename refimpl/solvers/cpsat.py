@@ -931,7 +931,7 @@ class CpSatSolver:
             now = time.perf_counter()
             if deadline is not None and now >= deadline:
                 return self._fallback(problem, start, time_limit)
-            share = None if deadline is None else (deadline - now) / (len(parts) - n)
+            share = None if deadline is None else deadline - now  # all that is left: most parts are trivial
             am = build_model(part.problem, state, constants)
             res = solve_lexicographic(am, part.problem, share, self.workers, self.seed)
             optimal = optimal and res.optimal
