@@ -17,8 +17,10 @@ The time-out contract (every backend)
 -------------------------------------
 ``solve(problem, time_limit=None)``: ``time_limit`` is None (no limit) or a finite number of
 seconds >= 0 (anything else: ValueError).  It bounds the whole call: building the problem, the
-fast path, clingo's grounding (counted: grounding itself cannot be stopped half-way, so a backend
-checks the clock after it) and the search.  Out of time, a backend returns the best answer it
+fast path, clingo's grounding (counted: grounding cannot be stopped half-way inside a process, so
+the in-process clingo checks the clock after it, and clingo's worker process, refimpl.solvers.
+clingo_worker, is killed when it overruns its limit by a second) and the search.  A frame solved in
+parts (refimpl.solvers.decompose) gives each part all the time that is left.  Out of time, a backend returns the best answer it
 has, flagged ``optimal=False``: the best solution found so far, or, when it found none, the
 obvious answer (every detection ignored, every halted track ignored, every active track halted
 by missing_detections; refimpl.solvers.fallback).  When not even that answer is admissible it
