@@ -116,18 +116,23 @@ class SortTracker:
         return np.array(rows, dtype=float).reshape(-1, 5)
 
 
+def stream_sequence(seq, max_age: int = SORT_MAX_AGE, min_hits: int = SORT_MIN_HITS,
+                    iou_threshold: float = SORT_IOU_THRESHOLD):
+    """SORT frame by frame: yields each frame's (k, 6) rows (frame, id, x, y, w, h) as soon as it
+    is decided (SORT never revises a written frame), so a caller can stream them to a file."""
+    tracker = SortTracker(max_age=max_age, min_hits=min_hits, iou_threshold=iou_threshold)
+    for fr in seq.frames:
+        rows = tracker.update(fr.boxes)
+        yield np.column_stack([np.full(len(rows), float(fr.frame)), rows]) if len(rows) else np.zeros((0, 6))
+
+
 def track_sequence(seq, max_age: int = SORT_MAX_AGE, min_hits: int = SORT_MIN_HITS, iou_threshold: float = SORT_IOU_THRESHOLD) -> np.ndarray:
     """Run SORT over every frame of a detection sequence (anything with `.frames`, each with `.frame` and `.boxes` xywh).
 
     Frames are processed in the given order, empty ones included. Returns an (n, 6) float
     array of rows (frame, id, x, y, w, h) with the sequence's own frame numbers.
     """
-    tracker = SortTracker(max_age=max_age, min_hits=min_hits, iou_threshold=iou_threshold)
-    out = []
-    for fr in seq.frames:
-        rows = tracker.update(fr.boxes)
-        if len(rows):
-            out.append(np.column_stack([np.full(len(rows), float(fr.frame)), rows]))
+    out = [rows for rows in stream_sequence(seq, max_age, min_hits, iou_threshold) if len(rows)]
     if not out:
         return np.zeros((0, 6))
     return np.vstack(out)

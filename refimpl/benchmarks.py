@@ -323,7 +323,7 @@ def plot_scale(result: ScaleResult, path: str | os.PathLike) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7, ncol=2, loc="upper left")
     fig.tight_layout()
-    fig.savefig(path)
+    fig.savefig(path, format="png")
     plt.close(fig)
 
 
@@ -434,8 +434,12 @@ def throughput_report(result: ThroughputResult, command: str) -> str:
 # docs/benchmarks.md, JSON
 # ---------------------------------------------------------------------------------------
 
-def write_section(path: str | os.PathLike, begin: str, end: str, body: str) -> None:
-    """Replace the text between the begin/end markers of a markdown file (append them if absent)."""
+class BenchmarkFileError(Exception):
+    """A saved benchmark JSON file (``--from-json``) that is not one this module wrote: one line, exit 2."""
+
+
+def section_text(path: str | os.PathLike, begin: str, end: str, body: str) -> str:
+    """The markdown file's text with the block between the begin/end markers replaced (appended if absent)."""
     p = Path(path)
     text = p.read_text(encoding="utf-8") if p.exists() else "# Benchmarks\n"
     block = f"{begin}\n{body.rstrip()}\n{end}"
@@ -445,23 +449,92 @@ def write_section(path: str | os.PathLike, begin: str, end: str, body: str) -> N
         text = head + block + tail
     else:
         text = text.rstrip() + "\n\n" + block + "\n"
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(text, encoding="utf-8")
+    return text
+
+
+def write_section(path: str | os.PathLike, begin: str, end: str, body: str) -> None:
+    """Replace the text between the begin/end markers of a markdown file (append them if absent), atomically."""
+    from .outputs import write_atomic
+    write_atomic(path, section_text(path, begin, end, body))
 
 
 def save_json(path: str | os.PathLike, result: ScaleResult | ThroughputResult) -> None:
+    from .outputs import write_atomic
+    write_atomic(path, json_text(result))
+
+
+def json_text(result: ScaleResult | ThroughputResult) -> str:
     kind = "scale" if isinstance(result, ScaleResult) else "throughput"
-    Path(path).write_text(json.dumps({"kind": kind, **asdict(result)}, indent=1), encoding="utf-8")
+    return json.dumps({"kind": kind, **asdict(result)}, indent=1)
+
+
+def _is(value, kind) -> bool:
+    """A JSON value of a field's declared type (bool is not a number here, ints are floats)."""
+    if kind == "int":
+        return isinstance(value, int) and not isinstance(value, bool)
+    if kind == "float":
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and value == value \
+            and abs(value) != float("inf")
+    if kind == "bool":
+        return isinstance(value, bool)
+    if kind == "str":
+        return isinstance(value, str)
+    return True
+
+
+_FIELD_KINDS = {  # what load_json checks (the other fields are optional extras, checked by shape)
+    FrameRun: {"backend": "str", "n": "int", "overlap": "float", "seed": "int", "ms": "float", "optimal": "bool"},
+    SequenceRun: {"benchmark": "str", "sequence": "str", "tracker": "str", "frames": "int", "seconds": "float"},
+    ScaleResult: {"seeds": "int", "time_limit": "float", "machine": "str"},
+    ThroughputResult: {"machine": "str"},
+}
+
+
+def _build(cls, data, where: str):
+    if not isinstance(data, dict):
+        raise BenchmarkFileError(f"{where}: expected a JSON object, got {type(data).__name__}")
+    try:
+        obj = cls(**data)
+    except TypeError as exc:
+        raise BenchmarkFileError(f"{where}: {exc}") from None
+    for name, kind in _FIELD_KINDS[cls].items():
+        if not _is(getattr(obj, name), kind):
+            raise BenchmarkFileError(f"{where}: field {name!r} must be {kind}, got {getattr(obj, name)!r:.40}")
+    return obj
 
 
 def load_json(path: str | os.PathLike) -> ScaleResult | ThroughputResult:
-    data = json.loads(Path(path).read_text(encoding="utf-8"))
+    """A file written by save_json; anything else is a BenchmarkFileError naming the file."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise BenchmarkFileError(f"{path}: file not found") from None
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise BenchmarkFileError(f"{path}: not a benchmark JSON file ({str(exc).splitlines()[0][:80]})") from None
+    except OSError as exc:
+        raise BenchmarkFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if not isinstance(data, dict) or data.get("kind") not in ("scale", "throughput"):
+        raise BenchmarkFileError(f"{path}: not a benchmark JSON file (no \"kind\": \"scale\" or \"throughput\")")
+    data = dict(data)
     kind = data.pop("kind")
-    if kind == "scale":
-        data["runs"] = [FrameRun(**r) for r in data["runs"]]
-        return ScaleResult(**data)
-    data["runs"] = [SequenceRun(**r) for r in data["runs"]]
-    return ThroughputResult(**data)
+    run_cls, cls = (FrameRun, ScaleResult) if kind == "scale" else (SequenceRun, ThroughputResult)
+    runs = data.get("runs")
+    if not isinstance(runs, list) or not runs:
+        raise BenchmarkFileError(f"{path}: \"runs\" must be a non-empty list")
+    data["runs"] = [_build(run_cls, r, f"{path}: runs[{i}]") for i, r in enumerate(runs)]
+    result = _build(cls, data, str(path))
+    lists = ("sizes", "overlaps", "backends") if kind == "scale" else ("benchmarks", "trackers")
+    for name in lists:
+        value = getattr(result, name)
+        if not isinstance(value, list) or not value:
+            raise BenchmarkFileError(f"{path}: {name!r} must be a non-empty list")
+    try:  # the report is what the file is for: any inconsistency it trips over is the file's
+        (scale_report if kind == "scale" else throughput_report)(result, "check")
+    except (TypeError, ValueError, KeyError, AttributeError, ZeroDivisionError, IndexError,
+            statistics.StatisticsError) as exc:
+        raise BenchmarkFileError(f"{path}: inconsistent benchmark JSON ({type(exc).__name__}: "
+                                 f"{str(exc).splitlines()[0][:80] if str(exc) else ''})") from None
+    return result
 
 
 def parse_list(text: str, cast: Callable[[str], object]) -> list:
@@ -493,20 +566,22 @@ def run_bench_scale(*, sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[
         result = bench_throughput(data, trackers=trackers, progress=progress)
     else:
         result = bench_scale(sizes, overlaps, seeds, backends, time_limit, progress)
-    if json_path:
-        save_json(json_path, result)
-    if isinstance(result, ScaleResult):
-        report = scale_report(result, command)
-        if out:
-            write_section(out, SCALE_BEGIN, SCALE_END, report)
-        plot_path = plot or (str(Path(out).with_name("scalability.png")) if out else None)
-        if plot_path:
-            plot_scale(result, plot_path)
-            report += f"\nplot: {plot_path}\n"
-    else:
-        report = throughput_report(result, command)
-        if out:
-            write_section(out, THROUGHPUT_BEGIN, THROUGHPUT_END, report)
+    from .outputs import OutputSet
+    with OutputSet() as outs:  # every output of the run lands together, or none does
+        if json_path:
+            outs.write(json_path, json_text(result))
+        if isinstance(result, ScaleResult):
+            report = scale_report(result, command)
+            if out:
+                outs.write(out, section_text(out, SCALE_BEGIN, SCALE_END, report))
+            plot_path = plot or (str(Path(out).with_name("scalability.png")) if out else None)
+            if plot_path:
+                plot_scale(result, outs.open(plot_path, binary=True))
+                report += f"\nplot: {plot_path}\n"
+        else:
+            report = throughput_report(result, command)
+            if out:
+                outs.write(out, section_text(out, THROUGHPUT_BEGIN, THROUGHPUT_END, report))
     if out:
         report += f"written: {out}\n"
     return report

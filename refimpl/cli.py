@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 import time
 import warnings
@@ -12,11 +14,11 @@ from typing import Callable, Sequence
 
 from .progress import Progress
 
-from .solvers import BACKENDS
-
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
+from .solvers import BACKENDS  # noqa: E402  (the registry: every abduction backend)
+
 TRACKERS = ("baseline",) + BACKENDS
-BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
+from .table6 import DATASETS as BENCHMARKS  # noqa: E402  (refimpl.io's benchmarks + simulated ones)
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 
@@ -25,13 +27,17 @@ class UserError(Exception):
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
+    from .calibrate import CalibrationRefused
     from .io import InputFormatError
+    from .peers import PeersUnavailable
     from .solvers import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout
     from .spec import ProblemFormatError
     from .scene import SceneError
     from .scaleout import ClusterError
-    return (UserError, ProblemFormatError, InputFormatError, SolverUnavailable, NoAdmissibleHypothesis, SceneError,
-            ClusterError, SolveTimeout)
+    from .outputs import OutputError
+    from .benchmarks import BenchmarkFileError
+    return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable,
+            NoAdmissibleHypothesis, SceneError, ClusterError, PeersUnavailable, CalibrationRefused, SolveTimeout)
 
 
 # ---------------------------------------------------------------------------------------
@@ -48,28 +54,23 @@ def _parse_const(text: str) -> tuple[str, int]:
         raise argparse.ArgumentTypeError(f"expected NAME=INTEGER, got {text!r}") from None
 
 
-def _time_limit(value):
-    """A --time-limit value as the solvers' time-out contract takes it, else a UserError."""
-    from .solvers import check_time_limit
-    try:
-        return check_time_limit(value)
-    except ValueError as exc:
-        raise UserError(f"--time-limit: {exc}") from None
-
-
 def cmd_solve(args: argparse.Namespace) -> int:
     from .solvers import get_solver
     from .spec import ProblemFormatError, read_problem, with_constants
 
     from .constants import resolve_constants
+    from .ranges import check_constant, check_ranges
     problem = read_problem(args.file)
     if args.const:
+        for name, value in args.const:
+            check_constant(name, value, f"--const {name}={value}")
         problem = with_constants(problem, dict(args.const))
     try:
         resolve_constants(problem)  # an unknown #const name is the file's (or --const's) mistake
     except ProblemFormatError as exc:
         raise ProblemFormatError(exc.reason, args.file) from None
-    hyp = get_solver(args.backend).solve(problem, time_limit=_time_limit(args.time_limit))
+    check_ranges(problem, args.file)
+    hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
     violations = ()
     if args.check:
         from .check import check_answer
@@ -95,7 +96,7 @@ def _load_sequence(args: argparse.Namespace, path: str | None = None):
     from . import io
     path = args.dets if path is None else path
     if args.format == "mot":
-        return io.read_mot_detections(path)
+        return io.read_mot_detections(path, scores_rule=getattr(args, "scores", "auto"))
     if args.cls is None:
         raise UserError("--format kitti needs --class Car|Pedestrian|Cyclist")
     return io.read_kitti_detections(path, args.cls)
@@ -104,6 +105,16 @@ def _load_sequence(args: argparse.Namespace, path: str | None = None):
 def _run_tracker(seq, backend: str):
     from .table6 import run_tracker
     return run_tracker(seq, backend)
+
+
+def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> dict[str, int]:
+    """The preset of (format, class) unless --no-preset, then --const overrides (refimpl.presets)."""
+    from .presets import constants_for
+    overrides = dict(consts or [])
+    try:
+        return constants_for(fmt, cls or "pedestrian", overrides, use_preset=not no_preset)
+    except ValueError as exc:
+        raise UserError(f"--const: {exc}") from None
 
 
 def _plan(args: argparse.Namespace):
@@ -136,6 +147,31 @@ def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
     return [Path(args.out_dir) / name for name in seen]
 
 
+def _time_limit(text: str) -> float:
+    """--time-limit: a positive finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive finite number of seconds, got {text!r}")
+    return value
+
+
+def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
+    """The files `track` reads: the detections and the sequence files found beside them."""
+    inputs: dict[str, str | None] = {}
+    for k, path in enumerate(args.dets):
+        dets = Path(path)
+        label = "--dets" if len(args.dets) == 1 else f"--dets #{k + 1}"
+        inputs[label] = path
+        if args.format == "mot":
+            inputs[f"{label} seqinfo.ini"] = str(dets.parent.parent / "seqinfo.ini")
+        else:
+            inputs[f"{label} label_02"] = str(dets.parent.parent.parent / "label_02" / dets.name)
+    return inputs
+
+
 def _parse_img_size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.split(","))
@@ -156,6 +192,9 @@ def _track_constants(args: argparse.Namespace) -> dict[str, int]:
         raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
     if args.img_size is not None and {"img_width", "img_height"} & set(consts):
         raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
+    from .ranges import check_constant
+    for name, value in consts.items():
+        check_constant(name, value, f"--const {name}={value}")
     return consts
 
 
@@ -163,6 +202,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from . import io
+    from .outputs import STDOUT, OutputSet, check_outputs
     from .scaleout import run_tasks
     from .tasks import TrackJob, track_job
     if args.out_format == "kitti" and args.format != "kitti":
@@ -173,49 +213,98 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
                         f"({', '.join(BACKENDS)}); the baseline abduces no events")
     outs = _track_outputs(args)
+    outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
+    outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
+    check_outputs(outputs, _track_inputs(args))  # before any work: never an input, never each other
     plan = _plan(args)
-    constants = tuple(_track_constants(args).items()) if args.backend != "baseline" else ()
+    constants = tuple(_abduction_constants(args.format, args.cls, _track_constants(args), args.no_preset).items()) \
+        if args.backend != "baseline" else ()
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
-    time_limit = _time_limit(args.time_limit)
-    jobs = [TrackJob(seq, args.backend, time_limit, args.check, bool(args.scene), constants) for seq in seqs]
-    if len(jobs) == 1 and not plan.distributed:
-        # one sequence in this process: a bar per frame (long sequences take minutes)
-        bar = Progress(len(seqs[0].frames), seqs[0].name, enabled=not args.quiet and args.backend != "baseline",
-                       unit="frame")
-        with bar:
-            outputs = [track_job(jobs[0], on_frame=bar.step if args.backend != "baseline" else None)]
-    else:
-        outputs = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet,
-                            describe=lambda job: job.seq.name)
+    for seq, path in zip(seqs, args.dets):
+        if args.format == "mot" and seq.image_size is None and "img_width" not in dict(constants):
+            warnings.warn(f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
+                          "is unknown, so the right and bottom field-of-view borders are not tested "
+                          "(enters_fov, leaves_fov, clipped)")
+    summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
+    if len(seqs) == 1 and not plan.distributed:
+        _track_streaming(seqs[0], args, outs[0], dict(constants), summary)
+        return EXIT_OK
+    jobs = [TrackJob(seq, args.backend, args.time_limit, args.check, False, constants) for seq in seqs]
+    results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name)
     failed = 0
-    for seq, out, path in zip(seqs, outputs, outs):  # input order: the same bytes however tasks ran
-        if out.not_optimal_frames:
-            print(f"refimpl track: {_prefix(seqs, seq)}{out.not_optimal_frames} of {out.frames} frames not proven "
-                  f"optimal within the time limit (best answer found used)", file=sys.stderr)
-        for line in out.violations:
-            print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
-        if args.check:
-            print(f"check: {_prefix(seqs, seq)}{out.checked} answers checked, {len(out.violations)} with violations")
-            if out.violations:
-                failed += len(out.violations)
-                continue  # a backend that broke the model writes no results
-        if args.scene:
-            from .scene import save_scene
-            save_scene(args.scene, out.scene)
-        io.write_results(path, out.rows, args.out_format, first_frame=seq.first_frame, object_class=args.cls)
-        print(f"{seq.name}: {len(seq.frames)} frames, {len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0} "
-              f"tracks -> {path}")
+    with OutputSet() as files:  # every results file lands together, after the last sequence
+        for seq, out, path in zip(seqs, results, outs):  # input order: the same bytes however tasks ran
+            if out.not_optimal_frames:
+                print(f"refimpl track: {_prefix(seqs, seq)}{out.not_optimal_frames} of {out.frames} frames not "
+                      f"proven optimal within the time limit (best answer found used)", file=sys.stderr)
+            for line in out.violations:
+                print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
+            if args.check:
+                print(f"check: {_prefix(seqs, seq)}{out.checked} answers checked, {len(out.violations)} with "
+                      "violations")
+                if out.violations:
+                    failed += len(out.violations)
+                    continue  # a backend that broke the model writes no results
+            files.write(path, io.results_formatter(args.out_format, seq.first_frame, args.cls)(out.rows))
+            print(f"{seq.name}: {len(seq.frames)} frames, "
+                  f"{len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0} tracks -> {path}", file=summary)
     if failed:
         raise CheckFailed(f"{failed} answers break a rule of the model")
-    if args.events:
-        from .io import write_event_log
-        write_event_log(args.events, outputs[0].events)
-    if args.events_json:
-        from .io import write_event_log_json
-        write_event_log_json(args.events_json, outputs[0].events)
     return EXIT_OK
+
+
+def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[str, int], summary) -> None:
+    """One sequence in this process: results and event logs streamed to staged files as frames are
+    decided (bounded memory, docs/robustness.md), committed together at the end."""
+    from .io import ResultWriter, results_formatter
+    from .outputs import OutputSet
+    with OutputSet() as outs:
+        sink = ResultWriter(outs.open(out_path), outs.open(args.events) if args.events else None,
+                            outs.open(args.events_json) if args.events_json else None, seq.first_frame,
+                            results_formatter(args.out_format, seq.first_frame, args.cls))
+        if args.backend == "baseline":
+            from .baseline import stream_sequence
+            for rows in stream_sequence(seq):
+                sink.rows(rows)
+        else:
+            bar = Progress(len(seq.frames), seq.name, enabled=not args.quiet, unit="frame")
+            with bar:
+                _track_abduction(seq, args, sink, outs, constants, bar.step, summary)
+    print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
+
+
+def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int], on_frame, summary) -> None:
+    """Algorithm 1 with the chosen backend, streaming to ``sink``, optionally checking every frame's answer."""
+    from .tracker import track_sequence
+    checked = violations = 0
+
+    def observe(problem, hyp) -> None:
+        nonlocal checked, violations
+        on_frame()
+        if not args.check:
+            return
+        from .check import check_answer
+        report = check_answer(problem, hyp)
+        checked += 1
+        if report.violations or report.cost != hyp.cost:
+            violations += 1
+            found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
+            print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
+
+    result = track_sequence(seq, backend=args.backend, constants=constants, time_limit=args.time_limit,
+                            observer=observe, sink=sink, keep_records=bool(args.scene))
+    if result.not_optimal_frames:
+        print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
+              f"within the time limit (best answer found used)", file=sys.stderr)
+    if args.check:
+        print(f"check: {checked} answers checked, {violations} with violations", file=summary)
+        if violations:
+            raise CheckFailed(f"{violations} answers break a rule of the model")
+    if args.scene:
+        from .scene import scene_from_result, scene_to_json
+        outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)), separators=(",", ":")) + "\n")
 
 
 def _prefix(seqs, seq) -> str:
@@ -228,8 +317,10 @@ class CheckFailed(Exception):
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from . import io
-    from .evaluate import evaluate_many, format_table
+    from .evaluate import evaluate_many, format_table, refuse_misfit
     from .folder_eval import evaluate_folder, metrics_json, read_ground_truth
+    from .outputs import check_outputs
+    check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
     if args.format == "kitti" and args.cls is None:
         raise UserError("--format kitti needs --class Car|Pedestrian")
     if Path(args.results).is_dir():
@@ -243,6 +334,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
             raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
         gt = read_ground_truth(args.gt, args.format, args.cls)
         results = io.read_results(args.results, args.format, args.cls)
+        refuse_misfit(gt, results, args.results)
         per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))
     if args.json:
@@ -252,10 +344,22 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from .evaluate import format_table
-    from .table6 import TITLES, load_dataset
+    from .table6 import TITLES, dataset_kind, load_dataset
     from .tasks import RunRequest, run_requests
+    from .outputs import check_outputs
+    check_outputs({"--json": args.json, "--out": args.out})
+    if args.peers is not None:
+        return _benchmark_peers(args)
+    if args.out:
+        raise UserError("--out writes the peer comparison: give --peers too")
+    if args.backend == "baseline" and args.const:
+        raise UserError(f"--const needs an abduction backend ({', '.join(BACKENDS)})")
     plan = _plan(args)
-    requests = [RunRequest(name, load_dataset(name, args.data), args.backend) for name in args.names]
+    requests = []
+    for name in args.names:
+        constants = () if args.backend == "baseline" else \
+            tuple(_abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset).items())
+        requests.append(RunRequest(name, load_dataset(name, args.data), args.backend, constants))
     runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
     report = {}
     for name, run in zip(args.names, runs):
@@ -270,12 +374,75 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _benchmark_peers(args: argparse.Namespace) -> int:
+    """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
+    from .benchmarks import format_command, machine_note, write_section
+    from .peers import PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table
+    from .table6 import dataset_kind, load_dataset
+    peers = [p.strip() for p in args.peers.split(",") if p.strip()]
+    unknown = [p for p in peers if p not in PEERS]
+    if unknown:
+        raise UserError(f"--peers takes a comma-separated list out of {','.join(PEERS)}, got {args.peers!r}")
+    backend = "cpsat" if args.backend == "baseline" else args.backend
+    comparisons, report = [], {}
+    for name in args.names:
+        dataset = load_dataset(name, args.data)
+        constants = _abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset)
+        progress = Progress(len(dataset) * (2 + bool(constants) + len(peers)), f"{name}/peers",
+                            enabled=not args.quiet)
+        c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step)
+        comparisons.append(c)
+        print(f"## {c.title}\n")
+        print(comparison_table(c))
+        report[name] = {s.label: {"overall": s.overall, "per_sequence": s.per_sequence, "frames": s.frames,
+                                  "seconds": s.seconds, "parameters": s.parameters} for s in c.scores}
+        report[name]["constants"] = c.constants
+    if args.out:
+        write_section(args.out, PEERS_BEGIN, PEERS_END,
+                      comparison_report(comparisons, format_command(sys.argv[1:]), machine_note()))
+        print(f"written: {args.out}")
+    if args.json:
+        from .io import write_text_atomic
+        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "benchmarks": report},
+                                                indent=2, default=float))
+    return EXIT_OK
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
+    from .benchmarks import format_command, write_section
+    from .calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
+                            chosen_preset, parse_grid)
+    try:
+        grid = parse_grid(args.grid)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    plan = _plan(args)
+    for name in args.benchmark:
+        check_tunable(name, args.data)  # refuse before hours of tracking, not after
+    command = format_command(sys.argv[1:])
+    for name in args.benchmark:
+        cal = calibrate(name, args.data, grid, args.backend, plan, args.quiet,
+                        loso=True if args.loso else None)
+        text = calibration_report(cal, command, args.top)
+        print(text)
+        if args.out:
+            write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
+            print(f"written: {args.out}")
+        if args.write_presets:
+            from .presets import write_preset
+            print(f"preset {cal.format}/{cal.object_class} written: {write_preset(chosen_preset(cal))}")
+    return EXIT_OK
+
+
 def cmd_table6(args: argparse.Namespace) -> int:
     from .table6 import DATASETS, TABLE6_DATASETS, BenchmarkRun, format_table6, load_dataset
     from .tasks import RunRequest, run_requests
     datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
+    from .outputs import check_outputs
+    check_outputs({"--out": args.out})
     unknown = [d for d in datasets if d not in DATASETS]
-    if unknown:
+    if unknown or not all(datasets):
         raise UserError(f"--datasets takes a comma-separated list out of {','.join(DATASETS)}, "
                         f"got {','.join(unknown)!r}")
     plan = _plan(args)
@@ -303,7 +470,6 @@ def cmd_diff(args: argparse.Namespace) -> int:
     if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
         raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
                         f"got {args.backends!r}")
-    time_limit = _time_limit(args.time_limit)
     plan = _plan(args)
     if args.benchmark:
         from .table6 import load_dataset  # real and simulated (*-sim) benchmarks alike
@@ -313,7 +479,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
     else:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
     total = DiffReport(backends)
-    reports = run_tasks(diff_job, [DiffJob(seq, backends, time_limit) for seq in seqs], plan,
+    reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit) for seq in seqs], plan,
                         label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name)
     for seq, report in zip(seqs, reports):
         total.add(report)
@@ -327,7 +493,9 @@ def cmd_diff(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from .io import InputFormatError
+    from .outputs import check_outputs
     from .sweep import format_sweep, plan_sweep, run_sweep, sweep_json
+    check_outputs({"--json": args.json})
     plan = _plan(args)
     try:
         sweep = plan_sweep(args.benchmark, args.data, args.backend, args.grid, split=args.split)
@@ -367,9 +535,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from . import io
     from .evaluate import evaluate_many, format_table
     backends = [b.strip() for b in args.backends.split(",")]
-    unknown = [b for b in backends if b not in TRACKERS]
-    if unknown:
-        raise UserError(f"--backends takes trackers out of {','.join(TRACKERS)}, got {','.join(unknown)!r}")
+    if not all(backends) or any(b not in TRACKERS for b in backends):
+        raise UserError(f"--backends takes a comma-separated list out of {','.join(TRACKERS)}, got {args.backends!r}")
     seq = io.demo_sequence_paths()
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)
     print(f"refimpl demo: {seq.name} ({len(dets.frames)} frames, bundled MOT15 sample)\n")
@@ -400,12 +567,48 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
             raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
     if args.seeds < 1 or args.time_limit <= 0 or not sizes or not overlaps:
         raise UserError("--seeds must be >= 1, --time-limit > 0, --sizes and --overlaps not empty")
+    from .outputs import check_outputs
+    out = None if args.out == "-" else args.out
+    default_plot = str(Path(out).with_name("scalability.png")) if out and not args.throughput else None
+    check_outputs({"--out": out, "--plot": args.plot or default_plot, "--json": args.json},
+                  {"--from-json": args.from_json})
     progress = lambda total, label: Progress(total, label, enabled=not args.quiet)  # noqa: E731
     print(bm.run_bench_scale(
         sizes=sizes, overlaps=overlaps, seeds=args.seeds, backends=backends, time_limit=args.time_limit,
         out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
         from_json=args.from_json, throughput=args.throughput, trackers=trackers, data=args.data,
         command=bm.format_command(sys.argv[1:]), progress=progress))
+    return EXIT_OK
+
+
+def cmd_occlusion_suite(args: argparse.Namespace) -> int:
+    from .occlusion import SCENARIOS, write_suite
+    out = Path(args.out)
+    taken = [s.name for s in SCENARIOS if (out / s.name).exists() and any((out / s.name).iterdir())]
+    if taken and not args.force:
+        raise UserError(f"{out / taken[0]} exists and is not empty (pass --force to overwrite the suite there)")
+    for path in write_suite(out, args.seed):
+        print(path)
+    return EXIT_OK
+
+
+def cmd_bench_occlusion(args: argparse.Namespace) -> int:
+    from .benchmarks import write_section
+    from .occlusion_bench import format_results, parse_variant, run_suite
+    from .occlusion import SCENARIOS
+    variants = [v.strip() for v in args.trackers.split(",") if v.strip()]
+    for v in variants:
+        try:
+            parse_variant(v)
+        except ValueError as exc:
+            raise UserError(f"--trackers: {exc}") from None
+    progress = Progress(len(SCENARIOS), "occlusion suite", enabled=not args.quiet)
+    text = format_results(run_suite(variants, args.seed, progress.step))
+    command = f"refimpl bench-occlusion --trackers {','.join(variants)} --seed {args.seed}"
+    body = f"Command: `{command}`\n\n{text}"
+    print(text)
+    if args.out != "-":
+        write_section(args.out, "<!-- bench-occlusion:begin -->", "<!-- bench-occlusion:end -->", body)
     return EXIT_OK
 
 
@@ -453,7 +656,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
     s.add_argument("--backend", choices=BACKENDS, default="cpsat")
     s.add_argument("--json", action="store_true", help="print one JSON object")
-    s.add_argument("--time-limit", type=float, default=None, metavar="SECONDS")
+    s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant (repeatable)")
     s.add_argument("--check", action="store_true",
@@ -466,25 +669,32 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--format", choices=("mot", "kitti"), default="mot")
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     t.add_argument("--backend", choices=TRACKERS, default="baseline")
-    t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti)")
+    t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti; "
+                                 "- for standard output)")
+    t.add_argument("--scores", choices=("auto", "probability", "raw"), default="auto",
+                   help="MOTChallenge detection scores: probabilities in 0..1 or raw detector scores "
+                        "(default auto: decided by the file, see refimpl/io.py)")
     t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
                    "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
     t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
                    help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
                         "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
     t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
-                   help="override a model constant (repeatable; as solve --const; abduction backends)")
+                   help="override a model constant (repeatable; as solve --const; abduction backends; on top "
+                        "of the preset of --format/--class)")
     t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
                    help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
                         "1242,375 for KITTI, unknown otherwise)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
-    t.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+    t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
                    help="per-frame solver limit; the best answer found in time is used and counted")
     t.add_argument("--check", action="store_true",
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (cpsat or clingo backend)")
+    t.add_argument("--no-preset", action="store_true",
+                   help="run with model/constants.lp's defaults instead of the calibrated preset (model/presets.json)")
     _add_scaleout(t)
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_track)
@@ -508,8 +718,33 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--backend", choices=TRACKERS, default="baseline")
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument("--peers", metavar="LIST",
+                   help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
+                        "baseline, abduction (--backend, cpsat if baseline) and every peer in one table per dataset")
+    b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
+    b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
+    b.add_argument("--no-preset", action="store_true",
+                   help="abduction with model/constants.lp's defaults instead of the calibrated preset")
     _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
+
+    cb = sub.add_parser("calibrate", help="grid-search the model's thresholds on a benchmark (its training split) "
+                                          "and print the ranked table; the best point is the preset")
+    cb.add_argument("--benchmark", required=True, nargs="+", choices=BENCHMARKS, metavar="NAME",
+                    help="one or more benchmarks to tune on, each giving the preset of its format/class: "
+                         "kitti-car-train, kitti-ped-train, mot15 (leave-one-sequence-out)")
+    cb.add_argument("--grid", action="append", metavar="NAME=V1,V2,...",
+                    help="replace (or add) one dimension of the search space (repeatable)")
+    cb.add_argument("--backend", choices=[t for t in TRACKERS if t != "baseline"], default="cpsat")
+    cb.add_argument("--loso", action="store_true", help="also leave-one-sequence-out (default for MOT benchmarks)")
+    cb.add_argument("--top", type=int, default=None, help="print only the best N points")
+    cb.add_argument("--write-presets", action="store_true", help="store the best point as the preset (model/presets.json)")
+    cb.add_argument("--out", help="write the report into this markdown file (between marker comments)")
+    cb.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    cb.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(cb)
+    cb.set_defaults(func=cmd_calibrate)
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
     t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
@@ -530,7 +765,7 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--backends", default="cpsat-full,clingo",
                    help=f"FIRST,SECOND[,THIRD] out of {','.join(BACKENDS)}: track with the first, re-solve every "
                         "frame with the others (default cpsat-full,clingo)")
-    x.add_argument("--time-limit", type=float, default=20.0, metavar="SECONDS",
+    x.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                    help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
                         "is reported as such")
     x.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -555,7 +790,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
     d.add_argument("--backends", default="baseline,cpsat",
-                   help=f"comma-separated trackers to run out of {', '.join(TRACKERS)} (default baseline,cpsat)")
+                   help="comma-separated trackers to run: baseline, cpsat, clingo (default baseline,cpsat)")
     d.set_defaults(func=cmd_demo)
 
     sc = sub.add_parser("bench-scale", help="time the backends on synthetic frames (or, with --throughput, "
@@ -565,7 +800,7 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
     sc.add_argument("--backends", default=",".join(BACKENDS),
                     help=f"solvers to time (default {','.join(BACKENDS)}; cpsat-full = CP-SAT without the fast path)")
-    sc.add_argument("--time-limit", type=float, default=20.0, metavar="SECONDS",
+    sc.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                     help="per-frame time limit of every backend (default 20)")
     sc.add_argument("--out", default="docs/benchmarks.md",
                     help="markdown file whose generated section is replaced (default docs/benchmarks.md; - for none)")
@@ -579,6 +814,24 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--data", default="../shared/data", help="benchmark data root for --throughput")
     sc.add_argument("--quiet", action="store_true", help="no progress bar")
     sc.set_defaults(func=cmd_bench_scale)
+
+    oc = sub.add_parser("occlusion-suite", help="write the long-occlusion suite (docs/occlusion.md) as "
+                                                "MOTChallenge sequences: DIR/<scenario>/{det,gt,seqinfo.ini}")
+    oc.add_argument("--out", required=True, metavar="DIR", help="folder to write the scenarios into")
+    oc.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    oc.add_argument("--force", action="store_true", help="overwrite scenario folders that exist")
+    oc.set_defaults(func=cmd_occlusion_suite)
+
+    bo = sub.add_parser("bench-occlusion", help="baseline vs abduction on the long-occlusion suite: identity kept, "
+                                                "hide/unhide events on time (writes docs/occlusion.md)")
+    bo.add_argument("--trackers", default="baseline,cpsat",
+                    help="comma-separated variants: baseline, a backend, backend+hold, backend+oru, "
+                         "backend+hold+oru (default baseline,cpsat)")
+    bo.add_argument("--seed", type=int, default=0, help="suite seed (default 0)")
+    bo.add_argument("--out", default="docs/occlusion.md",
+                    help="markdown file whose generated section is replaced (default docs/occlusion.md; - for none)")
+    bo.add_argument("--quiet", action="store_true", help="no progress bar")
+    bo.set_defaults(func=cmd_bench_occlusion)
 
     q = sub.add_parser("query", help="ask a scene a question (docs/reasoning.md): tracks | track T | hidden_by T | "
                                       "holds_at T FRAME | events FROM TO [T] | relation T REL | "
@@ -612,11 +865,56 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    with warnings.catch_warnings():  # one-line warnings for this command only, restored after it
-        warnings.showwarning = _one_line_warning
-        return _run(args)
+    """The command line; Ctrl-C (SIGINT) anywhere ends it with exit code 130 and one line, after the
+    outputs' temporary files are removed (refimpl.outputs), so no partial output is left."""
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        _recheck_choices(parser, args)
+        with warnings.catch_warnings():  # one-line warnings for this command only, restored after it
+            warnings.showwarning = _one_line_warning
+            return _run(args)
+    except KeyboardInterrupt:
+        print("refimpl: interrupted", file=sys.stderr)
+        return 130
+
+
+def _recheck_choices(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """argparse drops a value '--' (``--backend=--`` gives [], and neither the option's type nor its
+    choices are applied to it): check every option again, so a command never sees such a value."""
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    sub = subparsers.choices[args.command]
+    for action in sub._actions:
+        if not hasattr(args, action.dest):
+            continue
+        value = getattr(args, action.dest)
+        name = "/".join(action.option_strings) or action.dest
+        if isinstance(action, argparse._AppendAction):
+            if any(isinstance(v, list) for v in value or ()):
+                sub.error(f"argument {name}: expected a value, got '--'")
+            continue
+        if action.nargs is None and isinstance(value, list):
+            sub.error(f"argument {name}: expected one value, got '--'")
+        if action.choices is None or value is action.default:
+            continue
+        values = value if isinstance(value, list) else [value]
+        if not values or any(v not in action.choices for v in values):
+            sub.error(f"argument {name}: invalid choice: {value!r} (choose from {', '.join(map(str, action.choices))})")
+
+
+def run() -> None:
+    """The process entry point (``refimpl`` and ``python -m refimpl``): main, then exit.  After an
+    interrupt the process ends at once (os._exit, outputs already cleaned up, streams flushed)
+    rather than spending half a second tearing down numpy, scipy and the solvers' modules."""
+    code = main()
+    if code == 130:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+    sys.exit(code)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -635,10 +933,7 @@ def _run(args: argparse.Namespace) -> int:
     except CheckFailed as exc:
         print(f"refimpl {args.command}: check failed: {exc}", file=sys.stderr)
         return EXIT_FAILURE
-    except KeyboardInterrupt:
-        print("refimpl: interrupted", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

@@ -351,12 +351,15 @@ def kept_in_mind(state: EventState, constants: Mapping[str, int], trk: TrackPred
                  tracks: Mapping[str, TrackPrediction]) -> bool:
     """refimpl rule (docs/model.md, "Out of sight, not out of mind"; grows from Section 4.1.2's
     anticipate(unhides_from_behind(T1,T2),T) :- holds_at(hidden_by(T1,T2)), topology(proper_part,T1,T2)):
-    a hidden track is kept in mind while some current track T2 it is hidden_by still overlaps its
-    predicted box and that box is not entirely outside the field of view."""
+    a halted track is kept in mind while its predicted box is not entirely outside the field of view
+    and either some current track T2 it is hidden_by still overlaps it, or some current track now
+    covers it from the front (position(overlapping_top, T, T2)): an occlusion seen only after the
+    halt (the track was halted as missing_detections) keeps it in mind too."""
     if outside_fov(trk.box, constants["img_width"], constants["img_height"]):
         return False
-    return any(t2 != trk.id and state.holds_at(("hidden_by", trk.id, t2), "true")
-               and intersection_area(trk.box, other.box) > 0 for t2, other in tracks.items())
+    return any(t2 != trk.id and (
+        (state.holds_at(("hidden_by", trk.id, t2), "true") and intersection_area(trk.box, other.box) > 0)
+        or overlapping_top(trk.box, other.box, constants["hide_overlap"])) for t2, other in tracks.items())
 
 
 def poss_lost(state: EventState, constants: Mapping[str, int], trk: TrackPrediction, *,

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import io
-from .evaluate import evaluate_many
+from .evaluate import evaluate_many, refuse_misfit
 
 JSON_METRICS = (("HOTA", "hota"), ("DetA", "deta"), ("AssA", "assa"), ("MOTA", "mota"), ("MOTP", "motp"),
                 ("IDF1", "idf1"), ("IDs", "idsw"), ("Frag", "frag"), ("FP", "fp"), ("FN", "fn"),
@@ -113,6 +113,7 @@ def evaluate_folder(results_dir: str | Path, gt_root: str | Path, data_format: s
     for p in pairs:
         gt = read_ground_truth(p.gt, data_format, object_class)
         results = io.read_results(p.results, data_format, object_class, allow_empty=True)
+        refuse_misfit(gt, results, p.results)  # rows past the last frame, or another sequence's results
         triples.append((p.name, gt, results))
     per_sequence, overall = evaluate_many(triples, iou_threshold)
     return FolderEvaluation(per_sequence, overall, unscored)

@@ -9,12 +9,18 @@ Formats and the conventions implemented
 MOTChallenge detections (``det/det.txt``): comma separated ``frame,id,x,y,w,h,score[,...]``,
 7 to 10 fields, 1-based frames.  The sequence runs over frames ``1..seqLength`` of
 ``seqinfo.ini`` (or ``1..max frame`` without one); frames without detections are kept as
-empty frames.  Confidence (the paper's integer 0..100), decided once per file:
+empty frames.  Confidence (the paper's integer 0..100): a file holds either probabilities or raw
+detector scores, one rule for all its rows, chosen by ``scores=`` or, by default (``"auto"``),
+by the share of its scores in [0, 1]:
 
-* every score in [0, 1] (e.g. SORT's Faster R-CNN ``det_sort_frcnn.txt``, 0.5..1.0):
-  ``conf = round(100 * score)``;
-* otherwise (raw ACF scores of the official MOT15 ``det.txt``, about -0.8..139):
-  ``conf = clip(round(score), 0, 100)``.
+* ``"probability"`` (e.g. SORT's Faster R-CNN ``det_sort_frcnn.txt``, 0.5..1.0): every score
+  must be in [0, 1], else ``file:line`` is an error; ``conf = round(100 * score)``;
+* ``"raw"`` (raw ACF scores of the official MOT15 ``det.txt``, about -0.8..139, of which at
+  most 1.5 % fall in [0, 1]): ``conf = clip(round(score), 0, 100)``;
+* ``"auto"``: probability if every score is in [0, 1], raw if at most half of them are; a file
+  in between (more than half, but not all, in [0, 1]) is refused at the first score outside
+  [0, 1].  So one stray value never switches the rule silently (a 1.01 among probabilities is
+  an error naming its line; it used to turn every confidence of the file into 0 or 1).
 
 ``round`` is half up everywhere in this module (``floor(x + 0.5)``), as in ``geometry``.
 
@@ -79,7 +85,6 @@ from __future__ import annotations
 import configparser
 import json
 import os
-import tempfile
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -112,6 +117,8 @@ MAX_FRAME = 100_000
 MAX_COORD = 1_000_000.0
 """Box coordinates and sizes beyond this (in magnitude, pixels) are rejected as typos."""
 MIN_DET_SIZE = 0.01
+MAX_DET_AREA = 20_000_000
+"""px^2: a larger detection box would take 100 * area beyond clingo's 32-bit integers (tracker.MAX_BOX_AREA)."""
 """Detection boxes must be at least this wide and high (results files keep two decimals)."""
 
 
@@ -237,25 +244,45 @@ class BenchmarkSequence:
 # low-level parsing
 
 
-def _read_lines(path: Path) -> list[tuple[int, str]]:
-    """(line number, stripped text) of the non-blank lines; missing/empty/unreadable is an error."""
+def _line_chunks(path: Path, size: int):
+    """Lists of at most ``size`` (line number, stripped text) of the non-blank lines, read line by
+    line (never the whole file at once); missing/empty/unreadable is an error."""
+    chunk: list[tuple[int, str]] = []
+    lineno, seen = 0, False
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        # newline=None: \r\n and \r become \n, and a file object splits only at \n (str.splitlines
+        # would also split at \f, \v, \x85, U+2028 ... and so name the wrong line numbers)
+        with open(path, encoding="utf-8-sig", newline=None) as fh:
+            for lineno, raw in enumerate(fh, start=1):
+                text = raw.strip()
+                if text:
+                    chunk.append((lineno, text))
+                    if len(chunk) >= size:
+                        seen = True
+                        yield chunk
+                        chunk = []
     except FileNotFoundError:
         raise InputFormatError("file not found", path) from None
     except IsADirectoryError:
         raise InputFormatError("is a directory, expected a file", path) from None
     except UnicodeDecodeError as exc:
-        raise InputFormatError(f"not a UTF-8 text file ({exc.reason} at byte {exc.start})", path) from None
+        raise InputFormatError(f"not a UTF-8 text file ({exc.reason} after line {lineno})", path) from None
     except OSError as exc:
         raise InputFormatError(f"cannot read file ({exc.strerror or exc})", path) from None
-    # read_text turned \r\n and \r into \n; str.splitlines would also split at \f, \v, \x85, U+2028 ...
-    # and so name the wrong line numbers
-    lines = [(i, s.strip()) for i, s in enumerate(text.split("\n"), start=1)]
-    lines = [(i, s) for i, s in lines if s]
-    if not lines:
+    if chunk:
+        yield chunk
+    elif not seen:
         raise InputFormatError("empty file (no data lines)", path)
-    return lines
+
+
+def _read_lines(path: Path) -> list[tuple[int, str]]:
+    """(line number, stripped text) of the non-blank lines; missing/empty/unreadable is an error."""
+    return [line for chunk in _line_chunks(path, 1 << 62) for line in chunk]
+
+
+def data_line_numbers(path: str | os.PathLike) -> list[int]:
+    """The line numbers of a file's data (non-blank) lines: row k of a reader's array is on line [k]."""
+    return [n for n, _ in _read_lines(Path(path))]
 
 
 def _split(path: Path, lines: list[tuple[int, str]], sep: str | None, lo: int, hi: int,
@@ -298,6 +325,37 @@ def _numbers(path: Path, linenos: Sequence[int], rows: list[list[str]], columns:
         raise InputFormatError(f"field {columns[c] + 1} ({names[c]}) is not finite: {rows[r][columns[c]]!r}",
                                path, linenos[r])
     return out
+
+
+_CHUNK = 50_000
+"""Lines split and converted at a time: the per-field Python strings of a large file never exist all at once."""
+
+
+def _table(path: Path, lines: list[tuple[int, str]], sep: str | None, lo: int, hi: int, what: str,
+           columns: Sequence[int], names: Sequence[str]) -> np.ndarray:
+    """_split then _numbers, chunk by chunk (the first error found is reported, in file order per chunk)."""
+    parts = []
+    for start in range(0, len(lines), _CHUNK):
+        chunk = lines[start:start + _CHUNK]
+        rows = _split(path, chunk, sep, lo, hi, what)
+        parts.append(_numbers(path, [n for n, _ in chunk], rows, columns, names))
+        del rows
+    return np.vstack(parts) if parts else np.empty((0, len(list(columns))))
+
+
+def _read_table(path: Path, sep: str | None, lo: int, hi: int, what: str, columns: Sequence[int],
+                names: Sequence[str]) -> tuple[np.ndarray, list[int]]:
+    """A numeric file read chunk by chunk, straight from disk: (the columns as floats, the line
+    number of each row).  Its memory is the array plus one chunk of text; the first error is
+    reported as soon as its chunk is read."""
+    parts, linenos = [], []
+    for chunk in _line_chunks(path, _CHUNK):
+        rows = _split(path, chunk, sep, lo, hi, what)
+        numbers = [n for n, _ in chunk]
+        parts.append(_numbers(path, numbers, rows, columns, names))
+        linenos.extend(numbers)
+        del rows, chunk
+    return np.vstack(parts), linenos
 
 
 def _first_bad(mask: np.ndarray) -> int | None:
@@ -474,26 +532,58 @@ def _mot_frames_and_boxes(path: Path, linenos: Sequence[int], a: np.ndarray, inf
     return frames, boxes
 
 
+SCORE_RULES = ("auto", "probability", "raw")
+
+
+def _mot_confidences(path: Path, linenos: Sequence[int], scores: np.ndarray, rule: str) -> np.ndarray:
+    """The confidence rule of a MOTChallenge detection file (module doc), one rule for every row."""
+    if rule not in SCORE_RULES:
+        raise ValueError(f"scores must be one of {', '.join(SCORE_RULES)}, got {rule!r}")
+    inside = (scores >= 0.0) & (scores <= 1.0)
+    if rule == "auto":
+        share = float(inside.mean())
+        if share == 1.0:
+            rule = "probability"
+        elif share <= 0.5:
+            rule = "raw"
+        else:
+            bad = _first_bad(~inside)
+            raise InputFormatError(
+                f"score {scores[bad]:g} is outside 0..1 although {int(inside.sum())} of {len(scores)} scores "
+                "are probabilities in 0..1: fix the line, or choose the rule (--scores probability|raw)",
+                path, linenos[bad])
+    if rule == "probability":
+        bad = _first_bad(~inside)
+        if bad is not None:
+            raise InputFormatError(f"score {scores[bad]:g} is not a probability in 0..1", path, linenos[bad])
+        return _round_half_up(100.0 * scores)
+    return _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
+
+
+def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray) -> None:
+    """A detection's area must fit the solvers' 32-bit arithmetic (refimpl.ranges): w*h <= MAX_DET_AREA."""
+    bad = _first_bad(np.round(w) * np.round(h) > MAX_DET_AREA)
+    if bad is not None:
+        raise InputFormatError(f"box area w*h = {w[bad]:g}*{h[bad]:g} exceeds {MAX_DET_AREA} px^2 "
+                               "(the solvers compute 100 * area in 32-bit integers)", path, linenos[bad])
+
+
 def read_mot_detections(path: str | os.PathLike, seqinfo=None,
-                        object_type: str = "pedestrian") -> DetectionSequence:
+                        object_type: str = "pedestrian", scores_rule: str = "auto") -> DetectionSequence:
     """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
     path = Path(path)
     otype = _object_type(object_type, path)
-    lines = _read_lines(path)
+    a, linenos = _read_table(path, ",", 7, 10, "frame,id,x,y,w,h,score,...", range(7),
+                             ("frame", "id", "x", "y", "w", "h", "score"))
     info = _resolve_seqinfo(seqinfo, path)
-    rows = _split(path, lines, ",", 7, 10, "frame,id,x,y,w,h,score,...")
-    linenos = [n for n, _ in lines]
-    a = _numbers(path, linenos, rows, range(7), ("frame", "id", "x", "y", "w", "h", "score"))
     frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
     tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
     if tiny is not None:
         raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
                                f"w={boxes[tiny, 2]:g} h={boxes[tiny, 3]:g}", path, linenos[tiny])
+    _check_area(path, linenos, boxes[:, 2], boxes[:, 3])
     scores = a[:, 6]
-    if np.all((scores >= 0.0) & (scores <= 1.0)):
-        conf = _round_half_up(100.0 * scores)
-    else:
-        conf = _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
+    conf = _mot_confidences(path, linenos, scores, scores_rule)
     count = int(info["seqLength"]) if info is not None else int(frames.max())
     return DetectionSequence(
         name=_mot_sequence_name(path, info),
@@ -558,9 +648,8 @@ def read_mot_ground_truth(path: str | os.PathLike, seqinfo=None) -> GroundTruth:
 
 
 def _results_array(path: Path, lines: list[tuple[int, str]], first_frame: int) -> np.ndarray:
-    rows = _split(path, lines, ",", 6, 10, "frame,id,x,y,w,h,...")
+    a = _table(path, lines, ",", 6, 10, "frame,id,x,y,w,h,...", range(6), ("frame", "id", "x", "y", "w", "h"))
     linenos = [n for n, _ in lines]
-    a = _numbers(path, linenos, rows, range(6), ("frame", "id", "x", "y", "w", "h"))
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     ids = _check_integral(path, linenos, a[:, 1], "id")
     _check_min_frame(path, linenos, frames, first_frame)
@@ -591,23 +680,10 @@ def _fmt2(v: float) -> str:
 
 
 def write_text_atomic(path, text: str) -> None:
-    """Write text via a temporary file in the same folder, fsync, rename: never a partial file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; outputs are meant to be shared
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    """Write text atomically through refimpl.outputs (never a partial file; symlinks, device
+    nodes, modes and the umask handled as its module doc says)."""
+    from .outputs import write_atomic
+    write_atomic(path, text)
 
 
 def _sorted_result_rows(rows, first_frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -635,18 +711,27 @@ def _sorted_result_rows(rows, first_frame: int) -> tuple[np.ndarray, np.ndarray,
     return a, frames, ids
 
 
+def format_mot_results(rows, first_frame: int = 1) -> str:
+    """(n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results lines, sorted by (frame, id).
+
+    Bad rows raise ValueError.  Frames are written as given; ``first_frame`` (1 MOT, 0 KITTI) is
+    the smallest allowed.  Rows given in whole frames can be formatted chunk by chunk (streaming):
+    the concatenation is the text of all rows at once.
+    """
+    a, frames, ids = _sorted_result_rows(rows, first_frame)
+    return "".join(
+        f"{f},{i},{_fmt2(r[2])},{_fmt2(r[3])},{_fmt2(r[4])},{_fmt2(r[5])},1,-1,-1,-1\n"
+        for f, i, r in zip(frames, ids, a))
+
+
 def write_mot_results(path: str | os.PathLike, rows, first_frame: int = 1) -> None:
     """Write (n, 6) ``frame, id, x, y, w, h`` rows as MOTChallenge results, sorted, atomically.
 
     The lines go to a temporary file in the target folder which then replaces the target, so a
     crash never leaves a partial results file.  Bad rows raise ValueError before anything is
-    written.  Frames are written as given; ``first_frame`` (1 MOT, 0 KITTI) is the smallest allowed.
+    written (see :func:`format_mot_results`).
     """
-    a, frames, ids = _sorted_result_rows(rows, first_frame)
-    text = "".join(
-        f"{f},{i},{_fmt2(r[2])},{_fmt2(r[3])},{_fmt2(r[4])},{_fmt2(r[5])},1,-1,-1,-1\n"
-        for f, i, r in zip(frames, ids, a))
-    write_text_atomic(path, text)
+    write_text_atomic(path, format_mot_results(rows, first_frame))
 
 
 def write_kitti_results(path: str | os.PathLike, rows, object_class: str) -> None:
@@ -661,6 +746,11 @@ def write_kitti_results(path: str | os.PathLike, rows, object_class: str) -> Non
     x2 = x1 + w, y2 = y1 + h with w and h rounded to two decimals, so the file holds exactly the
     boxes of the MOTChallenge results file of the same rows.
     """
+    write_text_atomic(path, format_kitti_results(rows, object_class, path))
+
+
+def format_kitti_results(rows, object_class: str, path: str | os.PathLike = "<results>") -> str:
+    """The lines of :func:`write_kitti_results` (chunks of whole frames concatenate, as for MOT)."""
     name = _KITTI_RESULT_TYPE[_object_type(object_class, path)]
     a, frames, ids = _sorted_result_rows(rows, 0)
     r = np.round(a[:, 2:6], 2)
@@ -668,7 +758,7 @@ def write_kitti_results(path: str | os.PathLike, rows, object_class: str) -> Non
     for f, i, (x, y, w, h) in zip(frames, ids, r):
         lines.append(f"{f} {i} {name} -1 -1 -10 {_fmt2(x)} {_fmt2(y)} {_fmt2(x + w)} {_fmt2(y + h)} "
                      "-1 -1 -1 -1000 -1000 -1000 -10 1\n")
-    write_text_atomic(path, "".join(lines))
+    return "".join(lines)
 
 
 def read_kitti_results(path: str | os.PathLike, object_class: str, allow_empty: bool = False) -> np.ndarray:
@@ -713,6 +803,17 @@ def read_kitti_results(path: str | os.PathLike, object_class: str, allow_empty: 
 
 RESULT_FORMATS = ("mot", "kitti")
 """Results file formats ``write_results`` writes (``--out-format``)."""
+
+
+def results_formatter(out_format: str, first_frame: int = 1, object_class: str | None = None):
+    """A function formatting (n, 6) rows as ``out_format`` lines (for streaming writers)."""
+    if out_format == "mot":
+        return lambda rows: format_mot_results(rows, first_frame)
+    if out_format == "kitti":
+        if object_class is None:
+            raise ValueError("KITTI tracking results need the object class")
+        return lambda rows: format_kitti_results(rows, object_class)
+    raise ValueError(f"unknown results format {out_format!r} (known: {', '.join(RESULT_FORMATS)})")
 
 
 def write_results(path: str | os.PathLike, rows, out_format: str, first_frame: int = 1,
@@ -780,13 +881,9 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     otype = _object_type(object_class, path)
     if on_degenerate not in ("drop", "error"):
         raise ValueError("on_degenerate must be 'drop' or 'error'")
-    lines = _read_lines(path)
-    rows = _split(path, lines, ",", 15, 15,
-                  "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha")
-    linenos = [n for n, _ in lines]
-    a = _numbers(path, linenos, rows, range(15),
-                 ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l",
-                  "x", "y", "z", "rot_y", "alpha"))
+    a, linenos = _read_table(path, ",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
+                             ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z",
+                              "rot_y", "alpha"))
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     types = _check_integral(path, linenos, a[:, 1], "type")
     _check_min_frame(path, linenos, frames, 0)
@@ -825,6 +922,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
             f"{path}: dropped {len(dropped)} zero-area (or thinner than {MIN_DET_SIZE:g} px) detection "
             f"box(es) on line(s) {', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=2)
         keep &= ~zero
+    _check_area(path, np.asarray(linenos)[keep], w[keep], h[keep])
     boxes = np.column_stack([a[:, 2], a[:, 3], w, h])[keep]
     scores = a[keep, 6]
     conf = _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))  # sigmoid, overflow-free
@@ -899,7 +997,11 @@ MOT15_TRAIN = (
 )
 MOT15_SORT6 = ("TUD-Campus", "ETH-Sunnyday", "ETH-Pedcross2", "ADL-Rundle-8", "Venice-2", "KITTI-17")
 KITTI_TRAIN = tuple(f"{i:04d}" for i in range(21))
-BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped")
+KITTI_VAL_SEQMAP = Path("KITTI") / "tracking" / "training" / "evaluate_tracking.seqmap.val"
+"""The val split (AB3DMOT's): the sequences it lists are held out; the other training sequences
+are the split tuned on (``kitti-*-train``)."""
+BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped",
+              "kitti-car-val", "kitti-ped-val", "kitti-car-train", "kitti-ped-train")
 
 
 def _mot15(root: Path, names: Sequence[str]) -> list[BenchmarkSequence]:
@@ -912,12 +1014,34 @@ def _mot15(root: Path, names: Sequence[str]) -> list[BenchmarkSequence]:
     return out
 
 
-def _kitti(root: Path, object_class: str) -> list[BenchmarkSequence]:
+def kitti_val_sequences(root: str | os.PathLike) -> tuple[str, ...]:
+    """The sequence names listed in the KITTI val seqmap (first field of each non-empty line)."""
+    path = Path(root) / KITTI_VAL_SEQMAP
+    if not path.is_file():
+        raise InputFormatError("KITTI val seqmap not found (needed for the kitti-*-val/-train splits)", path)
+    names = []
+    for lineno, line in _read_lines(path):
+        name = line.split()[0]
+        if name not in KITTI_TRAIN:
+            raise InputFormatError(f"sequence {name!r} is not a KITTI training sequence (0000-0020)", path, lineno)
+        if name in names:
+            raise InputFormatError(f"sequence {name!r} listed twice", path, lineno)
+        names.append(name)
+    if not names:
+        raise InputFormatError("the KITTI val seqmap lists no sequence", path)
+    return tuple(names)
+
+
+def _kitti(root: Path, object_class: str, split: str = "all") -> list[BenchmarkSequence]:
     base = root / "KITTI" / "tracking" / "training"
     det_dir = base / "det_02_pointrcnn" / {"car": "Car", "pedestrian": "Pedestrian"}[object_class]
+    names = KITTI_TRAIN
+    if split != "all":
+        val = set(kitti_val_sequences(root))
+        names = tuple(n for n in KITTI_TRAIN if (n in val) == (split == "val"))
     return [BenchmarkSequence(
         name=name, dets_path=det_dir / f"{name}.txt", gt_path=base / "label_02" / f"{name}.txt",
-        format="kitti", object_class=object_class, seqinfo_path=None) for name in KITTI_TRAIN]
+        format="kitti", object_class=object_class, seqinfo_path=None) for name in names]
 
 
 def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
@@ -925,7 +1049,10 @@ def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[Benchma
 
     ``mot15`` (11 MOT15 train sequences, SORT Faster R-CNN dets), ``mot15-sort6`` (the six
     sequences of the SORT paper's comparison), ``kitti-car`` / ``kitti-ped`` (KITTI tracking
-    train 0000-0020, PointRCNN dets, label_02 ground truth).  Every file must exist.
+    train 0000-0020, PointRCNN dets, label_02 ground truth), ``kitti-car-val`` / ``kitti-ped-val``
+    (the sequences listed in ``KITTI/tracking/training/evaluate_tracking.seqmap.val``: 11) and
+    ``kitti-car-train`` / ``kitti-ped-train`` (the other training sequences: 10), the split that
+    anything tuned is tuned on.  Every file must exist.
     """
     root = Path(data_root)
     key = name.strip().lower()
@@ -933,10 +1060,11 @@ def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[Benchma
         seqs = _mot15(root, MOT15_TRAIN)
     elif key == "mot15-sort6":
         seqs = _mot15(root, MOT15_SORT6)
-    elif key == "kitti-car":
-        seqs = _kitti(root, "car")
-    elif key == "kitti-ped":
-        seqs = _kitti(root, "pedestrian")
+    elif key.startswith("kitti-") and key in BENCHMARKS:
+        _, cls, *split = key.split("-")
+        if not root.is_dir():
+            raise InputFormatError(f"data root for benchmark {key!r} not found", root)
+        seqs = _kitti(root, {"car": "car", "ped": "pedestrian"}[cls], split[0] if split else "all")
     else:
         raise ValueError(f"unknown benchmark {name!r} (known: {', '.join(BENCHMARKS)})")
     if not root.is_dir():
@@ -996,13 +1124,47 @@ def demo_sequence_paths() -> BenchmarkSequence:
 # Event log files
 # ---------------------------------------------------------------------------------------
 
+def event_line(e) -> str:
+    """One line of the event log in the paper's syntax: 'occurs_at(E,T).'"""
+    return f"{e}.\n"
+
+
+def event_json_line(e) -> str:
+    """One JSON line of the event log: time, event name, arguments and the atom."""
+    return json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
+                       "atom": str(e)}) + "\n"
+
+
+class ResultWriter:
+    """Writes results rows and event logs to open (staged) files as a streaming tracker decides
+    them: a ``refimpl.tracker.ResultSink`` (rows of whole frames, then each frame's events).
+
+    ``results_format``: a function formatting (n, 6) rows as text (default MOTChallenge lines,
+    :func:`format_mot_results`); chunks of whole frames concatenate to the text of all rows."""
+
+    def __init__(self, results=None, events=None, events_json=None, first_frame: int = 1, results_format=None):
+        self.results, self.events_lp, self.events_json = results, events, events_json
+        self.format = results_format or (lambda rows: format_mot_results(rows, first_frame))
+        self.track_ids: set[int] = set()  # distinct ids written (for the summary line)
+
+    def rows(self, rows: np.ndarray) -> None:
+        if len(rows):
+            self.track_ids.update(int(i) for i in set(rows[:, 1].tolist()))
+            if self.results is not None:
+                self.results.write(self.format(rows))
+
+    def events(self, events) -> None:
+        if self.events_lp is not None:
+            self.events_lp.write("".join(event_line(e) for e in events))
+        if self.events_json is not None:
+            self.events_json.write("".join(event_json_line(e) for e in events))
+
+
 def write_event_log(path: str, events: Iterable) -> None:
     """The event sequence in the paper's syntax, one 'occurs_at(E,T).' per line, in time order."""
-    write_text_atomic(path, "".join(f"{e}.\n" for e in events))
+    write_text_atomic(path, "".join(event_line(e) for e in events))
 
 
 def write_event_log_json(path: str, events: Iterable) -> None:
     """The event sequence as JSON lines: time, event name, arguments and the atom."""
-    lines = [json.dumps({"time": e.time, "event": e.event.name, "args": [str(a) for a in e.event.args],
-                         "atom": str(e)}) for e in events]
-    write_text_atomic(path, "".join(line + "\n" for line in lines))
+    write_text_atomic(path, "".join(event_json_line(e) for e in events))

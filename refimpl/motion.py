@@ -59,6 +59,11 @@ PROCESS_VELOCITY_VARIANCE = 0.01
 PROCESS_AREA_VELOCITY_VARIANCE = 0.0001
 """Q for the area velocity ds per frame: 1 * 0.01 * 0.01, the growth rate of the area changes slowest."""
 
+# Motion while hidden (issue 12, item 4; refimpl decision, off by default in the tracker)
+HIDDEN_MAX_SPEED = 0.5
+"""While unobserved (hold mode) the centre moves at most this many box sizes (sqrt of the area) per
+frame: a velocity estimated from a few jittery detections cannot carry a hidden track away."""
+
 
 class InvalidPrediction(ValueError):
     """A Kalman prediction that is not a finite box with positive width and height."""
@@ -144,6 +149,7 @@ class BoxKalman:
         kf.x = np.zeros((DIM_X, 1))
         kf.x[:DIM_Z, 0] = xywh_to_z(box_xywh)
         self.kf = kf
+        self._last_obs = (kf.x.copy(), kf.P.copy(), np.asarray(box_xywh, dtype=float).reshape(4).copy())
         self.age = 0
         self.hits = 0
         self.hit_streak = 0
@@ -181,17 +187,29 @@ class BoxKalman:
         """Whether the current state is a finite box with w > 0 and h > 0."""
         return bool(np.all(np.isfinite(self.kf.x))) and _valid_box(x_to_xywh(self.kf.x[:, 0]))
 
-    def predict(self) -> np.ndarray:
+    def predict(self, hold: bool = False) -> np.ndarray:
         """Advance one frame; return the predicted (x, y, w, h) box.
 
         If the area velocity would make the area non-positive (s + ds <= 0) it is set to zero
         first, as SORT does, so the area stays where it is.  Counters: age += 1; a track that
         was not updated in the previous frame loses its hit streak; time_since_update += 1.
 
+        hold=True (motion while hidden, off by default): once the track went a frame without an
+        update (time_since_update > 0), the size is frozen (the area velocity ds is set to 0;
+        the aspect ratio has no velocity anyway) and the centre keeps its velocity, capped at
+        HIDDEN_MAX_SPEED * sqrt(area) px per frame: constant velocity, bounded, size held.
+
         Raises InvalidPrediction if the predicted box is not finite or has w <= 0 or h <= 0
         (the state is still advanced and the counters still move; the caller should drop the track).
         """
         x = self.kf.x
+        if hold and self.time_since_update > 0:
+            x[6, 0] = 0.0
+            if x[2, 0] > 0:
+                cap = HIDDEN_MAX_SPEED * float(np.sqrt(x[2, 0]))
+                speed = float(np.hypot(x[4, 0], x[5, 0]))
+                if speed > cap:
+                    x[4:6, 0] *= cap / speed
         if x[2, 0] + x[6, 0] <= 0:
             x[6, 0] = 0.0
         self.kf.predict()
@@ -205,6 +223,39 @@ class BoxKalman:
         """Correct the state with a detected (x, y, w, h) box. Counters: hits += 1, hit_streak += 1, time_since_update = 0."""
         z = xywh_to_z(box_xywh)
         self.kf.update(z.reshape(DIM_Z, 1))
+        self._observed(box_xywh)
+
+    def _observed(self, box_xywh) -> None:
+        self._last_obs = (self.kf.x.copy(), self.kf.P.copy(), np.asarray(box_xywh, dtype=float).reshape(4).copy())
         self.time_since_update = 0
         self.hits += 1
         self.hit_streak += 1
+
+    def reupdate(self, box_xywh) -> None:
+        """Update after a gap, observation-centric (the idea of OC-SORT's re-update; written here).
+
+        After k = time_since_update predictions without an update (k >= 2: a gap of k-1 frames),
+        the filter goes back to its state right after the last observation and is re-run along
+        a virtual trajectory: at step i = 1 .. k-1 it predicts and is updated with the box
+        linearly interpolated (x, y, w, h) between the last observed box and box_xywh at i / k,
+        and at step k it predicts and is updated with box_xywh itself.  So the velocity after a
+        long occlusion is the one the gap implies, not the one the unobserved drift left.  With
+        k <= 1 this is update().  Counters as update(); age is unchanged (the predictions were
+        counted when they were made).
+        """
+        k = self.time_since_update
+        if k <= 1:
+            self.update(box_xywh)
+            return
+        z2 = xywh_to_z(box_xywh)  # validates before the state is touched
+        x0, p0, last = self._last_obs
+        new = np.asarray(box_xywh, dtype=float).reshape(4)
+        self.kf.x, self.kf.P = x0.copy(), p0.copy()
+        for i in range(1, k + 1):
+            x = self.kf.x
+            if x[2, 0] + x[6, 0] <= 0:
+                x[6, 0] = 0.0
+            self.kf.predict()
+            z = z2 if i == k else xywh_to_z(last + (new - last) * (i / k))
+            self.kf.update(z.reshape(DIM_Z, 1))
+        self._observed(box_xywh)

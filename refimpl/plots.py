@@ -265,14 +265,15 @@ def _palette() -> list[str]:
 def plot_scene_file(scene_path: str, out: str, frame: int | None = None, tracks: str | None = None,
                     frames: str | None = None) -> str:
     """``refimpl plot``: load the scene, draw the space-time picture (or one frame) to out; a summary line."""
+    from .outputs import atomic_file, check_outputs
+    check_outputs({"--out": out}, {"scene": scene_path})
     scene = load_scene(scene_path)
     chosen = _select(scene, tracks)
-    folder = os.path.dirname(os.path.abspath(out))
-    if not os.path.isdir(folder):
-        raise SceneError(f"{out}: folder {folder} does not exist")
     if frame is not None:
-        n = plot_frame(scene, frame, out, chosen)
+        with atomic_file(out, binary=True) as fh:
+            n = plot_frame(scene, frame, fh, chosen)
         return f"{scene.name} frame {frame}: {n} boxes -> {out}"
     lo, hi = _range(scene, frames)
-    n = plot_timeline(scene, out, chosen, (lo, hi))
+    with atomic_file(out, binary=True) as fh:
+        n = plot_timeline(scene, fh, chosen, (lo, hi))
     return f"{scene.name} frames {lo}-{hi}: {n} tracks -> {out}"

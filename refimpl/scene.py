@@ -286,26 +286,77 @@ def _int(v, what: str) -> int:
     return v
 
 
+SCENE_MAX_COORD = 1_000_000.0
+"""Box coordinates and sizes beyond this magnitude (pixels) are refused, as in refimpl.io."""
+SCENE_MAX_IMAGE = 100_000
+"""image_size entries must be 1..SCENE_MAX_IMAGE pixels."""
+
+
 def _boxes(rows, what: str) -> tuple[tuple[int, Box], ...]:
+    """[frame, x, y, w, h] rows: frames strictly increasing, finite coordinates, positive sizes."""
     _need(isinstance(rows, list), f"{what} must be a list")
     out = []
     for row in rows:
         _need(isinstance(row, list) and len(row) == 5
               and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in row),
-              f"{what}: each entry must be [frame, x, y, w, h], got {row!r}")
-        out.append((_int(row[0], f"{what}: frame"), tuple(float(v) for v in row[1:])))
+              f"{what}: each entry must be [frame, x, y, w, h], got {row!r:.80}")
+        frame = _int(row[0], f"{what}: frame")
+        _need(all(abs(v) <= SCENE_MAX_COORD or v != v for v in row[1:]),  # (NaN is caught below)
+              f"{what}: frame {frame}: box coordinates must be finite numbers within +-{SCENE_MAX_COORD:g}")
+        box = tuple(float(v) for v in row[1:])
+        _need(all(math.isfinite(v) and abs(v) <= SCENE_MAX_COORD for v in box),
+              f"{what}: frame {frame}: box coordinates must be finite numbers within +-{SCENE_MAX_COORD:g}, "
+              f"got {list(box)}")
+        _need(box[2] > 0 and box[3] > 0, f"{what}: frame {frame}: box width and height must be > 0, got {list(box)}")
+        _need(not out or frame > out[-1][0],
+              f"{what}: frames must be strictly increasing, got {frame} after {out[-1][0] if out else ''}")
+        out.append((frame, box))
     return tuple(out)  # type: ignore[return-value]
 
 
 def _event(text, i: int) -> HistoryEvent:
+    from .events import EFFECTS
     _need(isinstance(text, str), f"events[{i}] must be a string 'occurs_at(E,T)'")
     try:
         term = parse_term(text)
     except ProblemFormatError as exc:
         raise SceneError(f"events[{i}]: {exc.reason}") from None
     _need(term.name == "occurs_at" and len(term.args) == 2 and term.args[1].is_int,
-          f"events[{i}] is not occurs_at(E,T): {text!r}")
-    return HistoryEvent(term.args[0], term.args[1].as_int())
+          f"events[{i}] is not occurs_at(E,T): {text!r:.80}")
+    event = term.args[0]
+    known = EFFECTS.get(event.name)
+    _need(known is not None, f"events[{i}]: unknown event {event.name!r} (known: {', '.join(EFFECTS)})")
+    _need(len(event.args) == known[0] and all(not a.args and not a.is_int for a in event.args),
+          f"events[{i}]: {event.name} takes {known[0]} track id(s), got {text!r:.80}")
+    return HistoryEvent(event, term.args[1].as_int())
+
+
+def _check_scene(scene: "Scene") -> None:
+    """Everything query / explain / plot rely on, beyond the types (SceneError otherwise)."""
+    lo, hi = scene.first_frame, scene.last_frame
+    _need(lo <= hi, f"first_frame {lo} is after last_frame {hi}")
+    if scene.image_size is not None:
+        _need(all(1 <= v <= SCENE_MAX_IMAGE for v in scene.image_size),
+              f"image_size must be two sizes 1..{SCENE_MAX_IMAGE}, got {list(scene.image_size)}")
+    _need(scene.fps is None or (math.isfinite(scene.fps) and scene.fps > 0), f"fps must be > 0, got {scene.fps}")
+    seen: set[str] = set()
+    for t in scene.tracks:
+        _need(t.id not in seen, f"duplicate track id {t.id!r}")
+        seen.add(t.id)
+        _need(bool(t.observed), f"track {t.id} has no observed box (every track starts with one)")
+        frames = [f for f, _ in t.observed] + [f for f, _ in t.halted]
+        _need(all(lo <= f <= hi for f in frames), f"track {t.id} has a box outside frames {lo}..{hi}")
+        _need(len(set(frames)) == len(frames), f"track {t.id} is both observed and halted in one frame")
+        if t.ended_at is not None:
+            _need(t.observed[-1][0] <= t.ended_at <= hi,
+                  f"track {t.id} ends at {t.ended_at}, before its last observation or after last_frame")
+    last = None
+    for i, e in enumerate(scene.events):
+        _need(lo <= e.time <= hi, f"events[{i}] {e} is outside frames {lo}..{hi}")
+        _need(last is None or e.time >= last, f"events[{i}] {e} is out of time order")
+        last = e.time
+    for k, v in scene.timelines:
+        _need(all(a <= b for a, b, _ in v), f"timelines[{k!r}]: an interval ends before it starts")
 
 
 def scene_from_json(data) -> Scene:
@@ -342,9 +393,11 @@ def scene_from_json(data) -> Scene:
                                           and isinstance(i[1], int) and isinstance(i[2], str) for i in v),
               f"timelines[{k!r}] must be a list of [from_frame, to_frame, value]")
         timelines.append((k, tuple((i[0], i[1], i[2]) for i in v)))
-    return Scene(data["name"], tuple(size) if size else None, _int(data["first_frame"], "first_frame"),
-                 _int(data["last_frame"], "last_frame"), None if fps is None else float(fps),
-                 tuple(tracks), events, tuple(timelines))
+    scene = Scene(data["name"], tuple(size) if size is not None else None, _int(data["first_frame"], "first_frame"),
+                  _int(data["last_frame"], "last_frame"), None if fps is None else float(fps),
+                  tuple(tracks), events, tuple(timelines))
+    _check_scene(scene)
+    return scene
 
 
 def save_scene(path: str | os.PathLike, scene: Scene) -> None:
@@ -366,6 +419,10 @@ def load_scene(path: str | os.PathLike) -> Scene:
     except json.JSONDecodeError as exc:
         raise SceneError(f"{path}: not a refimpl scene file (invalid JSON at line {exc.lineno}"
                          f" column {exc.colno}: {exc.msg})") from None
+    except RecursionError:
+        raise SceneError(f"{path}: not a refimpl scene file (JSON nested too deeply)") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise SceneError(f"{path}: not a refimpl scene file ({str(exc).splitlines()[0][:80]})") from None
     except OSError as exc:
         raise SceneError(f"{path}: cannot read: {exc.strerror or exc}") from None
     try:
@@ -1309,8 +1366,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [(name, motion, k, v) for k, v in result["by_hidden_frames"].items()]
     print(format_evaluation(rows))
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump([{"data": d, "motion": m, "bucket": b, **s} for d, m, b, s in rows], fh, indent=2)
+        from .outputs import write_atomic
+        write_atomic(args.json, json.dumps([{"data": d, "motion": m, "bucket": b, **s} for d, m, b, s in rows],
+                                           indent=2))
     return 0
 
 

@@ -150,8 +150,18 @@ class FrameProblem:
         return parse_facts(text, source)
 
 
+def _check_symbol(name: str, what: str) -> None:
+    if not isinstance(name, str) or not _SYMBOL.fullmatch(name):
+        raise ProblemFormatError(f"{what}: {_symbol_error(str(name))}")
+
+
 def _validate(p: FrameProblem) -> None:
     ids: set[str] = set()
+    for o in p.detections + p.tracks:
+        _check_symbol(o.id, "id")
+        _check_symbol(o.type, f"type of {o.id}")
+    for name, _ in p.constants:
+        _check_symbol(name, "#const name")
     for d in p.detections:
         if d.id in ids:
             raise ProblemFormatError(f"duplicate id {d.id}")
@@ -221,7 +231,18 @@ def write_facts(p: FrameProblem) -> str:
 
 _TOKEN = re.compile(r"\s*(?:(?P<num>-?[0-9]+)|(?P<name>[a-z_][A-Za-z0-9_]*)|(?P<punct>[(),.]))")
 _CONST = re.compile(r"#const\s+([a-z_][A-Za-z0-9_]*)\s*=\s*(-?[0-9]+)\s*\.")
+_SYMBOL = re.compile(r"(?!not\b)[a-z][A-Za-z0-9_]*")
+"""Ids, types, constant and event names: what clingo and the CP-SAT backend both read as one
+constant.  clingo reads a name that starts with '_' (``_``, ``_Person``) as a variable and
+``not`` as a keyword, so those are refused (uppercase-first names are variables too: the
+tokenizer never takes them as names)."""
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")  # not str.splitlines: \f, \v, \x85, U+2028 ... are no line ends
+
+
+def _symbol_error(name: str) -> str:
+    why = "a keyword" if name == "not" else "an anonymous variable" if name == "_" else "a variable"
+    return (f"name {name!r} is {why} to clingo: ids, types and constant names start with a lowercase "
+            "letter (a-z, then letters, digits, _) and are not 'not'")
 
 
 def _asp_int(text: str) -> int | None:
@@ -283,6 +304,8 @@ class _Cursor:
             return Term(str(value))
         if kind != "name":
             raise self.fail(f"expected a term, got {val!r}")
+        if not _SYMBOL.fullmatch(val):
+            raise self.fail(_symbol_error(val))
         nxt = self.peek()
         if nxt and nxt[1] == "(":
             self.next()
@@ -338,6 +361,8 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
                 if not m:
                     raise ProblemFormatError(f"malformed #const: {line[:40]!r}", source, lineno)
                 name, value = m.group(1), _asp_int(m.group(2))
+                if not _SYMBOL.fullmatch(name):
+                    raise ProblemFormatError(f"#const {_symbol_error(name)}", source, lineno)
                 if value is None:
                     raise ProblemFormatError(f"#const {name}: {_int_range_error(m.group(2))}", source, lineno)
                 if name == "curr_time":

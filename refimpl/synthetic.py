@@ -201,13 +201,15 @@ def write_synthetic_suite(folder: str | Path, sizes: Iterable[int] = (5, 10, 20,
     seeds = list(seeds)
     overlaps = list(overlaps)
     paths = []
-    for n in sizes:
-        for ov in overlaps:
-            for s in seeds:
-                problem = synthetic_frame(n, ov, s, **kwargs)
-                path = out_dir / suite_file_name(n, ov, s)
-                path.write_text(write_facts(problem), encoding="utf-8")
-                paths.append(path)
+    from .outputs import OutputSet
+    with OutputSet() as outs:  # the suite lands whole or not at all
+        for n in sizes:
+            for ov in overlaps:
+                for s in seeds:
+                    problem = synthetic_frame(n, ov, s, **kwargs)
+                    path = out_dir / suite_file_name(n, ov, s)
+                    outs.write(path, write_facts(problem))
+                    paths.append(path)
     return paths
 
 

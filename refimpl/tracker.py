@@ -32,6 +32,7 @@ from .geometry import integer_box, iou_matrix, scale_iou
 from .events import explaining
 from .hypothesis import Hypothesis
 from .motion import BoxKalman, InvalidPrediction
+from .ranges import check_ranges
 from .solvers import Solver, get_solver
 from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 
@@ -47,6 +48,16 @@ MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
+
+
+class ResultSink:
+    """Where a streaming tracker puts what it has decided (see AbductionTracker's ``sink``)."""
+
+    def rows(self, rows: np.ndarray) -> None:
+        """(n, 6) results rows of whole frames that can receive no more rows, sorted by (frame, id)."""
+
+    def events(self, events: tuple[HistoryEvent, ...]) -> None:
+        """The events of the frame just decided, in log order."""
 
 
 @dataclass
@@ -109,8 +120,22 @@ class AbductionTracker:
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
-                 compact_history: bool = True):
+                 compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False,
+                 sink: ResultSink | None = None, keep_records: bool = True):
+        """hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
+        frozen (BoxKalman.predict(hold=True)); reupdate_on_resume: a resume re-runs the filter along
+        the box interpolated over the gap (BoxKalman.reupdate).  Both off by default (issue 12,
+        item 4; measured in docs/tracking.md).
+
+        ``sink``: results rows and events are handed to it as soon as they are final (a frame's
+        rows once no later frame can add any: bridged-gap interpolation reaches back at most
+        ``bridge_gap`` frames), instead of being kept; with ``keep_records=False`` as well, the
+        tracker forgets everything a later frame does not need (finished tracks, all but the last
+        observed box of a live one), so its memory does not grow with the sequence; then
+        :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
+        self.hold_hidden = hold_hidden
+        self.reupdate_on_resume = reupdate_on_resume
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
         self.min_hits = min_hits
@@ -125,13 +150,16 @@ class AbductionTracker:
         self.frames = 0
         self.not_optimal = 0
         self.solve_ms = 0.0
+        self.sink = sink
+        self.keep_records = keep_records or sink is None
+        self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
 
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        predicted = np.array([self._bounded(self._predict(t)) for t in tracks]).reshape(-1, 4)
+        predicted = np.array([self._bounded(self._predict(t, self.hold_hidden)) for t in tracks]).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         detections = tuple(
@@ -164,10 +192,10 @@ class AbductionTracker:
         return np.array([x1, y1, bw, bh])
 
     @staticmethod
-    def _predict(trk: _Track) -> np.ndarray:
+    def _predict(trk: _Track, hold: bool = False) -> np.ndarray:
         """Kalman prediction; a filter whose state degenerated restarts, motionless, at the last observed box."""
         try:
-            return trk.kalman.predict()
+            return trk.kalman.predict(hold)
         except InvalidPrediction:
             trk.kalman = BoxKalman(trk.observed[max(trk.observed)])
             return trk.kalman.predict()
@@ -177,6 +205,7 @@ class AbductionTracker:
              observer: FrameObserver | None = None) -> Hypothesis:
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         problem = self.frame_problem(frame, boxes, confidences, types)
+        check_ranges(problem, f"frame {frame}")
         hyp = self.solver.solve(problem, time_limit=self.time_limit)
         if observer is not None:
             observer(problem, hyp)
@@ -184,7 +213,36 @@ class AbductionTracker:
         self.not_optimal += not hyp.optimal
         self.solve_ms += hyp.solve_ms
         self._apply(frame, boxes, np.asarray(confidences), types, hyp)
+        if self.sink is not None:
+            self._flush(frame - self.bridge_gap)
+            if not self.keep_records:
+                self._forget()
         return hyp
+
+    def _flush(self, upto: int | None) -> None:
+        """Hand the rows of every pending frame <= upto (None: all) to the sink, by (frame, id)."""
+        done = sorted(f for f in self._pending if upto is None or f <= upto)
+        if done:
+            rows = np.array([r for f in done for r in sorted(self._pending.pop(f), key=lambda r: r[1])],
+                            dtype=float).reshape(-1, 6)
+            self.sink.rows(rows)
+
+    def _forget(self) -> None:
+        """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
+        self.finished.clear()
+        self.events.clear()
+        for trk in self.tracks.values():
+            last = max(trk.observed)
+            if len(trk.observed) > 1:
+                trk.observed = {last: trk.observed[last]}
+            trk.confirmed &= {last}
+            trk.gaps.clear()
+            trk.halted.clear()
+
+    def finish(self) -> None:
+        """Hand every remaining row to the sink (streaming); call after the last frame."""
+        if self.sink is not None:
+            self._flush(None)
 
     def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
                hyp: Hypothesis) -> None:
@@ -199,7 +257,9 @@ class AbductionTracker:
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
-            self._observe(trk, frame, boxes[j])
+            self._observe(trk, frame, boxes[j], resumed=True)
+            if trk.bridged and self.sink is not None:
+                self._pend_gap(trk, last, frame)
         for trk_id in hyp.halts:
             self.tracks[trk_id].state = "halted"
         # start: new identities in detection order, so ids do not depend on atom sorting
@@ -213,10 +273,12 @@ class AbductionTracker:
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
+        frame_events: list[HistoryEvent] = []
         for name, args in hyp.event_terms:
             event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
             logged = HistoryEvent(event, frame)
             self.events.append(logged)
+            frame_events.append(logged)
             owner = self.tracks.get(event.args[0].name)
             if owner is None:
                 continue
@@ -226,6 +288,8 @@ class AbductionTracker:
                 owner.history = [e for e in owner.history if e.event.name in _STARTING]
             else:
                 owner.history.append(logged)
+        if self.sink is not None and frame_events:
+            self.sink.events(tuple(frame_events))
         for trk_id in hyp.ends:
             trk = self.tracks.pop(trk_id)
             trk.ended_at = frame
@@ -234,9 +298,12 @@ class AbductionTracker:
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
 
-    def _observe(self, trk: _Track, frame: int, box: np.ndarray) -> None:
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray, resumed: bool = False) -> None:
         """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
-        trk.kalman.update(box)
+        if resumed and self.reupdate_on_resume:
+            trk.kalman.reupdate(box)  # observation-centric re-update along the gap
+        else:
+            trk.kalman.update(box)
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
         self._confirm(trk, frame)
@@ -246,6 +313,16 @@ class AbductionTracker:
         frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed."""
         if trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged:
             trk.confirmed.add(frame)
+            if self.sink is not None:
+                self._pending.setdefault(frame, []).append([frame, _trk_number(trk.id), *trk.observed[frame]])
+
+    def _pend_gap(self, trk: _Track, last: int, resumed: int) -> None:
+        """The interpolated rows of a bridged gap, exactly as result_rows computes them."""
+        number = _trk_number(trk.id)
+        a, b = trk.observed[last], trk.observed[resumed]
+        for f in range(last + 1, resumed):
+            w = (f - last) / (resumed - last)
+            self._pending.setdefault(f, []).append([f, number, *((1 - w) * a + w * b)])
 
     # -- results -----------------------------------------------------------------------------
     def result_rows(self) -> np.ndarray:
@@ -279,9 +356,14 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
-                   compact_history: bool = True) -> TrackingResult:
+                   compact_history: bool = True, hold_hidden: bool = False,
+                   reupdate_on_resume: bool = False, sink: ResultSink | None = None,
+                   keep_records: bool = True) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
-    the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS)."""
+    the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
+
+    With a ``sink`` the rows and events go to it as they are decided (see AbductionTracker) and
+    the result's rows are empty (its events and tracks too unless ``keep_records``)."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
@@ -290,7 +372,14 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
         merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * seq.fps))))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
-                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history)
+                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
+                               hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
+    tracker.finish()
+    if sink is not None:
+        return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
+                              tracker.track_records() if keep_records else (),
+                              tracker.frames, tracker.not_optimal, tracker.solve_ms)
     return tracker.result()
+

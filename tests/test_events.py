@@ -293,11 +293,12 @@ def test_possible_events_on_a_small_scene():
 
 def test_lost_thresholds_depend_on_visibility():
     t1 = TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40))
-    p = _problem([H("missing_detections(trk_1)", 17)], t=20)
+    # trk_1 alone (nothing covers it, so it is not kept in mind)
+    p = _problem([H("missing_detections(trk_1)", 17)], t=20, tracks=(t1,))
     c = resolve_constants(p)
-    assert poss_lost(EventState.from_problem(p), c, t1, tracks={t.id: t for t in p.tracks})  # 20 - 17 >= lost_after_missing = 3
-    p = _problem([H("missing_detections(trk_1)", 18)], t=20)
-    assert not poss_lost(EventState.from_problem(p), c, t1, tracks={t.id: t for t in p.tracks})
+    assert poss_lost(EventState.from_problem(p), c, t1, tracks={"trk_1": t1})  # 20 - 17 >= lost_after_missing = 3
+    p = _problem([H("missing_detections(trk_1)", 18)], t=20, tracks=(t1,))
+    assert not poss_lost(EventState.from_problem(p), c, t1, tracks={"trk_1": t1})
     p = _problem([H("hides_behind(trk_1,trk_2)", 0)], t=30)
     c = resolve_constants(p)
     assert not poss_lost(EventState.from_problem(_problem([H("hides_behind(trk_1,trk_2)", 1)], t=30)), c, t1, tracks={})
@@ -328,3 +329,19 @@ def test_a_hidden_track_is_kept_in_mind_while_its_occluder_still_covers_it():
     assert _lost(hidden, 30, (out, over), consts=(("img_width", 640),))
     # the safety bound: lost_after_hidden_max = 300 frames after hiding, whatever the scene says
     assert not _lost(hidden, 299, (t1, behind)) and _lost(hidden, 300, (t1, behind))
+
+
+def test_a_missing_track_covered_from_the_front_is_kept_in_mind_too():
+    # trk_1 halted by missing_detections at 10 (clipped, not hidden): lost_after_missing = 3 applies
+    missing = [H("missing_detections(trk_1)", 10)]
+    t1 = TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40))
+    # trk_2 covers 40 x 35 = 1400 px of trk_1's 2000 (> hide_overlap 10 %) and its bottom edge
+    # 155 >= 140 is lower: overlapping_top(trk_1, trk_2), the occlusion seen after the halt
+    front = TrackPrediction("trk_2", "car", "active", (110, 105, 60, 50))
+    # the same box higher up (bottom 135 < 140): it overlaps trk_1 but is behind it, no cover
+    behind = TrackPrediction("trk_2", "car", "active", (110, 85, 60, 50))
+    assert not _lost(missing, 13, (t1, front))
+    assert _lost(missing, 13, (t1, behind))
+    assert _lost(missing, 13, (t1,))
+    # the safety bound still ends it: lost_after_hidden_max = 300 frames after halting
+    assert not _lost(missing, 309, (t1, front)) and _lost(missing, 310, (t1, front))

@@ -165,6 +165,36 @@ def test_load_detections_and_ground_truth_of_a_benchmark_sequence():
     assert (io.load_detections(mot).num_detections, io.load_ground_truth(mot).num_frames) == (592, 145)
 
 
+@needs_data
+def test_kitti_val_and_train_splits_partition_the_21_sequences_by_the_seqmap():
+    # the seqmap lists 0001 0006 0008 0010 0012 0013 0014 0015 0016 0018 0019 (AB3DMOT's val split)
+    val = ["0001", "0006", "0008", "0010", "0012", "0013", "0014", "0015", "0016", "0018", "0019"]
+    train = ["0000", "0002", "0003", "0004", "0005", "0007", "0009", "0011", "0017", "0020"]
+    for cls, det_dir in (("car", "Car"), ("ped", "Pedestrian")):
+        assert [s.name for s in io.benchmark_sequences(f"kitti-{cls}-val", DATA)] == val
+        seqs = io.benchmark_sequences(f"kitti-{cls}-train", DATA)
+        assert [s.name for s in seqs] == train
+        assert all(s.dets_path.parent.name == det_dir for s in seqs)
+
+
+def test_kitti_split_follows_the_seqmap_file_not_a_fixed_list(tmp_path):
+    base = tmp_path / "KITTI" / "tracking" / "training"
+    for name in ("0002", "0005"):
+        write(base / "det_02_pointrcnn" / "Car" / f"{name}.txt", "0,2,1,1,20,20,1.0,1,1,1,1,1,1,0,0\n")
+        write(base / "label_02" / f"{name}.txt", "0 1 Car 0 0 0 1 1 20 20 1 1 1 1 1 1 0\n")
+    seqmap = write(base / "evaluate_tracking.seqmap.val", "0005 empty 000000 000001\n")
+    assert [s.name for s in io.benchmark_sequences("kitti-car-val", tmp_path)] == ["0005"]
+    # the train split lists every other training sequence, so its missing files are reported
+    with pytest.raises(InputFormatError, match="missing file of benchmark 'kitti-car-train'"):
+        io.benchmark_sequences("kitti-car-train", tmp_path)
+    write(seqmap, "0005 empty\n0005 empty\n")
+    with raises_at(seqmap, 2, "listed twice"):
+        io.benchmark_sequences("kitti-car-val", tmp_path)
+    write(seqmap, "0042 empty\n")
+    with raises_at(seqmap, 1, "not a KITTI training sequence"):
+        io.benchmark_sequences("kitti-car-val", tmp_path)
+
+
 def test_benchmark_sequences_reports_a_missing_data_root(tmp_path):
     with pytest.raises(InputFormatError, match="missing file of benchmark 'mot15'"):
         io.benchmark_sequences("mot15", tmp_path)

@@ -75,7 +75,11 @@ def test_plot_mistakes_are_one_line_errors(scene_file, tmp_path, capsys, argv, m
     assert not (tmp_path / "x.png").exists()
 
 
-def test_plot_into_a_missing_folder_is_an_error(scene_file, tmp_path):
+def test_plot_into_a_missing_folder_creates_it_and_under_a_file_is_an_error(scene_file, tmp_path):
+    # every output's folder is created if missing (refimpl.outputs); a file on the path is an error
+    from refimpl.outputs import OutputError
     from refimpl.plots import plot_scene_file
-    with pytest.raises(SceneError, match="does not exist"):
-        plot_scene_file(scene_file, str(tmp_path / "no" / "x.png"))
+    plot_scene_file(scene_file, str(tmp_path / "no" / "x.png"))
+    assert (tmp_path / "no" / "x.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with pytest.raises(OutputError, match="not a directory"):
+        plot_scene_file(scene_file, str(tmp_path / "no" / "x.png" / "y.png"))

@@ -1,0 +1,103 @@
+"""Presets: the model constants calibrated per (input format, object class), chosen automatically.
+
+``refimpl track --format kitti --class Car`` (and ``refimpl benchmark kitti-car...``) runs the
+abduction tracker with the preset of (kitti, car) on top of model/constants.lp; ``--const
+NAME=VALUE`` overrides both.  A (format, class) without a preset runs with the model's defaults.
+
+The presets live in model/presets.json, written by ``refimpl calibrate ... --write-presets``
+(refimpl.calibrate), each with where it was tuned and how, so the file says what was tuned on
+what.  The procedure, search space and tables are in docs/peers.md.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Mapping
+
+from .constants import default_constants, model_dir
+
+PRESETS_FILE = "presets.json"
+
+
+@dataclass(frozen=True)
+class Preset:
+    """Calibrated constants for one (format, object class) and their provenance."""
+
+    format: str
+    object_class: str
+    constants: Mapping[str, int]
+    tuned_on: str
+    """The benchmark (sequences) the constants were chosen on, e.g. kitti-car-train."""
+    procedure: str
+
+
+def preset_key(fmt: str, object_class: str) -> str:
+    return f"{fmt.lower()}/{object_class.lower()}"
+
+
+def presets_path() -> Path:
+    return model_dir() / PRESETS_FILE
+
+
+def _parse(data: Mapping, source: Path) -> dict[str, Preset]:
+    known = default_constants()
+    out = {}
+    for key, entry in data.items():
+        fmt, _, cls = key.partition("/")
+        consts = {str(k): int(v) for k, v in entry["constants"].items()}
+        unknown = sorted(set(consts) - set(known))
+        if unknown or not cls:
+            raise ValueError(f"{source}: preset {key!r}: unknown constants {unknown} or key not FORMAT/CLASS")
+        out[key] = Preset(fmt, cls, consts, str(entry.get("tuned_on", "")), str(entry.get("procedure", "")))
+    return out
+
+
+@lru_cache(maxsize=4)
+def _load(path: str, mtime: float) -> dict[str, Preset]:
+    p = Path(path)
+    return _parse(json.loads(p.read_text(encoding="utf-8")), p)
+
+
+def load_presets(path: str | Path | None = None) -> dict[str, Preset]:
+    """Every preset in the presets file (none if the file is absent)."""
+    p = Path(path) if path is not None else presets_path()
+    if not p.is_file():
+        return {}
+    return _load(str(p), p.stat().st_mtime)
+
+
+def preset_for(fmt: str, object_class: str, path: str | Path | None = None) -> Preset | None:
+    return load_presets(path).get(preset_key(fmt, object_class))
+
+
+def constants_for(fmt: str, object_class: str, overrides: Mapping[str, int] | None = None,
+                  path: str | Path | None = None, use_preset: bool = True) -> dict[str, int]:
+    """The constants the tracker runs with beyond model/constants.lp: the preset (unless
+    ``use_preset`` is false), then overrides.
+
+    Unknown override names are an error (``ValueError`` naming the known constants).
+    """
+    known = default_constants()
+    for name in overrides or {}:
+        if name not in known:
+            raise ValueError(f"unknown constant {name!r} (known: {', '.join(sorted(known))})")
+    preset = preset_for(fmt, object_class, path) if use_preset else None
+    merged = dict(preset.constants) if preset else {}
+    merged.update({k: int(v) for k, v in (overrides or {}).items()})
+    return merged
+
+
+def write_preset(preset: Preset, path: str | Path | None = None) -> Path:
+    """Add or replace one preset in the presets file (keys sorted; written atomically)."""
+    from .io import write_text_atomic
+
+    p = Path(path) if path is not None else presets_path()
+    data = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
+    data[preset_key(preset.format, preset.object_class)] = {
+        "constants": dict(sorted(preset.constants.items())), "tuned_on": preset.tuned_on,
+        "procedure": preset.procedure}
+    write_text_atomic(p, json.dumps(dict(sorted(data.items())), indent=2) + "\n")
+    return p

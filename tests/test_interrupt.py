@@ -1,0 +1,55 @@
+"""SIGINT (issue 17, case 4): a real Ctrl-C ends a long command within a second or two, exit 130,
+one line, and leaves neither an output file nor a temporary file behind.
+
+(Inside a long clingo or CP-SAT solve call the interrupt is the backends' business, refimpl/solvers;
+these tests interrupt the tracking loop, where frames are short.)"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "tools"))
+from long_sequence import write_sequence  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def long_dets(tmp_path_factory) -> Path:
+    # 4,000 frames x 20 walkers: the baseline needs ~10 s, cpsat ~30 s: long enough to interrupt
+    return write_sequence(tmp_path_factory.mktemp("seq") / "LONG", 4000, 20, seed=0)
+
+
+def _interrupt(dets: Path, out_dir: Path, backend: str) -> tuple[int, float, str]:
+    out_dir.mkdir()
+    argv = [sys.executable, "-m", "refimpl", "track", "--dets", str(dets), "--backend", backend,
+            "--out", str(out_dir / "res.txt"), "--events", str(out_dir / "ev.lp"),
+            "--events-json", str(out_dir / "ev.jsonl")]
+    proc = subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    # the staged temporary files appear when tracking starts (after imports and reading)
+    while len(list(out_dir.iterdir())) < 3:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(0.5)  # well inside the tracking loop
+    assert proc.poll() is None
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    return proc.returncode, time.monotonic() - sent, err
+
+
+@pytest.mark.parametrize("backend", ["baseline", "cpsat"])
+def test_sigint_ends_track_at_once_with_130_and_no_output(long_dets, tmp_path, backend):
+    code, secs, err = _interrupt(long_dets, tmp_path / "out", backend)
+    assert code == 130
+    assert secs < 2.0, secs
+    assert [line for line in err.splitlines() if not line.startswith("refimpl: warning")] == ["refimpl: interrupted"]
+    assert os.listdir(tmp_path / "out") == []  # no results, no event log, no temporary file

@@ -1,0 +1,110 @@
+"""Motion while hidden (issue 12, item 4): BoxKalman.predict(hold=True), BoxKalman.reupdate, and the tracker options."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from refimpl.io import DetectionFrame, DetectionSequence
+from refimpl.motion import HIDDEN_MAX_SPEED, BoxKalman
+from refimpl.tracker import track_sequence
+
+
+def _moving(n: int, x0: float = 100.0, vx: float = 10.0, w: float = 40.0, h: float = 80.0, grow: float = 0.0):
+    """n boxes moving vx px/frame to the right, width and height growing by `grow` px/frame."""
+    return [np.array([x0 + vx * i, 200.0, w + grow * i, h + grow * i]) for i in range(n)]
+
+
+def _filter(boxes) -> BoxKalman:
+    kf = BoxKalman(boxes[0])
+    for b in boxes[1:]:
+        kf.predict()
+        kf.update(b)
+    return kf
+
+
+def test_hold_freezes_the_size_from_the_second_unobserved_frame():
+    kf = _filter(_moving(15, grow=2.0))  # the area grows: ds > 0
+    assert kf.state[6] > 0
+    first = kf.predict(hold=True)  # the first unobserved frame is predicted before anyone knows
+    s_before, u_before, du = kf.state[2], kf.state[0], kf.state[4]
+    assert kf.state[6] > 0
+    second = kf.predict(hold=True)
+    # ds := 0, so s stays; the aspect ratio has no velocity; the centre moves by du (below the cap)
+    assert kf.state[6] == 0 and kf.state[2] == pytest.approx(s_before)
+    assert second[2] * second[3] == pytest.approx(first[2] * first[3])
+    assert kf.state[0] == pytest.approx(u_before + du)
+    for _ in range(100):
+        box = kf.predict(hold=True)
+    assert box[2] * box[3] == pytest.approx(first[2] * first[3])
+
+
+def test_without_hold_the_size_keeps_growing():
+    kf = _filter(_moving(15, grow=2.0))
+    a = [np.prod(kf.predict()[2:]) for _ in range(3)]
+    assert a[0] < a[1] < a[2]
+
+
+def test_hold_caps_the_speed_of_a_hidden_track():
+    kf = _filter(_moving(5))
+    kf.predict()
+    kf.kf.x[4, 0], kf.kf.x[5, 0] = 3000.0, 4000.0  # an absurd velocity, 5000 px/frame
+    s = kf.state[2]
+    u, v = kf.state[0], kf.state[1]
+    kf.predict(hold=True)
+    cap = HIDDEN_MAX_SPEED * np.sqrt(s)  # 0.5 * sqrt(40 * 80) = 28.3 px per frame
+    step = np.hypot(kf.state[0] - u, kf.state[1] - v)
+    assert step == pytest.approx(cap)
+    # direction kept: 3:4
+    assert (kf.state[0] - u) / (kf.state[1] - v) == pytest.approx(0.75)
+
+
+def test_reupdate_equals_a_filter_fed_the_interpolated_boxes():
+    boxes = _moving(6)
+    kf = _filter(boxes)
+    for _ in range(10):  # 9 frames hidden, the 10th prediction is the frame it comes back
+        kf.predict()
+    back = np.array([300.0, 230.0, 44.0, 88.0])
+    kf.reupdate(back)
+    # the same filter fed the last observed box, then 9 virtual boxes on the straight line to
+    # `back` (at 1/10 .. 9/10), then `back`
+    last = boxes[-1]
+    ref = _filter(boxes + [last + (back - last) * (i / 10) for i in range(1, 10)] + [back])
+    assert np.allclose(kf.state, ref.state) and np.allclose(kf.covariance, ref.covariance)
+    assert kf.time_since_update == 0 and kf.hits == 5 + 1
+
+
+def test_reupdate_after_no_gap_is_update():
+    a, b = _filter(_moving(5)), _filter(_moving(5))
+    a.predict(), b.predict()
+    a.update(np.array([150.0, 200.0, 40.0, 80.0]))
+    b.reupdate(np.array([150.0, 200.0, 40.0, 80.0]))
+    assert np.array_equal(a.state, b.state) and np.array_equal(a.covariance, b.covariance)
+
+
+def _growing_car_behind_bus() -> DetectionSequence:
+    """A car (growing 2 px/frame in width and height: approaching) passes behind a parked bus.
+
+    Bus x 300..700, bottom edge 500; the car's bottom edge is at 380 and its height at most
+    60 + 2*8 = 76 px, so it stands farther away; detected frames 1-9, missed 10-27.
+    """
+    frames = []
+    for f in range(1, 33):
+        boxes = [[300.0, 200.0, 400.0, 300.0]]
+        if f <= 9 or f >= 28:
+            w, h = 80.0 + 2 * (f - 1), 60.0 + 2 * (f - 1)
+            boxes.append([100.0 + 20 * (f - 1), 380.0 - h, w, h])
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.full(n, 0.9), np.full(n, 90), ("car",) * n))
+    return DetectionSequence("growing", tuple(frames), 1, (1000, 600), 25.0)
+
+
+def test_tracker_option_holds_the_size_of_a_halted_track():
+    seq = _growing_car_behind_bus()
+    plain = next(t for t in track_sequence(seq).tracks if t.id == "trk_2")
+    held = next(t for t in track_sequence(seq, hold_hidden=True).tracks if t.id == "trk_2")
+    area = lambda rec: [round(b[2] * b[3]) for _, b in rec.halted]  # noqa: E731
+    assert [f for f, _ in held.halted] == [f for f, _ in plain.halted] and len(held.halted) >= 10
+    # halted frame 1 was predicted while the track was still active; from the 2nd on the size is held
+    assert len(set(area(held)[1:])) == 1
+    assert area(plain)[1:] == sorted(area(plain)[1:]) and area(plain)[-1] > area(plain)[1]

@@ -1,0 +1,206 @@
+"""The peer trackers (refimpl.peers), the presets (refimpl.presets) and calibration (refimpl.calibrate)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from refimpl import io
+from refimpl.baseline import SortTracker
+from refimpl.cli import main
+
+peers = pytest.importorskip("refimpl.peers")
+pytest.importorskip("trackers")
+sv = pytest.importorskip("supervision")
+
+REPO = Path(__file__).resolve().parent.parent
+KITTI_0012_CAR = REPO.parent / "shared" / "data" / "KITTI" / "tracking" / "training" / "det_02_pointrcnn" / "Car" / "0012.txt"
+
+
+def _demo():
+    return io.load_detections(io.demo_sequence_paths())
+
+
+def _xyxy(b: np.ndarray) -> np.ndarray:
+    return np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3]]).reshape(-1, 4)
+
+
+# SORT as published (Bewley et al.) is what both refimpl.baseline and the package's SORTTracker
+# implement.  Configured alike, they must be the same tracker:
+#  - max_age 1: refimpl deletes a track missed for more than 1 frame; the package with
+#    lost_track_buffer=1 at frame_rate 30 allows ceil(30/30 * 1) = 1 missed frame, pruned after
+#    association in both (so a track missed once can still match in the next frame);
+#  - the package's XCYCSRStateEstimator with SORTTracklet's noise set-up is SORT's filter
+#    (R[2:,2:] *= 10, P[4:,4:] *= 1000, P *= 10, Q[-1,-1] *= 0.01, Q[4:,4:] *= 0.01), as refimpl.motion;
+#  - both: Hungarian on IoU (scipy, maximise), pairs with IoU >= 0.3 kept, tracks in creation order;
+#  - track_activation_threshold 0: every unmatched detection starts a track, as in SORT;
+#  - refimpl min_hits 1 writes a track once it has been updated (hit_streak >= 1); the package with
+#    minimum_consecutive_frames 1 gives an id to every matched detection: the same rows, except at
+#    the first frame, where refimpl's start-up rule (frame_count <= min_hits) also writes new tracks.
+# So from the second frame on, the tracks updated in a frame must be the same set, with the same
+# Kalman posterior box up to float rounding (1e-4 px allowed), under one fixed renaming of ids
+# (refimpl numbers a track at birth, the package at its first match).
+def _sort_pair():
+    from trackers.utils.state_representations import XCYCSRStateEstimator
+    ours = SortTracker(max_age=1, min_hits=1, iou_threshold=0.3)
+    params = peers.peer_parameters("sort", 30.0, lost_track_buffer=1, track_activation_threshold=0.0,
+                                   minimum_consecutive_frames=1, minimum_iou_threshold=0.3,
+                                   state_estimator_class=XCYCSRStateEstimator)
+    return ours, peers.peer_class("sort")(**params), params
+
+
+@pytest.mark.parametrize("which", ["TUD-Campus", "KITTI Car 0012"])
+def test_trackers_sort_with_max_age_1_is_refimpl_sort(which):
+    if which == "TUD-Campus":
+        seq = _demo()
+    else:
+        if not KITTI_0012_CAR.is_file():
+            pytest.skip("KITTI data absent")
+        seq = io.read_kitti_detections(KITTI_0012_CAR, "car")
+    ours, theirs, _ = _sort_pair()
+    renaming: dict[int, int] = {}
+    compared = 0
+    for k, fr in enumerate(seq.frames):
+        rows = ours.update(fr.boxes)
+        theirs.update(sv.Detections(xyxy=_xyxy(fr.boxes), confidence=fr.confidences.astype(np.float32) / 100))
+        updated = sorted(((int(t.tracker_id), t.get_state_bbox()) for t in theirs.tracks
+                          if t.tracker_id >= 0 and t.time_since_update == 0), key=lambda x: x[0])
+        if k == 0:
+            continue
+        assert len(updated) == len(rows), f"frame {fr.frame}"
+        their_boxes = np.array([[b[0], b[1], b[2] - b[0], b[3] - b[1]] for _, b in updated]).reshape(-1, 4)
+        for row in rows:
+            diff = np.abs(their_boxes - row[1:5]).max(axis=1)
+            j = int(np.argmin(diff))
+            assert diff[j] < 1e-4, f"frame {fr.frame}: refimpl track {int(row[0])} has no twin"
+            assert renaming.setdefault(int(row[0]), updated[j][0]) == updated[j][0], f"frame {fr.frame}"
+            compared += 1
+    assert len(set(renaming.values())) == len(renaming)  # a bijection
+    assert compared > 200  # TUD-Campus: 287 rows compared, 0012: 207
+
+
+def test_run_peer_writes_the_detections_it_tracked_with_ids_from_1():
+    seq = _demo()
+    from trackers.utils.state_representations import XCYCSRStateEstimator
+    run = peers.run_peer(seq, "sort", lost_track_buffer=1, track_activation_threshold=0.0,
+                         minimum_consecutive_frames=1, state_estimator_class=XCYCSRStateEstimator, frame_rate=30.0)
+    ours = SortTracker(max_age=1, min_hits=1, iou_threshold=0.3)
+    ref = []
+    for fr in seq.frames:
+        ref += [(fr.frame, int(r[0])) for r in ours.update(fr.boxes)]
+    # the same tracker (test above): the same number of rows per frame from the second frame on,
+    # and as many distinct tracks (the package's ids 0, 1, ... written as 1, 2, ...)
+    first = seq.frames[0].frame
+    rows = run.rows
+    for fr in seq.frames[1:]:
+        assert int(np.sum(rows[:, 0] == fr.frame)) == sum(1 for f, _ in ref if f == fr.frame)
+    assert rows[:, 1].min() == 1
+    assert len(np.unique(rows[:, 1])) == len({i for f, i in ref if f != first} | set())
+    # every written box is a detection box of its frame (the package returns detections)
+    for f, _, x, y, w, h in rows:
+        boxes = seq.frame(int(f)).boxes
+        assert np.abs(boxes - [x, y, w, h]).max(axis=1).min() < 1e-9
+
+
+def test_peers_read_confidence_over_100_and_the_sequence_frame_rate():
+    seq = _demo()
+    params = peers.peer_parameters("bytetrack", seq.fps)
+    # TUD-Campus seqinfo.ini: frameRate=25; ByteTrack's package default starts tracks at >= 0.7
+    assert params["frame_rate"] == 25.0 and params["track_activation_threshold"] == 0.7
+    assert peers.peer_parameters("ocsort", None)["frame_rate"] == peers.DEFAULT_FRAME_RATE
+
+    def with_conf(c: int):
+        frames = tuple(replace(f, confidences=np.full(len(f), c)) for f in seq.frames)
+        return replace(seq, frames=frames)
+    # confidence 69 -> 0.69 < 0.7: ByteTrack starts no track at all; 70 -> 0.70: it does
+    assert len(peers.run_peer(with_conf(69), "bytetrack").rows) == 0
+    assert len(peers.run_peer(with_conf(70), "bytetrack").rows) > 100
+
+
+def test_unknown_peer_is_a_one_line_user_error(capsys):
+    assert main(["benchmark", "mot15", "--peers", "sort,deepsort", "--data", "/nonexistent"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--peers takes" in err and "\n" not in err
+
+
+# ---------------------------------------------------------------------------------------
+# presets
+
+
+def test_presets_are_chosen_by_format_and_class_and_const_overrides_them(tmp_path):
+    from refimpl.presets import Preset, constants_for, write_preset
+    path = tmp_path / "presets.json"
+    write_preset(Preset("kitti", "car", {"conf_thresh_new_track": 60}, "kitti-car-train", "test"), path)
+    write_preset(Preset("mot", "pedestrian", {"iou_thresh": 20000}, "mot15", "test"), path)
+    assert set(json.loads(path.read_text())) == {"kitti/car", "mot/pedestrian"}
+    assert constants_for("kitti", "car", path=path) == {"conf_thresh_new_track": 60}
+    assert constants_for("kitti", "car", {"conf_thresh_new_track": 70}, path=path) == {"conf_thresh_new_track": 70}
+    assert constants_for("kitti", "pedestrian", path=path) == {}  # no preset: constants.lp alone
+    assert constants_for("kitti", "car", path=path, use_preset=False) == {}
+    with pytest.raises(ValueError, match="unknown constant 'nosuch'"):
+        constants_for("kitti", "car", {"nosuch": 1}, path=path)
+
+
+def test_track_const_changes_the_tracks_and_an_unknown_const_is_exit_2(tmp_path, capsys):
+    dets = REPO / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
+    a, b = tmp_path / "a.txt", tmp_path / "b.txt"
+    assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(a), "--no-preset"]) == 0
+    # official ACF det.txt: confidences are clipped raw scores, many far below 100; demanding
+    # confidence > 100 for a new track means no track can ever start
+    assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(b),
+                 "--const", "conf_thresh_new_track=100"]) == 0
+    assert a.read_text().strip() and not b.read_text().strip()
+    capsys.readouterr()
+    assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(b), "--const", "nosuch=1"]) == 2
+    assert "unknown constant(s) nosuch" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------
+# calibration
+
+
+def test_calibration_refuses_kitti_val_sequences(shared_data, capsys):
+    assert main(["calibrate", "--benchmark", "kitti-car-val", "--data", str(shared_data)]) == 2
+    assert "held-out val sequences 0001" in capsys.readouterr().err
+    assert main(["calibrate", "--benchmark", "kitti-ped", "--data", str(shared_data)]) == 2
+    assert "calibrate on kitti-ped-train" in capsys.readouterr().err
+
+
+def test_leave_one_sequence_out_scores_each_sequence_with_the_point_best_on_the_others():
+    from refimpl.calibrate import GridPoint, leave_one_sequence_out, rank_key
+    from refimpl.evaluate import evaluate_sequence
+
+    seq = _demo()
+    gt = io.load_ground_truth(io.demo_sequence_paths())
+    rows = []
+    t = SortTracker()
+    for fr in seq.frames:
+        rows += [[fr.frame, *r] for r in t.update(fr.boxes)]
+    sort_scores = evaluate_sequence(gt, np.array(rows))
+    empty_scores = evaluate_sequence(gt, np.zeros((0, 6)))
+    # two "sequences" A and B (the same data): point 0 is SORT on A and nothing on B, point 1 the
+    # reverse.  Held out A, the choice is made on B alone: point 1; held out B, on A alone: point 0.
+    # So each sequence is scored with the point that writes nothing on it: the held-out scores are
+    # two empty results (FN = twice the targets, no FP), although each point is best somewhere.
+    p0 = GridPoint((("x", 0),), {"A": sort_scores, "B": empty_scores}, {}, 0.0)
+    p1 = GridPoint((("x", 1),), {"A": empty_scores, "B": sort_scores}, {}, 0.0)
+    out = leave_one_sequence_out([p0, p1], use_hota=False)
+    assert out["chosen"] == {"A": 1, "B": 0}
+    assert (out["overall"]["fp"], out["overall"]["fn"]) == (0, 2 * gt.num_targets)
+    assert rank_key(sort_scores, False) > rank_key(empty_scores, False)
+
+
+def test_grid_is_the_product_of_its_dimensions_and_grid_options_replace_one():
+    from refimpl.calibrate import DEFAULT_GRID, grid_points, parse_grid
+    # 3 new-track x 3 assign x 2 IoU x 1 x 1 = 18 points, every combination once
+    points = grid_points(DEFAULT_GRID)
+    assert len(points) == 18 == len(set(points))
+    grid = parse_grid(["iou_thresh_resume=10000,20000"])
+    assert len(grid_points(grid)) == 36 and grid["conf_thresh_new_track"] == DEFAULT_GRID["conf_thresh_new_track"]
+    for bad in ("nosuch=1", "iou_thresh=", "iou_thresh=0.3"):
+        with pytest.raises(ValueError):
+            parse_grid([bad])

@@ -1,0 +1,275 @@
+"""No silent wrong answer, and every CLI path ends in one line (issue 17, cases 2 and 3)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from refimpl import cli
+from refimpl.io import InputFormatError, read_mot_detections
+from refimpl.ranges import check_ranges
+from refimpl.scene import save_scene, scene_to_json
+from refimpl.spec import ProblemFormatError, parse_facts
+from refimpl.synthetic import synthetic_frame
+
+from test_scene import bus_scene
+
+REPO = Path(__file__).resolve().parent.parent
+DEMO = REPO / "data" / "demo" / "TUD-Campus"
+BUS = REPO / "data" / "examples" / "bus_t235.lp"
+
+
+def _err(capsys) -> str:
+    err = [line for line in capsys.readouterr().err.splitlines() if line and not line.startswith("refimpl: warning")]
+    assert len(err) == 1, err
+    return err[0]
+
+
+# -- confidence rule ----------------------------------------------------------------------
+
+@pytest.fixture
+def seq(tmp_path) -> Path:
+    shutil.copytree(DEMO, tmp_path / "TUD-Campus")
+    return tmp_path / "TUD-Campus" / "det" / "det.txt"
+
+
+def test_one_score_above_one_among_probabilities_is_an_error_naming_its_line(seq, capsys):
+    # the demo det.txt holds SORT's Faster R-CNN probabilities (0.5..1.0); line 3 becomes 1.01
+    lines = seq.read_text().splitlines(keepends=True)
+    fields = lines[2].split(",")
+    fields[6] = "1.01"
+    lines[2] = ",".join(fields)
+    seq.write_text("".join(lines))
+    with pytest.raises(InputFormatError, match=r"det\.txt:3: score 1\.01 is outside 0\.\.1 although"):
+        read_mot_detections(seq)
+    with pytest.raises(InputFormatError, match=r":3: score 1\.01 is not a probability"):
+        read_mot_detections(seq, scores_rule="probability")
+    # chosen explicitly, the raw rule applies to every row: 0.997784 -> round(0.997784) = 1
+    raw = read_mot_detections(seq, scores_rule="raw")
+    assert raw.frames[0].confidences[0] == 1
+    assert cli.main(["track", "--dets", str(seq), "--out", str(seq.parent / "r.txt")]) == 2
+    assert ":3: score 1.01" in _err(capsys)
+
+
+def test_a_raw_score_file_keeps_the_raw_rule_whatever_one_score_is(tmp_path):
+    # 10 raw ACF-like scores, one of them 0.5 (in 0..1): at most half in 0..1 -> raw rule for all
+    f = tmp_path / "det.txt"
+    scores = [12.0, 40.5, 0.5, 99.0, 3.2, 7.0, 55.0, 130.0, -0.4, 20.0]
+    f.write_text("".join(f"{i + 1},-1,10,10,20,40,{s},-1,-1,-1\n" for i, s in enumerate(scores)))
+    conf = [int(fr.confidences[0]) for fr in read_mot_detections(f).frames]
+    # clip(round(s), 0, 100) with round half up
+    assert conf == [12, 41, 1, 99, 3, 7, 55, 100, 0, 20]
+
+
+# -- names clingo reads differently -------------------------------------------------------
+
+@pytest.mark.parametrize("fact, name", [("det(det_0, _Person, 50).", "_Person"), ("det(_, car, 50).", "_"),
+                                        ("det(not, car, 50).", "not"), ("trk(trk_1, _x).", "_x")])
+def test_ids_and_types_clingo_reads_as_variables_or_keywords_are_refused(fact, name):
+    with pytest.raises(ProblemFormatError, match=rf"f\.lp:2: name '{name}' is"):
+        parse_facts(f"#const curr_time=5.\n{fact}\n", "f.lp")
+
+
+def test_the_solve_command_refuses_a_variable_type_for_both_backends(tmp_path, capsys):
+    f = tmp_path / "p.lp"
+    f.write_text(BUS.read_text().replace("det(det_0, person,", "det(det_0, _Car,", 1))
+    assert "_Car" in f.read_text()
+    for backend in ("cpsat", "clingo"):
+        assert cli.main(["solve", str(f), "--backend", backend]) == 2
+        assert "'_Car' is a variable to clingo" in _err(capsys)
+
+
+# -- the 32-bit range ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("const", ["iou_thresh=2147483648", "iou_thresh=-2147483649", "img_width=2000000000"])
+def test_const_values_outside_clingos_range_are_refused(capsys, const):
+    assert cli.main(["solve", str(BUS), "--const", const]) == 2
+    assert _err(capsys).startswith(f"refimpl solve: error: --const {const}: ")
+
+
+def test_boxes_whose_edges_or_areas_overflow_32_bits_are_refused(tmp_path, capsys):
+    base = "#const curr_time=5.\ntrk(trk_1, car).\ntrk_state(trk_1, active).\n"
+    # x + w = 2^28 + 1 leaves the range of the overlap formulas (two edges and a difference added)
+    edge = base + f"box2d(trk_1, {2**28 - 9}, 0, 10, 10).\n"
+    # w * h = 5000 * 5000 = 25,000,000 and 100 * that = 2.5e9 > 2^31 - 1 = 2,147,483,647
+    area = base + "box2d(trk_1, 0, 0, 5000, 5000).\n"
+    for text, message in ((edge, "leaves -268435456..268435456"), (area, "100 * w * h = 2500000000 exceeds")):
+        f = tmp_path / "p.lp"
+        f.write_text(text)
+        assert cli.main(["solve", str(f), "--backend", "clingo"]) == 2
+        assert message in _err(capsys)
+    ok = tmp_path / "ok.lp"  # 4000 * 4000 * 100 = 1.6e9 fits
+    ok.write_text(base + "box2d(trk_1, 0, 0, 4000, 4000).\n")
+    assert cli.main(["solve", str(ok), "--backend", "clingo"]) == 0
+
+
+def test_a_frame_whose_level0_cost_can_wrap_is_refused():
+    # 1000 tracks, 981 detections, 2205 IoU pairs: the tie-break weights (k+1)^2 of the 981
+    # largest pairs sum to sum_{k=1225}^{2205} k^2 = 2205*2206*4411/6 - 1224*1225*2449/6
+    # = 3,576,019,755 - 612,005,100 = 2,964,014,655, plus 2 * 1000^2 for the track ranks:
+    # 2,966,014,655 > 2^31 - 1
+    p = synthetic_frame(1000, 0.5, seed=0)
+    expected = 2205 * 2206 * 4411 // 6 - 1224 * 1225 * 2449 // 6 + 2 * 1000 * 1000
+    with pytest.raises(ProblemFormatError, match=f"level-0 cost of this frame can reach {expected}"):
+        check_ranges(p)
+    check_ranges(synthetic_frame(200, 0.5, seed=0))  # the benchmark sizes fit
+
+
+def test_a_detection_box_too_large_for_the_solvers_names_its_line(tmp_path):
+    f = tmp_path / "det.txt"
+    f.write_text("1,-1,0,0,100,100,0.9\n2,-1,0,0,5000,5000,0.9\n")  # 25e6 px^2 > 20e6
+    with pytest.raises(InputFormatError, match=r"det\.txt:2: box area w\*h = 5000\*5000 exceeds 20000000"):
+        read_mot_detections(f)
+
+
+# -- eval -----------------------------------------------------------------------------------
+
+def test_eval_refuses_results_past_the_last_ground_truth_frame(tmp_path, capsys):
+    res = tmp_path / "r.txt"
+    res.write_text("1,1,10,10,20,40,1,-1,-1,-1\n72,1,10,10,20,40,1,-1,-1,-1\n")  # TUD-Campus has 71 frames
+    assert cli.main(["eval", str(res), "--gt", str(DEMO / "gt" / "gt.txt")]) == 2
+    assert _err(capsys) == (f"refimpl eval: error: {res}:2: frame 72 is past the last ground-truth frame 71 "
+                            "of TUD-Campus: results of another sequence?")
+
+
+def test_eval_refuses_results_that_overlap_almost_no_ground_truth(tmp_path, capsys):
+    # 71 rows, one per frame, in the image's top-left corner where TUD-Campus has no one
+    res = tmp_path / "r.txt"
+    res.write_text("".join(f"{f},1,0,0,10,10,1,-1,-1,-1\n" for f in range(1, 72)))
+    assert cli.main(["eval", str(res), "--gt", str(DEMO / "gt" / "gt.txt")]) == 2
+    assert "only 0 of 71 result rows overlap a ground-truth box of TUD-Campus" in _err(capsys)
+    good = tmp_path / "good.txt"
+    assert cli.main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(good)]) == 0
+    assert cli.main(["eval", str(good), "--gt", str(DEMO / "gt" / "gt.txt")]) == 0
+
+
+def test_a_missing_seqinfo_is_warned_about_in_one_line(tmp_path, capsys):
+    dets = tmp_path / "det.txt"
+    shutil.copy(DEMO / "det" / "det.txt", dets)
+    assert cli.main(["track", "--dets", str(dets), "--out", str(tmp_path / "r.txt")]) == 0
+    warnings = [line for line in capsys.readouterr().err.splitlines() if line.startswith("refimpl: warning")]
+    assert len(warnings) == 1 and "no seqinfo.ini" in warnings[0] and "image size is unknown" in warnings[0]
+
+
+# -- scene files ----------------------------------------------------------------------------
+
+def _scene(tmp_path, edit) -> str:
+    data = scene_to_json(bus_scene())
+    edit(data)
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(data))
+    return str(path)
+
+
+def _first_obs(d):
+    return d["tracks"][0]["observed"]
+
+
+SCENE_CASES = {
+    "unsorted boxes": (lambda d: _first_obs(d).reverse(), "frames must be strictly increasing"),
+    "NaN box": (lambda d: _first_obs(d)[0].__setitem__(1, float("nan")), "must be finite numbers"),
+    "negative width": (lambda d: _first_obs(d)[0].__setitem__(3, -5), "width and height must be > 0"),
+    "huge coordinate": (lambda d: _first_obs(d)[0].__setitem__(1, 1e300), "must be finite numbers within"),
+    "track without boxes": (lambda d: d["tracks"][0].__setitem__("observed", []), "has no observed box"),
+    "unknown event": (lambda d: d["events"].__setitem__(0, "occurs_at(teleports(trk_5),235)"), "unknown event 'teleports'"),
+    "duplicate ids": (lambda d: d["tracks"].append(d["tracks"][0]), "duplicate track id"),
+    "first after last": (lambda d: d.__setitem__("first_frame", d["last_frame"] + 1), "is after last_frame"),
+    "image size 0x0": (lambda d: d.__setitem__("image_size", [0, 0]), "image_size must be two sizes"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SCENE_CASES))
+@pytest.mark.parametrize("command", ["query", "explain", "plot"])
+def test_malformed_scenes_end_in_one_line(tmp_path, capsys, case, command):
+    edit, message = SCENE_CASES[case]
+    path = _scene(tmp_path, edit)
+    argv = {"query": ["query", path, "tracks"], "explain": ["explain", path],
+            "plot": ["plot", path, "--out", str(tmp_path / "p.png")]}[command]
+    assert cli.main(argv) == 2
+    line = _err(capsys)
+    assert line.startswith(f"refimpl {command}: error: {path}: ") and message in line
+    assert not (tmp_path / "p.png").exists()
+
+
+def test_a_deeply_nested_scene_file_ends_in_one_line(tmp_path, capsys):
+    path = tmp_path / "deep.json"
+    path.write_text("[" * 100_000 + "]" * 100_000)
+    assert cli.main(["explain", str(path)]) == 2
+    assert "nested too deeply" in _err(capsys)
+
+
+def test_a_valid_scene_still_loads(tmp_path, capsys):
+    path = tmp_path / "s.json"
+    save_scene(path, bus_scene())
+    assert cli.main(["query", str(path), "tracks"]) == 0
+
+
+# -- CLI values -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("argv, message", [
+    (["demo", "--backends", "bogus"], "--backends takes a comma-separated list out of baseline,cpsat,clingo"),
+    (["demo", "--backends", "baseline,"], "--backends takes"),
+    (["table6", "--datasets", "bogus"], "--datasets takes a comma-separated list out of"),
+])
+def test_bogus_names_end_in_one_line(capsys, argv, message):
+    assert cli.main(argv) == 2
+    assert message in _err(capsys)
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "-inf", "abc"])
+@pytest.mark.parametrize("command", ["solve", "track"])
+def test_time_limit_must_be_positive_and_finite(capsys, value, command, tmp_path):
+    argv = {"solve": ["solve", str(BUS)],
+            "track": ["track", "--dets", str(DEMO / "det" / "det.txt"), "--backend", "cpsat",
+                      "--out", str(tmp_path / "r.txt")]}[command]
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv + [f"--time-limit={value}"])
+    assert exc.value.code == 2
+    assert "--time-limit" in capsys.readouterr().err
+    assert not (tmp_path / "r.txt").exists()
+
+
+@pytest.mark.parametrize("content, message", [
+    ("not json", "not a benchmark JSON file"),
+    ("[1, 2]", "no \"kind\""),
+    ('{"kind": "scale", "runs": []}', "\"runs\" must be a non-empty list"),
+    ('{"kind": "scale", "runs": [{"backend": "cpsat", "n": "5"}]}', "runs[0]"),
+    ('{"kind": "throughput", "runs": [{"benchmark": 1}]}', "runs[0]"),
+    ("[" * 50_000, "not a benchmark JSON file"),
+])
+def test_bench_scale_from_json_on_malformed_files_ends_in_one_line(tmp_path, capsys, content, message):
+    f = tmp_path / "b.json"
+    f.write_text(content)
+    assert cli.main(["bench-scale", "--from-json", str(f), "--out", "-", "--quiet"]) == 2
+    line = _err(capsys)
+    assert line.startswith(f"refimpl bench-scale: error: {f}") and message in line
+
+
+# -- found by tools/fuzz_cli.py -------------------------------------------------------------
+
+def test_an_option_value_of_double_dash_is_not_a_valid_choice(tmp_path, capsys):
+    # argparse turns --backend=-- into [] and skips its choices check; it used to reach
+    # get_solver([]) and end in a ValueError traceback (fuzz_cli seed 0 input 259)
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(tmp_path / "r.txt"), "--backend=--"])
+    assert exc.value.code == 2 and "argument --backend: expected one value" in capsys.readouterr().err
+    assert not (tmp_path / "r.txt").exists()
+
+
+def test_a_scene_box_with_a_400_digit_integer_ends_in_one_line(tmp_path, capsys):
+    # float(10**400) raises OverflowError: it used to escape scene_from_json (fuzz_cli seed 0 input 288)
+    path = _scene(tmp_path, lambda d: d["tracks"][0]["observed"][0].__setitem__(2, 10 ** 400))
+    assert cli.main(["explain", path]) == 2
+    assert "box coordinates must be finite numbers within" in _err(capsys)
+
+
+@pytest.mark.parametrize("argv", [["explain", "s.json", "--track=--"], ["bench-scale", "--sizes=--", "--from-json", "x"],
+                                  ["solve", "x.lp", "--const=--"]])
+def test_double_dash_values_of_other_options_end_in_one_usage_error(capsys, argv):
+    # the same argparse gap without choices: --track=-- reached explain() as [] (fuzz_cli seed 1 input 127)
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2 and "got '--'" in capsys.readouterr().err
