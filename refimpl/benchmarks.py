@@ -16,9 +16,9 @@ Both write their markdown tables between marker comments of docs/benchmarks.md (
 the file is prose and is kept), a PNG plot (docs/scalability.png) and optionally the raw
 per-frame results as JSON, from which ``--from-json`` redraws tables and plot without solving.
 
-Backends: ``cpsat`` (CpSatSolver(): the fast exact path, the full CP-SAT model where it
-declines), ``cpsat-full`` (CpSatSolver(fast_path=False): every frame through the full CP-SAT
-model) and ``clingo`` (the ASP encoding).  Throughput also has ``baseline`` (SORT).
+Backends: every name of the registry refimpl.solvers.BACKENDS (``cpsat``: the fast exact path,
+the full CP-SAT model where it declines; ``cpsat-full``: every frame through the full CP-SAT
+model; ``clingo``: the ASP encoding).  Throughput also has ``baseline`` (SORT).
 """
 
 from __future__ import annotations
@@ -35,8 +35,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-SCALE_BACKENDS = ("cpsat", "cpsat-full", "clingo")
-THROUGHPUT_TRACKERS = ("baseline", "cpsat", "cpsat-full", "clingo")
+from .solvers import BACKENDS as SCALE_BACKENDS, get_solver
+
+THROUGHPUT_TRACKERS = ("baseline",) + SCALE_BACKENDS
 DEFAULT_SIZES = (5, 10, 20, 50, 100, 200)
 DEFAULT_OVERLAPS = (0.2, 0.5, 0.8)
 DEFAULT_SEEDS = 10
@@ -61,20 +62,6 @@ class _NoProgress:
 
     def step(self, what: str) -> None:
         pass
-
-
-def make_solver(backend: str):
-    """A solver by benchmark backend name (see the module docstring)."""
-    if backend == "cpsat":
-        from .solvers.cpsat import CpSatSolver
-        return CpSatSolver()
-    if backend == "cpsat-full":
-        from .solvers.cpsat import CpSatSolver
-        return CpSatSolver(fast_path=False)
-    if backend == "clingo":
-        from .solvers.clingo_backend import ClingoSolver
-        return ClingoSolver()
-    raise ValueError(f"unknown backend {backend!r} (choose from {', '.join(SCALE_BACKENDS)})")
 
 
 def machine_note() -> str:
@@ -117,6 +104,9 @@ class FrameRun:
     cost: list[list[int]] | None
     answer_hash: int | None = None
     error: str | None = None
+    cpu_ms: float | None = None
+    """CPU time of the solve (this process plus clingo's worker process): on a shared machine the
+    wall-clock time includes waiting for a core, the CPU time does not."""
 
 
 @dataclass
@@ -142,7 +132,11 @@ def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] 
     for b in backends:
         if b not in SCALE_BACKENDS:
             raise ValueError(f"unknown backend {b!r} (choose from {', '.join(SCALE_BACKENDS)})")
-    solvers = {b: make_solver(b) for b in backends}
+    solvers = {b: get_solver(b) for b in backends}
+    for solver in solvers.values():  # untimed warm-up: imports, clingo's worker process start
+        solver.solve(synthetic_frame(2, 0.2, 0))
+        if hasattr(solver, "stats"):
+            solver.stats.clear()
     runs: list[FrameRun] = []
     bar = progress(len(sizes) * len(overlaps) * seeds, "bench-scale")
     started = time.perf_counter()
@@ -163,6 +157,7 @@ def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] 
 
 def _run_one(solver, backend: str, problem, n: int, ov: float, seed: int, time_limit: float) -> FrameRun:
     gc.collect()  # the previous solve's garbage is not this one's time
+    c0 = time.process_time() + getattr(solver, "child_cpu_seconds", 0.0)
     t0 = time.perf_counter()
     try:
         h = solver.solve(problem, time_limit=time_limit)
@@ -170,8 +165,9 @@ def _run_one(solver, backend: str, problem, n: int, ov: float, seed: int, time_l
         ms = (time.perf_counter() - t0) * 1000.0
         return FrameRun(backend, n, ov, seed, ms, False, None, None, f"{type(exc).__name__}: {exc}")
     ms = (time.perf_counter() - t0) * 1000.0
+    cpu = (time.process_time() + getattr(solver, "child_cpu_seconds", 0.0) - c0) * 1000.0
     digest = int(hashlib.sha1("\n".join(h.answer).encode()).hexdigest()[:12], 16)
-    return FrameRun(backend, n, ov, seed, ms, bool(h.optimal), [list(c) for c in h.cost], digest)
+    return FrameRun(backend, n, ov, seed, ms, bool(h.optimal), [list(c) for c in h.cost], digest, None, cpu)
 
 
 @dataclass
@@ -201,7 +197,9 @@ def summarise_scale(result: ScaleResult) -> list[ScaleRow]:
                 if not mine:
                     continue
                 ms = [r.ms for r in mine]
+                cpu = [r.cpu_ms for r in mine if r.cpu_ms is not None]
                 per[b] = {"median": statistics.median(ms), "max": max(ms),
+                          "cpu_median": statistics.median(cpu) if cpu else None,
                           "optimal": sum(r.optimal for r in mine) / len(mine), "frames": len(mine),
                           "errors": sum(r.error is not None for r in mine)}
             compared = agree = same = 0
@@ -232,7 +230,7 @@ def scale_table(result: ScaleResult) -> str:
     bs = result.backends
     head = ["tracks", "overlap"]
     for b in bs:
-        head += [f"{b} median ms", f"{b} max ms", f"{b} optimal"]
+        head += [f"{b} median ms", f"{b} median CPU ms", f"{b} max ms", f"{b} optimal"]
     if "clingo" in bs:
         head += [f"clingo / {b} (median)" for b in bs if b != "clingo"]
     head += ["cost vectors agree", "paper (clingo) ms"]
@@ -242,12 +240,13 @@ def scale_table(result: ScaleResult) -> str:
         for b in bs:
             s = row.per_backend.get(b)
             if s is None:
-                cells += ["-", "-", "-"]
+                cells += ["-", "-", "-", "-"]
                 continue
             opt = f"{100 * s['optimal']:.0f} %"
             if s["optimal"] < 1:
                 opt = f"**{opt}**"
-            cells += [_ms(s["median"]), _ms(s["max"]), opt]
+            cpu = "-" if s.get("cpu_median") is None else _ms(s["cpu_median"])
+            cells += [_ms(s["median"]), cpu, _ms(s["max"]), opt]
         if "clingo" in bs:
             cells += [f"{row.ratio[b]:.1f}x" if b in row.ratio else "-" for b in bs if b != "clingo"]
         cells.append(f"{row.agree}/{row.compared}" + ("" if row.same_answer == row.compared else
@@ -274,7 +273,8 @@ def scale_report(result: ScaleResult, command: str) -> str:
             f"Machine: {result.machine}.\n{fast_note}\n"
             + scale_table(result) + "\n\n"
             "ms: wall-clock time of one `solve` call (building the model included; garbage collected before it), "
-            "median and max over the seeds. "
+            "median and max over the seeds; CPU ms: its CPU time (this process and clingo's worker process), "
+            "which waiting for a busy machine's cores does not inflate. "
             "optimal: share of frames whose every cost level was proven optimal within the time limit "
             "(bold: not all). clingo / X: median over the frames of clingo's time divided by X's on the same frame. "
             "cost vectors agree: frames on which all backends that proved optimality report the same cost "
@@ -375,7 +375,7 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
     for k, (bench, name, seq) in enumerate(plan):
         order = list(trackers[k % len(trackers):]) + list(trackers[:k % len(trackers)])
         for tr in order:
-            solver = None if tr == "baseline" else make_solver(tr)
+            solver = None if tr == "baseline" else get_solver(tr)
             t0 = time.perf_counter()
             if tr == "baseline":
                 sort_sequence(seq)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from .constants import resolve_constants
 from .events import EVENT_TABLE, EventState, poss
 from .hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
-from .solvers.common import tiebreak_weights
+from .solvers.common import tiebreak_level
 from .spec import FrameProblem, parse_term
 
 _ACTION_ARITY = {a.name: len(a.args) for a in ACTION_TABLE.values()}
@@ -160,7 +160,6 @@ def _well_formed_event(atom: str) -> bool:
 def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) -> Cost:
     """The five-level cost vector of an answer (docs/model-spec.md section 5)."""
     iou = problem.iou_map
-    w, r, k = tiebreak_weights(problem)
     level = dict.fromkeys(PRIORITIES, 0)
     for atom in actions:
         term = parse_term(atom)
@@ -172,13 +171,6 @@ def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) 
             level[spec.level] += spec.weight
         if spec.likelihood_level is not None:
             level[spec.likelihood_level] -= iou.get(args, 0)
-        if term.name in ("assign", "resume"):
-            level[TIEBREAK_LEVEL] += w.get(args, 0)
-    for atom in event_atoms:
-        event = parse_term(atom).args[0]
-        if event.name == "hides_behind":
-            level[TIEBREAK_LEVEL] += r.get((event.args[0].name, event.args[1].name), 0)
-        elif event.name == "unhides_from_behind":
-            level[TIEBREAK_LEVEL] += k.get(event.args[1].name, 0)
+    level[TIEBREAK_LEVEL] += tiebreak_level(problem, actions, event_atoms)  # the canonical tie-break
     level[EVENT_LEVEL] += sum(c[EVENT_TABLE[name].cost_constant] for name in event_names)
     return tuple((p, level[p]) for p in PRIORITIES)

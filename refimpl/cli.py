@@ -15,7 +15,9 @@ from typing import Callable, Sequence
 from .progress import Progress
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
-TRACKERS = ("baseline", "cpsat", "clingo")
+from .solvers import BACKENDS  # noqa: E402  (the registry: every abduction backend)
+
+TRACKERS = ("baseline",) + BACKENDS
 from .table6 import DATASETS as BENCHMARKS  # noqa: E402  (refimpl.io's benchmarks + simulated ones)
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
@@ -28,14 +30,14 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .calibrate import CalibrationRefused
     from .io import InputFormatError
     from .peers import PeersUnavailable
-    from .solvers import NoAdmissibleHypothesis, SolverUnavailable
+    from .solvers import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout
     from .spec import ProblemFormatError
     from .scene import SceneError
     from .scaleout import ClusterError
     from .outputs import OutputError
     from .benchmarks import BenchmarkFileError
     return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable,
-            NoAdmissibleHypothesis, SceneError, ClusterError, PeersUnavailable, CalibrationRefused)
+            NoAdmissibleHypothesis, SceneError, ClusterError, PeersUnavailable, CalibrationRefused, SolveTimeout)
 
 
 # ---------------------------------------------------------------------------------------
@@ -209,7 +211,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
                                        or args.img_size):
         raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
-                        "(cpsat or clingo); the baseline abduces no events")
+                        f"({', '.join(BACKENDS)}); the baseline abduces no events")
     outs = _track_outputs(args)
     outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
     outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
@@ -351,7 +353,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
     if args.backend == "baseline" and args.const:
-        raise UserError("--const needs an abduction backend (cpsat or clingo)")
+        raise UserError(f"--const needs an abduction backend ({', '.join(BACKENDS)})")
     plan = _plan(args)
     requests = []
     for name in args.names:
@@ -465,18 +467,20 @@ def cmd_diff(args: argparse.Namespace) -> int:
     from .scaleout import run_tasks
     from .tasks import DiffJob, diff_job
     backends = tuple(b.strip() for b in args.backends.split(","))
-    if len(backends) != 2 or any(b not in ("cpsat", "clingo") for b in backends) or backends[0] == backends[1]:
-        raise UserError(f"--backends takes two different backends out of cpsat,clingo, got {args.backends!r}")
+    if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
+        raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
+                        f"got {args.backends!r}")
     plan = _plan(args)
     if args.benchmark:
-        seqs = [io.load_detections(s) for s in io.benchmark_sequences(args.benchmark, args.data)]
+        from .table6 import load_dataset  # real and simulated (*-sim) benchmarks alike
+        seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
     elif args.dets:
         seqs = [_load_sequence(args, path) for path in args.dets]
     else:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
-    total = DiffReport(backends)  # type: ignore[arg-type]
-    reports = run_tasks(diff_job, [DiffJob(seq, backends) for seq in seqs], plan,  # type: ignore[arg-type]
-                        label=f"diff {backends[0]},{backends[1]}", quiet=args.quiet, describe=lambda j: j.seq.name)
+    total = DiffReport(backends)
+    reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit) for seq in seqs], plan,
+                        label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name)
     for seq, report in zip(seqs, reports):
         total.add(report)
         print(f"{seq.name}: {report.summary()}")
@@ -687,7 +691,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("solve", help="abduce the best hypothesis for one frame problem (fact file)")
     s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
-    s.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    s.add_argument("--backend", choices=BACKENDS, default="cpsat")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
@@ -781,7 +785,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
     t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    t6.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    t6.add_argument("--backend", choices=BACKENDS, default="cpsat")
     t6.add_argument("--datasets", help="comma-separated subset of mot15,kitti-car,kitti-ped,mot17-sim,mot20-01-sim")
     t6.add_argument("--out", help="also write the markdown table to this file")
     t6.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -795,7 +799,12 @@ def build_parser() -> argparse.ArgumentParser:
     x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
     x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
     x.add_argument("--data", default="../shared/data", help="benchmark data root (with --benchmark)")
-    x.add_argument("--backends", default="cpsat,clingo", help="FIRST,SECOND (default cpsat,clingo)")
+    x.add_argument("--backends", default="cpsat-full,clingo",
+                   help=f"FIRST,SECOND[,THIRD] out of {','.join(BACKENDS)}: track with the first, re-solve every "
+                        "frame with the others (default cpsat-full,clingo)")
+    x.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
+                   help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
+                        "is reported as such")
     x.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scaleout(x)
     x.set_defaults(func=cmd_diff)
@@ -809,7 +818,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--split", choices=("all", "tune", "val"), default="all",
                     help="KITTI: tune = the 10 training sequences outside evaluate_tracking.seqmap.val, "
                          "val = the 11 in it (default all)")
-    sw.add_argument("--backend", choices=("cpsat", "clingo"), default="cpsat")
+    sw.add_argument("--backend", choices=BACKENDS, default="cpsat")
     sw.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     sw.add_argument("--json", help="also write every setting's overall scores as JSON")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -826,8 +835,8 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--sizes", default="5,10,20,50,100,200", help="tracks per frame (default 5,10,20,50,100,200)")
     sc.add_argument("--overlaps", default="0.2,0.5,0.8", help="overlap shares (default 0.2,0.5,0.8)")
     sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
-    sc.add_argument("--backends", default="cpsat,cpsat-full,clingo",
-                    help="solvers to time (default cpsat,cpsat-full,clingo; cpsat-full = CP-SAT without the fast path)")
+    sc.add_argument("--backends", default=",".join(BACKENDS),
+                    help=f"solvers to time (default {','.join(BACKENDS)}; cpsat-full = CP-SAT without the fast path)")
     sc.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                     help="per-frame time limit of every backend (default 20)")
     sc.add_argument("--out", default="docs/benchmarks.md",

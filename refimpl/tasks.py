@@ -176,13 +176,15 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
 @dataclass(frozen=True)
 class DiffJob:
     seq: DetectionSequence
-    backends: tuple[str, str]
+    backends: tuple[str, ...]
+    time_limit: float | None = 20.0
+    """Per-frame limit of every backend (refimpl.diff)."""
 
 
 def diff_job(job: DiffJob):
     """refimpl.diff.diff_sequence of one sequence (a DiffReport)."""
     from .diff import diff_sequence
-    return diff_sequence(job.seq, job.backends)
+    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit)
 
 
 def constants_tuple(constants: Mapping[str, int] | None) -> tuple[tuple[str, int], ...]:

@@ -21,6 +21,7 @@ import pytest
 from refimpl.check import check_answer
 from refimpl.constants import default_constants
 from refimpl.hypothesis import Hypothesis, parse_action
+from plain_tiebreak import plain_level0
 from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable, get_solver
 from refimpl.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term,
                           read_problem, write_facts)
@@ -115,11 +116,12 @@ def test_bus_t235_car_hides_behind_bus(backend):
     # @3:  nothing ignored                                      = 0
     # @2:  start(det_5)                                         = 5
     # @1:  hides_behind 1 + enters_fov 1                        = 2
-    # @0:  w of the assigned pairs in natural (trk, det) order: (trk_3,det_3) k=0 w=1,
-    #      (trk_7,det_4) k=1 w=4, (trk_8,det_2) k=2 w=9, (trk_12,det_1) k=3 w=16,
-    #      [(trk_13,det_1) k=4 w=25 not chosen], (trk_15,det_0) k=5 w=36: 1+4+9+16+36 = 66;
-    #      r(trk_13,trk_12) = 0 (the only track overlapping trk_13)          = 66
-    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, 66))
+    # @0:  the canonical tie-break (refimpl/solvers/common.py): the five admissible pairs are
+    #      five components ((trk_13,det_1) is below iou_thresh), each pair 2^0: 5, shifted by
+    #      E = bit length of 7 + 7 (trk_12, trk_13 overlap: 6 arity-1 events + 2 each) + 4 * 5 +
+    #      6 * 5 (dets) = 64 -> 7: 640; hides_behind(trk_13,trk_12) is trk_13's event 6,
+    #      enters_fov(det_5) det_5's event 2                                 = 648
+    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, (5 << 7) + 6 + 2))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -134,11 +136,9 @@ def test_bus_t268_car_unhides_from_behind_bus(backend):
         "assign(trk_7,det_3)", "assign(trk_8,det_4)", "assign(trk_3,det_5)"]))
     assert h.events == ("occurs_at(unhides_from_behind(trk_13,trk_12),268)",)
     # @10: -(89636 + 97815 + 95528 + 93506 + 94945 + 5) = -(471430 + 5) = -471435
-    # @5: -ML of resume(trk_13,det_1) = -76713 (iou fact); @2: one resume = 1; @1: unhides = 1
-    # @0: w(trk_3,det_5)=1 + w(trk_7,det_3)=4 + w(trk_8,det_4)=9 + w(trk_12,det_2)=25
-    #     + w(trk_15,det_0)=64 + resume w(trk_13,det_1)=36 = 139
-    #     + k(trk_12)=3 (trk_3, trk_7, trk_8, trk_12 in natural order) for the unhides = 142
-    assert h.cost == ((10, -471435), (5, -76713), (3, 0), (2, 1), (1, 1), (0, 142))
+    # @2: one resume = 1; @1: unhides_from_behind = 1
+    # @0: the canonical tie-break by its plain definition (tests/plain_tiebreak.py)
+    assert h.cost == ((10, -471435), (5, -76713), (3, 0), (2, 1), (1, 1), (0, plain_level0(problem, h.actions, h.events)))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -172,10 +172,8 @@ def test_kitti_0020_t79(backend):
     # @10: -(96879 + 84365 + 94824 + 71071 + 86273 + 83400 + 90971 + 84391 + 8) = -692182
     # @3: (3 ignore_det + 1 ignore_trk) * 10 = 40;  @2: 1 end * 5 + 4 starts * 5 = 25
     # @1: leaves_fov 1 + 4 enters_fov = 5
-    # @0: w in natural (trk, det) order of the 22 iou pairs: (trk_1,det_1)=4, (trk_4,det_7)=9,
-    #     (trk_5,det_4)=36, (trk_6,det_2)=49, (trk_7,det_8)=121, (trk_11,det_0)=196,
-    #     (trk_12,det_3)=256, (trk_13,det_5)=441: sum 1112
-    assert h.cost == ((10, -692182), (5, 0), (3, 40), (2, 25), (1, 5), (0, 1112))
+    # @0: the canonical tie-break by its plain definition (tests/plain_tiebreak.py)
+    assert h.cost == ((10, -692182), (5, 0), (3, 40), (2, 25), (1, 5), (0, plain_level0(problem, h.actions, h.events)))
 
 
 def test_bus_t268_file_is_canonical_and_its_ious_are_computed():
@@ -280,8 +278,10 @@ def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
     p = _halted_clipped()
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["resume(trk_1,det_1)", ev("recover(trk_1)")]))
-    # @5: -ML of the resume = -50000; @2: resume 1; @1: recover 2; @0: w(trk_1,det_1) = 1
-    assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, 1))
+    # @2: resume 1; @1: recover 2; @0: the pair (trk_1,det_1) is 2^0 of its component, shifted by
+    # E = bit length of 5 + 5 (two nodes, six arity-1 events each, largest index 5) = 4: 16;
+    # recover is trk_1's event 1 (missing_detections, recover, ...): 17
+    assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, 17))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -334,7 +334,8 @@ def test_start_needs_confidence_above_threshold(backend, conf, started):
     h = solve(backend, p)
     if started:
         assert h.answer == ("occurs_at(enters_fov(det_1),10)", "start(det_1)")
-        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 0))
+        # @0: enters_fov is det_1's event 2 (missing_detections, recover, enters_fov, ...)
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 2))
     else:
         assert h.answer == ("ignore_det(det_1)",)
         assert h.cost == ((10, 0), (5, 0), (3, 10), (2, 0), (1, 0), (0, 0))
@@ -369,7 +370,8 @@ def test_halted_track_is_not_halted_again(backend):
     p = frame([], [trk(1, "halted", box=(5, 300, 50, 50))])
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
-    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 0))
+    # @0: leaves_fov is trk_1's event 3 (missing_detections, recover, enters_fov, leaves_fov)
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 3))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -397,7 +399,10 @@ def test_halt_is_explained_by_hides_behind_an_overlapping_top_track(backend):
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "halt(trk_1)",
                                      ev("hides_behind(trk_1,trk_2)")]))
-    assert h.cost == ((10, -90001), (5, 0), (3, 0), (2, 0), (1, 1), (0, 1))
+    # @0: trk_1 and trk_2 overlap, so each has its 6 arity-1 events and hides_behind /
+    # unhides_from_behind of the other (largest index 7), det_2 its 6 (5): E = bit length of 19
+    # = 5; the pair (trk_2,det_2) is 2^0 << 5 = 32; hides_behind(trk_1,trk_2) is trk_1's event 6
+    assert h.cost == ((10, -90001), (5, 0), (3, 0), (2, 0), (1, 1), (0, 32 + 6))
 
 
 @pytest.mark.parametrize("backend", ["clingo", "cpsat"])
@@ -590,7 +595,8 @@ def test_noise_only_for_young_tracks(backend, started, noise):
     h = solve(backend, _ended(history=history))
     if noise:  # 10 - 7 = 3 <= noise_max_age = 3
         assert h.answer == tuple(sorted(["end(trk_1)", ev("noise(trk_1)")]))
-        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 2), (0, 0))
+        # @0: noise is trk_1's event 5 (missing_detections, recover, enters_fov, leaves_fov, lost, noise)
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 2), (0, 5))
     else:
         assert h.answer == ("ignore_trk(trk_1)",)
 
@@ -614,7 +620,8 @@ def test_every_start_is_explained_by_enters_fov(backend):
     h = solve(backend, p)
     assert h.actions == ("start(det_1)", "start(det_2)", "start(det_3)")
     assert h.events == tuple(ev(f"enters_fov(det_{i})") for i in range(1, 4))
-    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 15), (1, 3), (0, 0))
+    # @0: enters_fov is each detection's event 2: 3 * 2
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 15), (1, 3), (0, 6))
 
 
 # --- optimisation ----------------------------------------------------------------------------------
@@ -745,5 +752,7 @@ def test_resume_prefers_the_likelier_detection(backend, exact):
     assert h.answer == tuple(sorted([f"resume(trk_1,det_{exact})", ev("recover(trk_1)"),
                                      f"start(det_{other})", ev(f"enters_fov(det_{other})")]))
     # @5: -100000; @2: resume 1 + start 5; @1: recover 2 + enters_fov 1;
-    # @0: w = (k+1)^2 over the pairs in natural order (trk_1,det_0) k=0, (trk_1,det_1) k=1
-    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, (exact + 1) ** 2))
+    # @0 (the canonical tie-break): one component, pairs in natural order (trk_1,det_0) 2^0 and
+    # (trk_1,det_1) 2^1, shifted by E = bit length of 5 + 5 + 5 (three nodes, six arity-1 events
+    # each) = 4; recover is trk_1's event 1, enters_fov the other detection's event 2
+    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, ((1 << exact) << 4) + 1 + 2))

@@ -13,7 +13,13 @@ BUS_ACTIONS = ("assign(trk_12,det_1)", "assign(trk_15,det_0)", "assign(trk_3,det
                "assign(trk_8,det_2)", "halt(trk_13)", "start(det_5)")
 BUS_EVENTS = ("occurs_at(enters_fov(det_5),235)", "occurs_at(hides_behind(trk_13,trk_12),235)")
 # @10: -(82426 + 88079 + 98532 + 94981 + 90457 + 5 assigns); @2: one start; @1: hides 1 + enters 1
-BUS_COST = ((10, -(82426 + 88079 + 98532 + 94981 + 90457 + 5)), (5, 0), (3, 0), (2, 5), (1, 2), (0, 66))
+# @0 (the canonical tie-break, refimpl/solvers/common.py): the five admissible pairs are five
+# components (iou(trk_13,det_1) is below iou_thresh), each pair 2^0: pair part 5.  E: every node
+# has the 6 arity-1 events; only trk_12 and trk_13 overlap, adding hides_behind and
+# unhides_from_behind of each other: largest indices 7 + 7 + 4 * 5 (other tracks) + 6 * 5 (dets)
+# = 64, bit length 7.  Events: hides_behind(trk_13,trk_12) is trk_13's index 6 (after the six
+# arity-1 events), enters_fov(det_5) index 2 (missing_detections, recover, enters_fov).
+BUS_COST = ((10, -(82426 + 88079 + 98532 + 94981 + 90457 + 5)), (5, 0), (3, 0), (2, 5), (1, 2), (0, (5 << 7) + 6 + 2))
 
 
 @pytest.fixture

@@ -11,7 +11,7 @@ from framegen import random_frame
 from refimpl.constants import resolve_constants
 from refimpl.events import EventState, poss
 from refimpl.hypothesis import parse_action
-from refimpl.solvers import NoAdmissibleHypothesis, get_solver
+from refimpl.solvers import NoAdmissibleHypothesis, SolveTimeout, get_solver
 from refimpl.solvers.common import tiebreak_weights
 from refimpl.solvers.cpsat import CpSatFailure, CpSatSolver, build_model, solve_lexicographic
 from refimpl.spec import Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term, read_problem
@@ -49,8 +49,12 @@ def test_bus_example_is_the_papers_answer(examples):
     assert "occurs_at(hides_behind(trk_13,trk_12),235)" in h.events
     assert "start(det_5)" in h.actions and "occurs_at(enters_fov(det_5),235)" in h.events
     iou_sum = 82426 + 88079 + 98532 + 94981 + 90457
-    w, r, _ = tiebreak_weights(p)
-    tb = sum(w[tuple(parse_action(a)[1])] for a in h.actions if a.startswith("assign")) + r[("trk_13", "trk_12")]
+    # level 0 (refimpl/solvers/common.py): the assigned pairs' powers of two shifted by E, plus
+    # the index of each explaining event among its first argument's events
+    w = tiebreak_weights(p)
+    tb = (sum(w.pair[tuple(parse_action(a)[1])] for a in h.actions if a.startswith("assign")) << w.shift) \
+        + w.event["hides_behind(trk_13,trk_12)"] + w.event["enters_fov(det_5)"]
+    assert len(h.events) == 2
     assert h.cost == ((10, -(iou_sum + 5)), (5, 0), (3, 0), (2, 5), (1, 2), (0, tb))
     check_admissible(p, h)
 
@@ -82,7 +86,10 @@ def test_levels_are_lexicographic():
     h = CpSatSolver().solve(_lex_problem())
     assert h.actions == ("assign(trk_1,det_1)", "ignore_det(det_0)")
     assert h.events == ()
-    assert h.cost == ((10, -90002), (5, 0), (3, 10), (2, 0), (1, 0), (0, 4))
+    # level 0: pairs (trk_1,det_0) -> 2^0, (trk_1,det_1) -> 2^1 (natural order in the one
+    # component); E = bit length of the largest index sum: each of the 3 nodes has the 6 arity-1
+    # events (no other track), indices 0..5, so 3 * 5 = 15 -> E = 4; assign(trk_1,det_1): 2 << 4
+    assert h.cost == ((10, -90002), (5, 0), (3, 10), (2, 0), (1, 0), (0, 32))
     assert h.optimal
 
 
@@ -98,14 +105,16 @@ def test_lower_levels_break_ties_of_higher_ones():
     h = CpSatSolver().solve(p)
     assert h.actions == ("end(trk_1)", "end(trk_2)")
     assert h.events == ("occurs_at(leaves_fov(trk_1),10)", "occurs_at(noise(trk_2),10)")
-    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 10), (1, 3), (0, 0))
+    # level 0: no pairs; event indices among the arity-1 events in EVENT_NAMES order
+    # (missing_detections 0, recover 1, enters_fov 2, leaves_fov 3, lost 4, noise 5): 3 + 5
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 10), (1, 3), (0, 8))
 
 
 # -- determinism -------------------------------------------------------------------------------
 
 def _tie_problem() -> FrameProblem:
     """trk_1 hid behind trk_2 and trk_3 (a hand-written history): unhiding from either explains
-    the resume equally well on levels 10..1; only the level-0 tie-break k(T2) separates them."""
+    the resume equally well on levels 10..1; only the level-0 tie-break separates them."""
     return FrameProblem(
         time=20,
         detections=(Detection("det_0", "car", 90, (0, 0, 40, 40)),),
@@ -124,7 +133,8 @@ def test_deterministic_including_a_tie():
     assert len(answers) == 1
     (ans,) = answers
     assert "resume(trk_1,det_0)" in ans
-    # k(trk_2) = 1 < k(trk_3) = 2 (natural order trk_1, trk_2, trk_3): unhide from trk_2
+    # neither overlaps trk_1, both are named by its history: natural order, so
+    # unhides_from_behind(trk_1,trk_2) has the smaller index: unhide from trk_2
     assert "occurs_at(unhides_from_behind(trk_1,trk_2),20)" in ans
     # without level 0 the two explanations tie: forcing either gives the same levels 10..1
     costs = {}
@@ -174,9 +184,13 @@ def test_time_limit_without_any_answer_is_reported_clearly():
                 TrackPrediction("trk_2", "car", "active", (150, 50, 20, 20))),
         iou=(("trk_1", "det_0", 100000), ("trk_2", "det_1", 90000)),
         history=(H("missing_detections(trk_1)", 3), H("missing_detections(trk_2)", 3)))
-    with pytest.raises(CpSatFailure) as err:
+    # no time: the obvious answer (halt both) would be the fallback, but clipped tracks cannot be
+    # halted by missing_detections: SolveTimeout, one line
+    with pytest.raises(SolveTimeout) as err:
         CpSatSolver().solve(p, time_limit=0.0)
     assert "time limit" in str(err.value) and "\n" not in str(err.value)
+    with pytest.raises(SolveTimeout):
+        CpSatSolver(fast_path=False).solve(p, time_limit=0.0)
     h = CpSatSolver().solve(p)
     assert h.optimal and h.actions == ("assign(trk_1,det_0)", "assign(trk_2,det_1)")
 

@@ -57,4 +57,16 @@ def test_diff_command_exits_zero_when_backends_agree(capsys):
 
 def test_diff_command_rejects_a_bad_backend_list(capsys):
     assert main(["diff", "--dets", "x", "--backends", "cpsat"]) == 2
-    assert "two different backends" in capsys.readouterr().err
+    assert "two or three different backends" in capsys.readouterr().err
+
+
+def test_a_frame_not_proven_in_time_is_reported_not_waited_for():
+    pytest.importorskip("clingo")
+    seq = io.load_detections(io.demo_sequence_paths())
+    seq = dataclasses.replace(seq, frames=seq.frames[:8])
+    # no time at all: every backend answers each frame with the obvious answer, flagged
+    report = diff_sequence(seq, ("cpsat-full", "clingo", "cpsat"), time_limit=0)
+    assert report.frames == 8 and report.not_proven == 8 and report.proven == 0
+    assert report.unproven_frames[0][1] == ("cpsat-full", "clingo", "cpsat")
+    assert report.violations == 0  # the obvious answers are admissible, their costs confirmed
+    assert "8 not proven optimal within the time limit (frame " in report.summary()

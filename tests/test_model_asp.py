@@ -293,7 +293,8 @@ def test_arguments_and_facts():
     assert consts == {**default_constants(), "curr_time": 79}
     facts = problem_facts(p)
     assert "#const" not in facts
-    assert "tiebreak_pair(trk_0,det_0,1)." in facts
+    # the first pair of its component weighs 2^0, in the one chunk at priority 0
+    assert "tiebreak_pair(trk_0,det_0,0,1)." in facts
     assert [f.name for f in default_model_files()] == sorted(f.name for f in model_dir().glob("*.lp"))
     assert "constants.lp" in [f.name for f in default_model_files()]
 

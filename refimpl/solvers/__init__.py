@@ -1,17 +1,60 @@
 """Solver backends: one frame problem (with its event history) in, one Hypothesis out.
 
-Every backend implements ``solve(problem, time_limit=None) -> Hypothesis`` and answers the
-same model (docs/model.md).  ``get_solver(name)`` picks one by name.
+The registry ``BACKENDS`` names every backend; ``get_solver(name)`` builds one.  Every command
+that takes ``--backend`` / ``--backends`` reads this registry, nowhere else lists them.
+
+* ``cpsat``      the exact fast path (refimpl.solvers.cpsat.solve_fast: a lexicographic
+                 bipartite matching in Python) where it applies, the full CP-SAT model where it
+                 declines
+* ``cpsat-full`` the full CP-SAT model on every frame (the oracle)
+* ``clingo``     the paper's answer set program (model/*.lp) with clingo
+
+The full CP-SAT model and the ASP program are solved per independent component of the frame
+(refimpl.solvers.decompose), with the same answers; under the canonical tie-break
+(refimpl.solvers.common) the optimum is unique, so every backend returns the identical answer.
+
+The time-out contract (every backend)
+-------------------------------------
+``solve(problem, time_limit=None)``: ``time_limit`` is None (no limit) or a finite number of
+seconds >= 0 (anything else: ValueError).  It bounds the whole call: building the problem, the
+fast path, clingo's grounding (counted: grounding cannot be stopped half-way inside a process, so
+the in-process clingo checks the clock after it, and clingo's worker process, refimpl.solvers.
+clingo_worker, is killed when it overruns its limit by a second) and the search.  A frame solved in
+parts (refimpl.solvers.decompose) gives each part all the time that is left.  Out of time, a backend returns the best answer it
+has, flagged ``optimal=False``: the best solution found so far, or, when it found none, the
+obvious answer (every detection ignored, every halted track ignored, every active track halted
+by missing_detections; refimpl.solvers.fallback).  When not even that answer is admissible it
+raises ``SolveTimeout`` (one exception; the CLI prints one line and exits 2).  A frame without
+any admissible answer raises ``NoAdmissibleHypothesis``.  ``time_limit=0`` therefore returns the
+obvious answer at once.
+
+Interrupts: a SIGINT during a solve raises KeyboardInterrupt in the caller within a second:
+CP-SAT runs with ``catch_sigint_signal=False`` (it does not swallow the signal), clingo's search
+runs asynchronously and is polled every 0.1 s, then cancelled.
 """
 
 from __future__ import annotations
 
+import importlib
+import math
 from typing import Protocol
 
 from ..hypothesis import Hypothesis
 from ..spec import FrameProblem
 
-BACKENDS = ("cpsat", "clingo")
+_REGISTRY: dict[str, tuple[str, str, dict, str]] = {
+    "cpsat": ("refimpl.solvers.cpsat", "CpSatSolver", {},
+              "exact fast path, the full CP-SAT model where it declines"),
+    "cpsat-full": ("refimpl.solvers.cpsat", "CpSatSolver", {"fast_path": False},
+                   "the full CP-SAT model on every frame"),
+    "clingo": ("refimpl.solvers.clingo_backend", "ClingoSolver", {},
+               "the ASP program model/*.lp with clingo"),
+}
+
+BACKENDS: tuple[str, ...] = tuple(_REGISTRY)
+"""Every backend name, in the order the CLI lists them."""
+
+DESCRIPTIONS: dict[str, str] = {name: entry[3] for name, entry in _REGISTRY.items()}
 
 
 class SolverUnavailable(RuntimeError):
@@ -22,6 +65,10 @@ class NoAdmissibleHypothesis(RuntimeError):
     """The frame problem has no answer that satisfies every rule of the model."""
 
 
+class SolveTimeout(RuntimeError):
+    """Out of time without any admissible answer (see the time-out contract above)."""
+
+
 class Solver(Protocol):
     name: str
 
@@ -30,12 +77,19 @@ class Solver(Protocol):
         ...
 
 
+def check_time_limit(time_limit: float | None) -> float | None:
+    """None, or a finite number of seconds >= 0 (the contract above); ValueError otherwise."""
+    if time_limit is None:
+        return None
+    value = float(time_limit)
+    if not math.isfinite(value) or value < 0:
+        raise ValueError(f"a time limit must be a finite number of seconds >= 0, got {time_limit!r}")
+    return value
+
+
 def get_solver(name: str, **options) -> Solver:
-    """A backend by name ('cpsat' or 'clingo')."""
-    if name == "cpsat":
-        from .cpsat import CpSatSolver
-        return CpSatSolver(**options)
-    if name == "clingo":
-        from .clingo_backend import ClingoSolver
-        return ClingoSolver(**options)
-    raise ValueError(f"unknown backend {name!r} (choose from {', '.join(BACKENDS)})")
+    """A backend by name (one of BACKENDS); ``options`` go to its constructor."""
+    if name not in _REGISTRY:
+        raise ValueError(f"unknown backend {name!r} (choose from {', '.join(BACKENDS)})")
+    module, cls, preset, _ = _REGISTRY[name]
+    return getattr(importlib.import_module(module), cls)(**{**preset, **options})

@@ -25,11 +25,19 @@ from pathlib import Path
 from typing import Sequence
 
 from ..constants import model_dir, resolve_constants
-from ..hypothesis import PRIORITIES, Hypothesis
+from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..spec import FrameProblem
-from . import NoAdmissibleHypothesis, SolverUnavailable
+from . import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
+from .common import event_term, tiebreak_facts, tiebreak_level
+from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
-from .common import tiebreak_facts
+
+POLL = 0.1
+"""Seconds between two checks of clingo's asynchronous search (time limit, SIGINT)."""
+
+INLINE_SOLVES = 500
+"""Solves a ClingoSolver runs in its own process before it moves clingo to a worker process: a
+single frame (refimpl solve) pays no process start, a sequence's memory stays bounded."""
 
 """The cost levels of the model (docs/model-spec.md section 5), highest first."""
 
@@ -78,11 +86,19 @@ class _Best:
 
 
 class ClingoSolver:
-    """Solves a FrameProblem with clingo and the ASP model in model/*.lp."""
+    """Solves a FrameProblem with clingo and the ASP model in model/*.lp.
+
+    Options: ``threads`` (clingo's --parallel-mode), ``model_files``, ``decompose`` (default True:
+    per sub-problem of independent components, ``part_nodes`` own nodes each), ``isolate``
+    (default True: after ``inline_solves`` solves in this process, clingo runs in a child process
+    replaced every ``recycle`` solves, see refimpl.solvers.clingo_worker; False: always in this
+    process, whose memory then grows with every symbol clingo sees)."""
 
     name = "clingo"
 
-    def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None):
+    def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
+                 decompose: bool = True, part_nodes: int = 16, isolate: bool = True,
+                 recycle: int | None = None, inline_solves: int = INLINE_SOLVES):
         try:
             import clingo
         except ImportError:
@@ -91,9 +107,24 @@ class ClingoSolver:
             raise ValueError(f"threads must be >= 1, got {threads}")
         self._clingo = clingo
         self.threads = int(threads)
+        self.decompose = decompose
+        self.part_nodes = int(part_nodes)
         self.model_files = (
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
+        self.isolate = isolate
+        self.inline_solves = int(inline_solves)
+        self._calls = 0
+        self._worker = None
+        if isolate:  # clingo in a child process (refimpl.solvers.clingo_worker): bounded memory
+            from .clingo_worker import DEFAULT_RECYCLE, ClingoWorker
+            self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files},
+                                        DEFAULT_RECYCLE if recycle is None else recycle)
+
+    @property
+    def child_cpu_seconds(self) -> float:
+        """CPU time clingo's worker processes spent in this solver's solves (benchmarks add it)."""
+        return 0.0 if self._worker is None else self._worker.cpu_seconds
 
     # ------------------------------------------------------------------------------------
     def control(self, problem: FrameProblem, extra: str = ""):
@@ -119,58 +150,95 @@ class ClingoSolver:
         return ctl, messages
 
     def solve(self, problem: FrameProblem, time_limit: float | None = None) -> Hypothesis:
-        """The optimal hypothesis, or with ``time_limit`` (seconds) the best found in time."""
+        """The optimal hypothesis, or with ``time_limit`` (seconds) the best found in time (the
+        time-out contract of refimpl.solvers).  The frame is solved per sub-problem of independent
+        components (refimpl.solvers.decompose) unless ``decompose=False``."""
         started = time.perf_counter()
-        deadline = None if time_limit is None else started + max(0.0, float(time_limit))
-        ctl, messages = self._control(problem)
+        time_limit = check_time_limit(time_limit)
+        deadline = None if time_limit is None else started + time_limit
+        parts = split(problem, self.part_nodes) if self.decompose else [Part(problem, frozenset())]
+        whole = len(parts) == 1
+        actions: list[str] = []
+        events: list[str] = []
+        optimal = True
+        cost: dict[int, int] = {}
+        for n, part in enumerate(parts):
+            now = time.perf_counter()
+            if deadline is not None and now >= deadline:
+                found = None
+            else:
+                share = None if deadline is None else deadline - now  # all that is left: most parts are trivial
+                self._calls += 1
+                found = (self._worker.solve_one(part.problem, share)
+                         if self._worker is not None and self._calls > self.inline_solves
+                         else self._solve_one(part.problem, share))
+            if found is None:  # out of time without a model: the obvious answer of this part
+                fallback = obvious_hypothesis(part.problem, self.name)
+                if fallback is None:
+                    limit = "none" if time_limit is None else f"{time_limit:g} s"
+                    raise SolveTimeout(f"no answer at t={problem.time} within the time limit ({limit})")
+                atoms = list(fallback.actions) + list(fallback.events)
+                part_optimal = False
+            else:
+                atoms, cost, part_optimal = found
+            optimal = optimal and part_optimal
+            acts = [a for a in atoms if not a.startswith("occurs_at(")]
+            evs = [a for a in atoms if a.startswith("occurs_at(")]
+            if not whole:
+                acts, evs = own_atoms(part, acts, evs)
+            actions += acts
+            events += evs
+        if whole and cost and optimal is not None and found is not None:
+            levels = {p: cost.get(p, 0) for p in PRIORITIES}
+        else:  # several parts (or the fallback): the levels of the merged answer
+            from ..check import recompute_cost
+            names = [event_term(e).split("(", 1)[0] for e in events]
+            levels = dict(recompute_cost(problem, actions, names, events, resolve_constants(problem)))
+        levels[TIEBREAK_LEVEL] = tiebreak_level(problem, actions, events)
+        return Hypothesis(
+            time=problem.time,
+            actions=tuple(actions),
+            events=tuple(events),
+            cost=tuple((p, levels[p]) for p in PRIORITIES),
+            optimal=optimal,
+            backend=self.name,
+            solve_ms=(time.perf_counter() - started) * 1000.0,
+        )
 
-        t0 = time.perf_counter()
+    def _solve_one(self, problem: FrameProblem, time_limit: float | None):
+        """(shown atoms, cost by priority, proven optimal) of one clingo call, or None when the
+        time ran out before any model; NoAdmissibleHypothesis when the program has no model."""
+        started = time.perf_counter()
+        deadline = None if time_limit is None else started + time_limit
+        ctl, messages = self._control(problem)
         try:
             ctl.ground([("base", [])])
         except RuntimeError as exc:
             msgs = "; ".join(messages) or str(exc)
             raise RuntimeError(f"clingo could not ground the model: {msgs}") from None
+        if deadline is not None and time.perf_counter() >= deadline:
+            return None  # grounding used the time up (it counts; it cannot be stopped half-way)
 
         best = _Best()
         timed_out = False
         with ctl.solve(on_model=best.on_model, async_=True) as handle:
-            if deadline is None:
-                handle.wait()
-            else:
-                finished = False
-                while not finished:
-                    remaining = deadline - time.perf_counter()
-                    if remaining <= 0:
-                        break
-                    finished = handle.wait(remaining)
-                if not finished:
+            # short waits: a SIGINT raises KeyboardInterrupt here within POLL seconds, and
+            # leaving the with block cancels the search
+            while True:
+                wait = POLL if deadline is None else min(POLL, deadline - time.perf_counter())
+                if wait <= 0:
                     handle.cancel()
                     timed_out = True
+                    break
+                if handle.wait(wait):
+                    break
             result = handle.get()
-        solve_ms = (time.perf_counter() - t0) * 1000.0
-
         if best.atoms is None:
-            # an interrupted search says nothing about satisfiability: use the fallback answer
-            fallback = obvious_hypothesis(problem, self.name, solve_ms) if timed_out else None
-            if fallback is not None:
-                return fallback
-            if result.unsatisfiable and not timed_out:
+            if timed_out:
+                return None
+            if result.unsatisfiable:
                 raise NoAdmissibleHypothesis(
                     f"no admissible hypothesis at t={problem.time}: every candidate answer breaks a rule of the model")
-            limit = f"{time_limit:g} s" if time_limit is not None else "none"
-            raise NoAdmissibleHypothesis(
-                f"no hypothesis found at t={problem.time} within the time limit ({limit})")
-
+            return None
         optimal = (bool(result.exhausted) and not timed_out) or best.proven
-        actions = [a for a in best.atoms if not a.startswith("occurs_at(")]
-        events = [a for a in best.atoms if a.startswith("occurs_at(")]
-        cost = tuple((p, best.cost.get(p, 0)) for p in PRIORITIES)
-        return Hypothesis(
-            time=problem.time,
-            actions=tuple(actions),
-            events=tuple(events),
-            cost=cost,
-            optimal=optimal,
-            backend=self.name,
-            solve_ms=solve_ms,
-        )
+        return best.atoms, best.cost, optimal

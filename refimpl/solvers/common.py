@@ -1,22 +1,58 @@
-"""What both backends take from one place: tie-break weights (docs/model-spec.md section 5)."""
+"""What every backend takes from one place: the frame's independent components and the
+canonical tie-break (docs/model.md, "The canonical tie-break").
+
+Independent components
+----------------------
+Only a pair action (assign(T, D), resume(T, D)) ties the choice of a track to the choice of a
+detection, and a pair action needs an iou/3 fact and its integrity constraint (candidate_pairs).  Every other rule concerns one track or one
+detection: "exactly one action" is per node, an event explains exactly one action of its first
+argument, and every event's precondition reads the history and the (fixed) boxes only, never
+another choice of this frame.  So the connected components of the bipartite graph of candidate pairs
+(tracks and detections as nodes; a node without a pair is a component of its own) are
+independent: the answers of the frame are exactly the unions of one answer per component, and
+every cost level is a sum over the components.  The lexicographic optimum of the frame is the
+union of the components' optima.
+
+The canonical tie-break (level 0)
+---------------------------------
+Levels 10..1 leave ties.  Level 0 makes the optimum unique on every frame:
+
+* pair part: within each component the candidate pairs (T, D) are ranked in natural
+  (T, D) order, rank 0, 1, 2, ...; a chosen assign/resume of the pair of rank q weighs 2^(E+q).
+  Powers of two never collide: two different sets of pairs of one component always have
+  different sums, so among the answers optimal at levels 10..1 the set of pair actions is unique.
+  Given the pairs, every other track and detection takes its cheapest solo action, and the solo
+  options of one node always differ at level 3 (ignore costs 10@3, end/start/halt 0@3; an active
+  track has no other solo action than halt), so the actions are unique.
+* explanation part: every event a track (or detection) can explain an action with has an index
+  idx >= 0 among the events of its first argument: the arity-1 events in refimpl.events.EVENT_NAMES
+  order, then for each arity-2 event the other tracks that overlap the track's box (decreasing
+  overlap, then natural order) or that its history names (natural order).  A chosen event weighs
+  idx.  The events of one action have distinct indices and, given the actions, each action's
+  explanation is chosen independently; so the cheapest explanation is unique.  E is the bit
+  length of the largest possible sum of indices, so the explanation part never reaches the pair
+  part.
+
+Level 0 = sum of the chosen atoms' weights; it separates every two answers that tie at levels
+10..1 (above).  The weights are exact Python integers; a large component can need more bits than a
+solver's integers have, so a solver splits them into chunks (``chunks``): 30-bit chunks under clingo's
+32-bit sums, 60-bit ones under CP-SAT's 64-bit ones, each chunk a lexicographic level of its own,
+most significant first; comparing the chunks one after another is comparing the integers.  A chunk
+holds at most one component's distinct powers of two per component plus the small index sums, and
+the chunk width is lowered by the bit length of the number of components solved together, so no
+chunk's sum can overflow.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import lru_cache
-from typing import NamedTuple, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 
+from ..events import EFFECTS, EVENT_NAMES
 from ..spec import Box, FrameProblem, natural_key
-
-
-class TiebreakWeights(NamedTuple):
-    pair: dict[tuple[str, str], int]
-    """w[(trk, det)] for the chosen assign/resume pairs."""
-    hides: dict[tuple[str, str], int]
-    """r[(trk1, trk2)] for the chosen hides_behind occluder."""
-    track: dict[str, int]
-    """k[trk2] for unhides_from_behind(trk1, trk2): trk2's index in natural order."""
 
 
 def intersection_matrix(boxes: Sequence[Box]) -> np.ndarray:
@@ -36,48 +72,191 @@ def _natural_key(ident: str) -> tuple:
     return natural_key(ident)
 
 
-def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> TiebreakWeights:
-    """(w, r, k): w[(trk, det)] for assign/resume pairs, r[(trk1, trk2)] for hides_behind occluders,
-    k[trk2] for the track unhidden from.
+# ---------------------------------------------------------------------------------------
+# Components
+# ---------------------------------------------------------------------------------------
 
-    w = (k+1)^2 with k the index of the pair among the iou/3 pairs in natural (trk, det) order;
-    r = rank of trk2 among the other tracks overlapping trk1 (only those can occlude it) by decreasing overlap with trk1, then natural order.
+@dataclass(frozen=True)
+class Component:
+    tracks: tuple[str, ...]
+    """Track ids in problem order."""
+    detections: tuple[str, ...]
+    """Detection ids in problem order."""
+    pairs: tuple[tuple[str, str], ...]
+    """The iou/3 pairs inside, in natural (trk, det) order."""
+
+
+def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
+    """The (trk, det) pairs that can take a pair action: an iou/3 fact and the assign or resume
+    integrity constraint (whether a resume can be explained is not asked: a superset is safe)."""
+    from ..constants import resolve_constants
+    from .cpsat import assignment_constraints, resume_constraints  # the rules, one place
+
+    constants = resolve_constants(problem)
+    iou = problem.iou_map
+    tracks = {t.id: t for t in problem.tracks}
+    dets = {d.id: d for d in problem.detections}
+    out = []
+    for t, d, _ in problem.iou:
+        trk, det = tracks.get(t), dets.get(d)
+        if trk is None or det is None:
+            continue
+        rule = assignment_constraints if trk.state == "active" else resume_constraints
+        if rule(problem, constants, iou, trk, det):
+            out.append((t, d))
+    return out
+
+
+def components(problem: FrameProblem) -> list[Component]:
+    """The independent components of the frame (module docstring), in the order of their first
+    node (tracks before detections, problem order)."""
+    tracks, dets = problem.tracks, problem.detections
+    nt = len(tracks)
+    t_index = {t.id: i for i, t in enumerate(tracks)}
+    d_index = {d.id: nt + j for j, d in enumerate(dets)}
+    parent = list(range(nt + len(dets)))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    pairs = candidate_pairs(problem)
+    for t, d in pairs:
+        a, b = find(t_index[t]), find(d_index[d])
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+    groups: dict[int, list[int]] = {}
+    for x in range(len(parent)):
+        groups.setdefault(find(x), []).append(x)
+    by_root: dict[int, list[tuple[str, str]]] = {}
+    for t, d in pairs:
+        by_root.setdefault(find(t_index[t]), []).append((t, d))
+    nat = _natural_key
+    out = []
+    for root in sorted(groups):
+        members = groups[root]
+        out.append(Component(
+            tuple(tracks[x].id for x in members if x < nt),
+            tuple(dets[x - nt].id for x in members if x >= nt),
+            tuple(sorted(by_root.get(root, ()), key=lambda p: (nat(p[0]), nat(p[1])))),
+        ))
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# Tie-break weights
+# ---------------------------------------------------------------------------------------
+
+class TiebreakWeights(NamedTuple):
+    pair: dict[tuple[str, str], int]
+    """2^q for the pair (trk, det) of rank q in its component (assign or resume)."""
+    event: dict[str, int]
+    """idx of an event term ('hides_behind(trk_1,trk_2)') among its first argument's events."""
+    component: dict[str, int]
+    """node id (track or detection) -> index of its component in ``components(problem)``."""
+    shift: int
+    """E: level 0 = (sum of chosen pair weights) * 2^E + (sum of chosen event indices)."""
+
+
+def _event_candidates(problem: FrameProblem, inter: np.ndarray | None = None) -> dict[str, list[str]]:
+    """first argument -> its weighted events in idx order (module docstring)."""
+    tracks = problem.tracks
+    nat = _natural_key
+    ids = {t.id for t in tracks}
+    unary = [n for n in EVENT_NAMES if EFFECTS[n][0] == 1]
+    binary = [n for n in EVENT_NAMES if EFFECTS[n][0] == 2]
+    named: dict[str, set[str]] = {}
+    for h in problem.history:
+        args = [str(a) for a in h.event.args]
+        if len(args) >= 2 and args[0] in ids:
+            named.setdefault(args[0], set()).update(a for a in args[1:] if a in ids and a != args[0])
+    if inter is None:
+        inter = intersection_matrix([t.box for t in tracks])
+    out: dict[str, list[str]] = {}
+    for i, t in enumerate(tracks):
+        over = [j for j in np.flatnonzero(inter[i]).tolist() if j != i]
+        over.sort(key=lambda j: (-int(inter[i, j]), nat(tracks[j].id)))
+        others = [tracks[j].id for j in over]
+        seen = set(others)
+        others += sorted((x for x in named.get(t.id, ()) if x not in seen), key=nat)
+        out[t.id] = [f"{n}({t.id})" for n in unary] + [f"{n}({t.id},{o})" for n in binary for o in others]
+    for d in problem.detections:
+        out[d.id] = [f"{n}({d.id})" for n in unary]
+    return out
+
+
+def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> TiebreakWeights:
+    """The level-0 weights of every pair and event of the frame (module docstring).
 
     ``inter`` optionally passes ``intersection_matrix`` of the track boxes (in problem.tracks
-    order) when the caller has it already.  The pairwise overlaps are computed with numpy; the
-    result is exactly that of the plain definition above (tests/test_fastpath.py compares them).
-    """
-    nat = _natural_key
-    pairs = sorted(((t, d) for t, d, _ in problem.iou), key=lambda p: (nat(p[0]), nat(p[1])))
-    w = {pair: (k + 1) ** 2 for k, pair in enumerate(pairs)}
-    tracks = problem.tracks
-    order = sorted(range(len(tracks)), key=lambda i: nat(tracks[i].id))
-    k = {tracks[i].id: rank for rank, i in enumerate(order)}
-    r: dict[tuple[str, str], int] = {}
-    if len(tracks) > 1:
-        if inter is None:
-            inter = intersection_matrix([t.box for t in tracks])
-        pos = np.empty(len(tracks), dtype=np.int64)
-        pos[order] = np.arange(len(tracks))  # natural-order position of each track
-        overlapping = inter > 0
-        np.fill_diagonal(overlapping, False)
-        rows, cols = np.nonzero(overlapping)
-        if len(rows):
-            # sort every row's overlapping tracks by (-inter, natural order): one lexsort for all rows
-            sel = np.lexsort((pos[cols], -inter[rows, cols], rows))
-            rows, cols = rows[sel].tolist(), cols[sel].tolist()
-            prev, rank = -1, 0
-            for i, j in zip(rows, cols):
-                rank = rank + 1 if i == prev else 0
-                prev = i
-                r[(tracks[i].id, tracks[j].id)] = rank
-    return TiebreakWeights(w, r, k)
+    order) when the caller has it already."""
+    comps = components(problem)
+    cands = _event_candidates(problem, inter)
+    event = {e: idx for evs in cands.values() for idx, e in enumerate(evs)}
+    # the largest possible index sum: a track or detection takes one action, explained by at
+    # most one event, so at most its largest index
+    bound = sum(len(evs) - 1 for evs in cands.values() if evs)
+    pair: dict[tuple[str, str], int] = {}
+    component: dict[str, int] = {}
+    for c, comp in enumerate(comps):
+        for q, p in enumerate(comp.pairs):
+            pair[p] = 1 << q
+        for x in comp.tracks + comp.detections:
+            component[x] = c
+    return TiebreakWeights(pair, event, component, max(bound, 0).bit_length())
+
+
+def pair_atom(atom: str) -> tuple[str, str] | None:
+    """(trk, det) of an assign/resume atom, else None."""
+    if atom.startswith(("assign(", "resume(")):
+        t, d = atom[atom.index("(") + 1:-1].split(",")
+        return t, d
+    return None
+
+
+def event_term(atom: str) -> str:
+    """The event of 'occurs_at(E,T)' (or E itself)."""
+    if atom.startswith("occurs_at("):
+        return atom[len("occurs_at("):atom.rindex(",")]
+    return atom
+
+
+def tiebreak_level(problem: FrameProblem, actions: Iterable[str], events: Iterable[str],
+                   weights: TiebreakWeights | None = None) -> int:
+    """Level 0 of an answer: (sum of its pairs' weights) * 2^E + (sum of its events' indices)."""
+    w = weights or tiebreak_weights(problem)
+    pairs = sum(w.pair.get(p, 0) for p in map(pair_atom, actions) if p is not None)
+    return (pairs << w.shift) + sum(w.event.get(event_term(a), 0) for a in events)
+
+
+EXPLANATION_LIMIT = 1 << 30
+"""The explanation part must stay below this (it is one level of clingo's 32-bit sums)."""
+
+
+def tiebreak_levels(w: TiebreakWeights, word_bits: int) -> tuple[list[dict[tuple[str, str], int]], dict[str, int]]:
+    """The tie-break as solver levels, most significant first: the pair part split into chunks of
+    ``chunk_width`` bits (one dict (trk, det) -> coefficient per chunk), then the explanation part
+    (event -> index).  Each chunk holds distinct powers of two of each component, < 2^width per
+    component, so a chunk's sum over all components stays below 2^(word_bits - 1)."""
+    parts = len(set(w.component.values()))
+    width = max(1, word_bits - 1 - max(parts, 1).bit_length())
+    levels: dict[int, dict[tuple[str, str], int]] = {}
+    for p, v in w.pair.items():
+        q = v.bit_length() - 1
+        levels.setdefault(q // width, {})[p] = 1 << (q % width)
+    if (1 << w.shift) > EXPLANATION_LIMIT:
+        raise OverflowError("the frame has too many possible events for the tie-break's explanation level")
+    return [levels.get(j, {}) for j in range(max(levels, default=-1), -1, -1)], dict(w.event)
 
 
 def tiebreak_facts(problem: FrameProblem) -> str:
-    """The tie-break weights as ASP facts for the clingo backend."""
-    w, r, k = tiebreak_weights(problem)
-    lines = [f"tiebreak_pair({t},{d},{v})." for (t, d), v in w.items()]
-    lines += [f"tiebreak_hides({a},{b},{v})." for (a, b), v in r.items()]
-    lines += [f"tiebreak_track({t},{v})." for t, v in k.items()]
+    """The tie-break as ASP facts for the clingo backend (model/optimisation.lp): chunk levels of
+    the pair part as tiebreak_pair(T, D, P, W) at priorities 0, -1, ... (most significant
+    first), the explanation part as tiebreak_event(E, P, Idx) one priority below."""
+    pair_levels, event = tiebreak_levels(tiebreak_weights(problem), 31)
+    lines = [f"tiebreak_pair({t},{d},{-j},{c})." for j, lev in enumerate(pair_levels) for (t, d), c in lev.items()]
+    low = -len(pair_levels)
+    lines += [f"tiebreak_event({e},{low},{v})." for e, v in event.items() if v]
     return "\n".join(lines) + ("\n" if lines else "")

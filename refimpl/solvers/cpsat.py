@@ -40,8 +40,10 @@ from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key
 from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, Hypothesis, action_cost
 from ..relations import area
 from ..spec import Detection, FrameProblem, TrackPrediction
-from . import NoAdmissibleHypothesis
-from .common import intersection_matrix, tiebreak_weights
+from . import NoAdmissibleHypothesis, SolveTimeout, check_time_limit
+from .common import intersection_matrix, tiebreak_level, tiebreak_weights
+from .decompose import DEFAULT_PART_NODES, Part, own_atoms, split
+from .fallback import obvious_hypothesis
 
 _EVENT_AT = PRIORITIES.index(EVENT_LEVEL)
 _TIE_AT = PRIORITIES.index(TIEBREAK_LEVEL)
@@ -84,14 +86,12 @@ def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: n
     return out
 
 
-def _tiebreak_of_event(spec: EventType, args: tuple[str, ...], r: Mapping, k: Mapping) -> int:
-    """The level-0 weight of an explaining event: r for hides_behind's occluder, k for the track
-    unhidden from (solvers/common.py)."""
-    if spec.name == "hides_behind":
-        return r.get(args, 0)
-    if spec.name == "unhides_from_behind":
-        return k[args[1]]
-    return 0
+EXPLANATION = -1
+"""AbductionModel.objectives key of the tie-break's explanation part (solved after the pair part)."""
+
+TIEBREAK_WORD_BITS = 60
+"""CP-SAT's sums are 64-bit: the tie-break's pair part is solved in chunks that keep every sum
+below 2^59 (common.py, solve_lexicographic)."""
 
 
 class CpSatFailure(RuntimeError):
@@ -152,7 +152,10 @@ class AbductionModel:
     events: dict[str, cp_model.IntVar] = field(default_factory=dict)
     """event ('hides_behind(trk_13,trk_12)', 'enters_fov(det_3)') -> Boolean."""
     objectives: dict[int, list[tuple[int, cp_model.IntVar]]] = field(default_factory=dict)
-    """priority -> [(coefficient, Boolean)], minimised."""
+    """priority -> [(coefficient, Boolean)], minimised.  TIEBREAK_LEVEL holds the tie-break's pair
+    part (coefficients 2^q, Python integers of any size); EXPLANATION its explanation part."""
+    tiebreak_shift: int = 0
+    """E of the tie-break (common.py): level 0 = pair part * 2^E + explanation part."""
 
     def all_vars(self) -> list[cp_model.IntVar]:
         return list(self.actions.values()) + list(self.events.values())
@@ -178,10 +181,12 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
     Raises NoAdmissibleHypothesis when some track has no candidate action at all.
     """
     model = cp_model.CpModel()
-    am = AbductionModel(model, problem.time, objectives={p: [] for p in PRIORITIES})
+    am = AbductionModel(model, problem.time, objectives={p: [] for p in PRIORITIES + (EXPLANATION,)})
     iou = problem.iou_map
     inter = intersection_matrix([t.box for t in problem.tracks])
-    w, r, k = tiebreak_weights(problem, inter)
+    tb = tiebreak_weights(problem, inter)
+    w = tb.pair  # 2^q per pair; events: tb.event (common.py)
+    am.tiebreak_shift = tb.shift
     # Only pairs with an iou/3 fact can be assigned or resumed, and hides_behind(T, T2) needs
     # overlapping_top(T, T2): the loops below skip everything else before calling the rules
     # (same candidates, same variable order as testing every pair, without n^2 Python calls).
@@ -204,9 +209,9 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
         am.events[f"{spec.name}({','.join(args)})"] = v
         if cost[spec.name]:
             obj[EVENT_LEVEL].append((cost[spec.name], v))
-        tie = _tiebreak_of_event(spec, args, r, k)
+        tie = tb.event.get(f"{spec.name}({','.join(args)})", 0)
         if tie:
-            obj[TIEBREAK_LEVEL].append((tie, v))
+            obj[EXPLANATION].append((tie, v))
         return v
 
     per_trk: dict[str, list[cp_model.IntVar]] = {t.id: [] for t in problem.tracks}
@@ -311,6 +316,51 @@ def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, in
     return {v.index: int(atom in chosen) for atom, v in list(am.actions.items()) + list(am.events.items())}
 
 
+LevelTerms = list[tuple[int, cp_model.IntVar]]
+
+SCALAR_BITS = 62
+"""A group of consecutive levels is minimised as one weighted sum when its range fits in this many bits."""
+
+
+def _range(terms: LevelTerms) -> int:
+    """max - min + 1 of a level's sum over 0/1 variables."""
+    return sum(abs(c) for c, _ in terms) + 1
+
+
+def _pack_levels(levels: list[tuple[int, LevelTerms]]) -> list[list[tuple[int, LevelTerms]]]:
+    """Consecutive levels grouped so that each group's scalarised objective (below) fits in
+    SCALAR_BITS: one CP-SAT solve per group instead of per level."""
+    groups: list[list[tuple[int, LevelTerms]]] = []
+    span = 0
+    for prio, terms in levels:
+        r = _range(terms)
+        if groups and span * r < (1 << SCALAR_BITS):
+            groups[-1].append((prio, terms))
+            span *= r
+        else:
+            groups.append([(prio, terms)])
+            span = r
+    return groups
+
+
+def _scalarised(group: list[tuple[int, LevelTerms]]) -> LevelTerms:
+    """One objective whose order is the group's lexicographic order: level i is weighted by the
+    product of the ranges of the levels after it, which exceeds any difference those can make."""
+    out: LevelTerms = []
+    weight = 1
+    for _, terms in reversed(group):
+        out += [(c * weight, v) for c, v in terms]
+        weight *= _range(terms)
+    return out
+
+
+def _fix_levels(model: cp_model.CpModel, group: list[tuple[int, LevelTerms]], solution: Mapping[int, int]) -> None:
+    """Every level of a group solved to optimality, fixed at its value (as ``<=``, see below)."""
+    for _, terms in group:
+        if terms:
+            model.add(sum(c * v for c, v in terms) <= _level_value(terms, solution))
+
+
 def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: float | None = None,
                         workers: int = 1, seed: int = 0) -> LexResult:
     """Minimise the objectives of PRIORITIES one after another (see the module docstring).
@@ -336,8 +386,24 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     optimal = True
     statuses: list[str] = []
 
-    for i, prio in enumerate(PRIORITIES):
-        terms = am.objectives[prio]
+    # levels 10..1, then the tie-break: its pair part in chunks small enough for 64-bit sums
+    # (powers of two 2^q -> chunk q // width, coefficient 2^(q % width); comparing the chunks
+    # most significant first compares the integers), then its explanation part
+    levels: list[tuple[int, list[tuple[int, cp_model.IntVar]]]] = [
+        (p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
+    pair_terms = am.objectives[TIEBREAK_LEVEL]
+    width = max(1, TIEBREAK_WORD_BITS - 1 - max(len(pair_terms), 1).bit_length())
+    chunked: dict[int, list[tuple[int, cp_model.IntVar]]] = {}
+    for c, v in pair_terms:
+        q = c.bit_length() - 1
+        chunked.setdefault(q // width, []).append((1 << (q % width), v))
+    levels += [(TIEBREAK_LEVEL, chunked[j]) for j in sorted(chunked, reverse=True)]
+    levels.append((TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, [])))
+    groups = _pack_levels(levels)
+
+    for i, group in enumerate(groups):
+        prio = group[0][0]
+        terms = _scalarised(group)
         expr = sum(c * v for c, v in terms) if terms else 0
         if not terms and solution is not None:
             statuses.append("SKIPPED")
@@ -349,9 +415,10 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
         solver = cp_model.CpSolver()
         solver.parameters.num_workers = workers
         solver.parameters.random_seed = seed
+        solver.parameters.catch_sigint_signal = False  # Ctrl-C interrupts refimpl, not just this level
         status = None
         if deadline is not None:
-            share = (deadline - time.perf_counter()) / (len(PRIORITIES) - i)
+            share = (deadline - time.perf_counter()) / (len(groups) - i)
             if share > 0:
                 solver.parameters.max_time_in_seconds = share
             else:
@@ -372,8 +439,7 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
 
         if status == cp_model.OPTIMAL:
             solution = _solution(solver, indices)
-            if terms:
-                model.add(expr <= _level_value(terms, solution))
+            _fix_levels(model, group, solution)
         elif status in (cp_model.FEASIBLE, cp_model.UNKNOWN):
             optimal = False
             if status == cp_model.FEASIBLE:
@@ -392,10 +458,12 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
                                f"(time {am.time}): {model.validate()}")
 
     if solution is None:
-        raise CpSatFailure(f"CP-SAT found no solution within the time limit of {time_limit} s and the "
-                           f"obvious hypothesis is not admissible (time {am.time}; statuses "
-                           f"{', '.join(statuses)})")
-    cost = tuple((p, _level_value(am.objectives[p], solution)) for p in PRIORITIES)
+        raise SolveTimeout(f"no answer at t={am.time} within the time limit "
+                           f"({'none' if time_limit is None else f'{time_limit:g} s'})")
+    level0 = (_level_value(pair_terms, solution) << am.tiebreak_shift) + _level_value(
+        am.objectives.get(EXPLANATION, []), solution)
+    cost = tuple((p, level0 if p == TIEBREAK_LEVEL else _level_value(am.objectives[p], solution))
+                 for p in PRIORITIES)
     values = {atom: solution[v.index] for atom, v in list(am.actions.items()) + list(am.events.items())}
     return LexResult(values, cost, optimal, tuple(statuses))
 
@@ -653,7 +721,9 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     tracks, dets = problem.tracks, problem.detections
     iou = problem.iou_map
     inter = intersection_matrix([t.box for t in tracks])
-    w, r, k = tiebreak_weights(problem, inter)
+    tb = tiebreak_weights(problem, inter)
+    ev = tb.event  # level 0 of an explaining event: its index (common.py)
+    w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
     cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
     top = _overlapping_top_matrix(tracks, inter, constants["hide_overlap"])
     t_index = {t.id: i for i, t in enumerate(tracks)}
@@ -662,7 +732,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     by_id = {t.id: t for t in tracks}
 
     def priced(found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:
-        return [((cost[spec.name], _tiebreak_of_event(spec, args, r, k)), f"{spec.name}({','.join(args)})")
+        return [((cost[spec.name], ev.get(f"{spec.name}({','.join(args)})", 0)), f"{spec.name}({','.join(args)})")
                 for spec, args in found]
 
     # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
@@ -692,7 +762,8 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     solo_d: list[_Option] = []
     for d in dets:
         options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
-        starts = [((cost[spec.name], 0), f"{spec.name}({d.id})") for spec in explaining("start")
+        starts = [((cost[spec.name], ev.get(f"{spec.name}({d.id})", 0)), f"{spec.name}({d.id})")
+                  for spec in explaining("start")
                   if spec.poss(state, constants, d.id, tracks=None)]
         if start_constraints(constants, d) and starts:
             (c1, c0), event, tie = _cheapest(starts)
@@ -792,55 +863,95 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
 
 
 class CpSatSolver:
-    """The CP-SAT backend: ``solve(problem, time_limit=None) -> Hypothesis``.
+    """The CP-SAT backends ``cpsat`` and ``cpsat-full``: ``solve(problem, time_limit=None) -> Hypothesis``.
 
     Options: ``workers`` (CP-SAT num_workers; 1 for reference runs), ``seed`` (random_seed),
-    ``fast_path`` (default True): answer from ``solve_fast`` when it applies (a unique optimum,
-    identical to the full model's answer), else from the full CP-SAT model; ``fast_path=False``
-    always builds and solves the full model.  ``stats`` counts, per solve, how the answer was
-    found: "fast", or "full" plus "declined: REASON" when the fast path declined.
+    ``fast_path`` (default True, backend ``cpsat``): answer from ``solve_fast`` when it applies
+    (a unique optimum, identical to the full model's answer), else from the full CP-SAT model;
+    ``fast_path=False`` (backend ``cpsat-full``) always solves the full model.  ``decompose``
+    (default True): the full model is built and solved per sub-problem of independent
+    components (refimpl.solvers.decompose), which gives the same answer.  ``stats`` counts, per
+    solve, how the answer was found: "fast", or "full" plus "declined: REASON", and "timeout".
+    The time-out contract is that of refimpl.solvers.
     """
 
-    name = "cpsat"
-
-    def __init__(self, workers: int = 1, seed: int = 0, fast_path: bool = True):
+    def __init__(self, workers: int = 1, seed: int = 0, fast_path: bool = True, decompose: bool = True,
+                 part_nodes: int = DEFAULT_PART_NODES):
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = workers
         self.seed = seed
         self.fast_path = fast_path
+        self.decompose = decompose
+        self.part_nodes = int(part_nodes)
+        self.name = "cpsat" if fast_path else "cpsat-full"
         self.stats: Counter[str] = Counter()
         self._state_cache: dict[tuple[str, tuple], EventState] = {}
+
+    def _fallback(self, problem: FrameProblem, start: float, time_limit: float | None) -> Hypothesis:
+        self.stats["timeout"] += 1
+        h = obvious_hypothesis(problem, self.name, (time.perf_counter() - start) * 1000.0)
+        if h is None:
+            raise SolveTimeout(f"no answer at t={problem.time} within the time limit ({time_limit:g} s)")
+        return h
 
     def solve(self, problem: FrameProblem, time_limit: float | None = None,
               state: EventState | None = None) -> Hypothesis:
         """The best hypothesis; ``state`` (optional) replaces folding problem.history."""
         start = time.perf_counter()
+        time_limit = check_time_limit(time_limit)
+        deadline = None if time_limit is None else start + time_limit
+        if time_limit is not None and time_limit <= 0:
+            return self._fallback(problem, start, time_limit)
         constants = resolve_constants(problem)
         t = problem.time
+        if state is None:  # reuse the per-track folds of the previous frame
+            state = TrackwiseState(problem.history, [x.id for x in problem.tracks], self._state_cache)
+            self._state_cache = state.used  # type: ignore[attr-defined]
         if self.fast_path:
-            if state is None:  # reuse the per-track folds of the previous frame
-                fast_state = TrackwiseState(problem.history, [x.id for x in problem.tracks], self._state_cache)
-                self._state_cache = fast_state.used
-            else:
-                fast_state = state
             try:
-                fast = solve_fast(problem, fast_state, constants)  # type: ignore[arg-type]
+                fast = solve_fast(problem, state, constants)  # type: ignore[arg-type]
             except FastPathDeclined as exc:
                 self.stats[f"declined: {exc.reason}"] += 1
             else:
+                if deadline is not None and time.perf_counter() > deadline:
+                    return self._fallback(problem, start, time_limit)
                 self.stats["fast"] += 1
                 return Hypothesis(time=t, actions=tuple(fast.actions), events=tuple(fast.events),
                                   cost=fast.cost, optimal=True, backend=self.name,
                                   solve_ms=(time.perf_counter() - start) * 1000.0)
         self.stats["full"] += 1
-        if state is None:
-            state = EventState.from_problem(problem)
-        am = build_model(problem, state, constants)
-        remaining = None if time_limit is None else time_limit - (time.perf_counter() - start)
-        res = solve_lexicographic(am, problem, remaining, self.workers, self.seed)
-        actions = [a for a, v in res.values.items() if v and a in am.actions]
-        events = [f"occurs_at({e},{t})" for e, v in res.values.items() if v and e in am.events]
-        return Hypothesis(time=t, actions=tuple(actions), events=tuple(events), cost=res.cost,
-                          optimal=res.optimal, backend=self.name,
+        parts = split(problem, self.part_nodes) if self.decompose else [Part(problem, frozenset())]
+        whole = len(parts) == 1
+        actions: list[str] = []
+        events: list[str] = []
+        totals = dict.fromkeys((p for p in PRIORITIES if p != TIEBREAK_LEVEL), 0)
+        optimal = True
+        for n, part in enumerate(parts):
+            now = time.perf_counter()
+            if deadline is not None and now >= deadline:
+                return self._fallback(problem, start, time_limit)
+            share = None if deadline is None else deadline - now  # all that is left: most parts are trivial
+            am = build_model(part.problem, state, constants)
+            res = solve_lexicographic(am, part.problem, share, self.workers, self.seed)
+            optimal = optimal and res.optimal
+            chosen = [a for a, v in res.values.items() if v]
+            if whole:
+                acts = [a for a in chosen if a in am.actions]
+                evs = [e for e in chosen if e in am.events]
+                totals = dict(res.cost)
+            else:
+                acts, evs = own_atoms(part, (a for a in chosen if a in am.actions),
+                                      (e for e in chosen if e in am.events))
+                own = set(acts) | set(evs)
+                for p in totals:  # the part's own share of each level, from the model's objective
+                    totals[p] += sum(c for c, v in am.objectives[p] if v.name in own and res.values[v.name])
+            actions += acts
+            events += [f"occurs_at({e},{t})" for e in evs]
+        if not optimal and deadline is not None and time.perf_counter() > deadline:
+            self.stats["timeout"] += 1
+        level0 = tiebreak_level(problem, actions, events)
+        cost = tuple((p, level0 if p == TIEBREAK_LEVEL else totals[p]) for p in PRIORITIES)
+        return Hypothesis(time=t, actions=tuple(actions), events=tuple(events), cost=cost,
+                          optimal=optimal, backend=self.name,
                           solve_ms=(time.perf_counter() - start) * 1000.0)

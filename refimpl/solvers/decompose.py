@@ -1,0 +1,107 @@
+"""Solving a frame part by part: its independent components (refimpl.solvers.common) grouped
+into sub-problems, each solved on its own, the answers merged.
+
+A sub-problem holds the tracks and detections of some components ("own" nodes), their iou/3
+pairs, and the *context* tracks the own tracks' events may name: every track whose box overlaps
+an own track's box (hides_behind(T, T2) needs overlapping_top) and every track named in an own
+track's history events (unhides_from_behind(T, T2) needs hidden_by(T, T2)).  A context track
+keeps its box, type and history but is made halted: then it has ignore_trk as an admissible
+solo action whatever the rest of the frame is, and since no rule reads another track's state or
+choice (common.py), the own nodes have exactly the candidates, preconditions and costs they have
+in the whole frame.  The answer of a sub-problem restricted to its own nodes is therefore that of
+the whole frame restricted to them, and the merged answer is the frame's answer.  The context
+tracks' part of each sub-answer is discarded.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from ..spec import FrameProblem
+from .common import Component, components, event_term, intersection_matrix
+
+DEFAULT_PART_NODES = 60
+"""Components are grouped into sub-problems of about this many own tracks and detections (small
+components together: fewer solver calls; a larger component is a sub-problem of its own)."""
+
+
+@dataclass(frozen=True)
+class Part:
+    problem: FrameProblem
+    own: frozenset[str]
+    """The ids of the own tracks and detections."""
+
+
+def split(problem: FrameProblem, part_nodes: int = DEFAULT_PART_NODES) -> list[Part]:
+    """The frame as sub-problems (module docstring), in component order."""
+    comps = components(problem)
+    if len(comps) <= 1:
+        return [Part(problem, frozenset(t.id for t in problem.tracks) | {d.id for d in problem.detections})]
+    groups: list[list[Component]] = []
+    size = 0
+    for c in comps:
+        n = len(c.tracks) + len(c.detections)
+        if not groups or size + n > part_nodes:
+            groups.append([])
+            size = 0
+        groups[-1].append(c)
+        size += n
+    if len(groups) == 1:
+        return [Part(problem, frozenset(t.id for t in problem.tracks) | {d.id for d in problem.detections})]
+
+    tracks = problem.tracks
+    t_index = {t.id: i for i, t in enumerate(tracks)}
+    overlapping = intersection_matrix([t.box for t in tracks]) > 0
+    named: dict[str, set[str]] = {}
+    by_first: dict[str, list] = {}
+    for h in problem.history:
+        args = [str(a) for a in h.event.args]
+        if args:
+            by_first.setdefault(args[0], []).append(h)
+            named.setdefault(args[0], set()).update(args[1:])
+    parts = []
+    for group in groups:
+        own_t = [x for c in group for x in c.tracks]
+        own_d = {x for c in group for x in c.detections}
+        own_set = set(own_t)
+        context: set[str] = set()
+        for x in own_t:
+            context.update(tracks[j].id for j in np.flatnonzero(overlapping[t_index[x]]).tolist())
+            context.update(y for y in named.get(x, ()) if y in t_index)
+        context -= own_set
+        keep = own_set | context
+        sub_tracks = tuple(t if t.id in own_set else replace(t, state="halted") for t in tracks if t.id in keep)
+        sub_dets = tuple(d for d in problem.detections if d.id in own_d)
+        sub_iou = tuple(x for x in problem.iou if x[0] in own_set and x[1] in own_d)  # others: no pair action
+        history = tuple(h for h in problem.history if h.event.args and str(h.event.args[0]) in keep)
+        # FrameProblem's validation would only re-check what the whole problem passed
+        sub = FrameProblem.__new__(FrameProblem)
+        for name, value in (("time", problem.time), ("detections", sub_dets), ("tracks", sub_tracks),
+                            ("iou", sub_iou), ("constants", problem.constants), ("history", history),
+                            ("match_types", problem.match_types)):
+            object.__setattr__(sub, name, value)
+        parts.append(Part(sub, frozenset(own_set | own_d)))
+    return parts
+
+
+def _first_argument(atom: str) -> str:
+    inside = atom[atom.index("(") + 1:]
+    end = min((i for i in (inside.find(","), inside.find(")")) if i >= 0), default=len(inside))
+    return inside[:end]
+
+
+def own_atoms(part: Part, actions: Iterable[str], events: Iterable[str]) -> tuple[list[str], list[str]]:
+    """The actions and events (occurs_at atoms) of the part's own nodes.  An action's subject is its
+    first argument except for start/ignore_det (the detection, also first) and the pair actions
+    (the track first, its detection own too by construction); an event's is its first argument."""
+    acts = [a for a in actions if _first_argument(a) in part.own]
+    evs = [e for e in events if _first_argument(event_term(e)) in part.own]
+    return acts, evs
+
+
+def order_like(problem: FrameProblem, actions: Sequence[str], events: Sequence[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Merged answers in one canonical order (sorted), as every backend reports them."""
+    return tuple(sorted(actions)), tuple(sorted(events))
