@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+from contextlib import contextmanager
 import random
 import signal
 import threading
@@ -205,51 +206,66 @@ def test_the_registry_builds_every_backend(backend):
 
 # -- interrupts -------------------------------------------------------------------------------------
 
-def _interrupt_after(seconds: float) -> threading.Timer:
-    timer = threading.Timer(seconds, lambda: os.kill(os.getpid(), signal.SIGINT))
-    timer.start()
-    return timer
+@contextmanager
+def _sigint_armed():
+    """While inside, SIGINT raises KeyboardInterrupt as by default; on the way out the handler is
+    disarmed *first*, so a signal sent late (after the solve returned) is ignored instead of
+    ending the whole pytest session. Yields ``kill()``, which sends SIGINT to this process and
+    records when."""
+    armed = [True]
+    sent: list[float] = []
+
+    def handler(signum, frame):
+        if armed[0]:
+            raise KeyboardInterrupt
+
+    def kill():
+        sent.append(time.perf_counter())
+        os.kill(os.getpid(), signal.SIGINT)
+
+    old = signal.signal(signal.SIGINT, handler)
+    try:
+        yield kill, sent
+    finally:
+        armed[0] = False
+        signal.signal(signal.SIGINT, old)
 
 
 def test_sigint_interrupts_a_long_clingo_search_within_a_second():
     pytest.importorskip("clingo")
     from refimpl.solvers.clingo_backend import ClingoSolver
 
-    sent: list[float] = []
-
     class _ArmAfterGrounding:
         """clingo's Control, with a SIGINT sent 0.5 s into the search (grounding cannot be
         interrupted half-way; the time limit counts it instead)."""
 
-        def __init__(self, ctl):
-            self._ctl = ctl
+        def __init__(self, ctl, kill):
+            self._ctl, self._kill, self.timer = ctl, kill, None
 
         def ground(self, parts):
             self._ctl.ground(parts)
-
-            def fire():
-                sent.append(time.perf_counter())
-                os.kill(os.getpid(), signal.SIGINT)
-
-            self.timer = threading.Timer(0.5, fire)
+            self.timer = threading.Timer(0.5, self._kill)
             self.timer.start()
 
         def solve(self, *args, **kwargs):
             return self._ctl.solve(*args, **kwargs)
 
-    class _Solver(ClingoSolver):
-        def _control(self, problem, extra=""):
-            ctl, messages = super()._control(problem, extra)
-            self.wrapped = _ArmAfterGrounding(ctl)
-            return self.wrapped, messages
+    with _sigint_armed() as (kill, sent):
+        class _Solver(ClingoSolver):
+            def _control(self, problem, extra=""):
+                ctl, messages = super()._control(problem, extra)
+                self.wrapped = _ArmAfterGrounding(ctl, kill)
+                return self.wrapped, messages
 
-    # 100 tracks, overlap 0.8, not decomposed: the search takes far longer than a second
-    solver = _Solver(decompose=False, isolate=False)
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            solver.solve(synthetic_frame(100, 0.8, 2))
-    finally:
-        solver.wrapped.timer.cancel()
+        # 100 tracks, overlap 0.8, not decomposed: the search takes far longer than a second
+        solver = _Solver(decompose=False, isolate=False)
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                solver.solve(synthetic_frame(100, 0.8, 2))
+        finally:
+            if solver.wrapped.timer is not None:
+                solver.wrapped.timer.cancel()
+                solver.wrapped.timer.join()
     assert sent and time.perf_counter() - sent[0] < 1.0
 
 
@@ -257,15 +273,17 @@ def test_sigint_is_not_swallowed_by_cp_sat():
     # CP-SAT runs with catch_sigint_signal=False: the interrupt surfaces after the current
     # (per-component, short) solve call instead of ending the search with a "not optimal" answer
     p = synthetic_frame(200, 0.8, 1)
-    timer = _interrupt_after(0.3)
-    started = time.perf_counter()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            for _ in range(20):
-                get_solver("cpsat-full").solve(p)
-    finally:
-        timer.cancel()
-    assert time.perf_counter() - started < 0.3 + 1.0
+    with _sigint_armed() as (kill, sent):
+        timer = threading.Timer(0.3, kill)
+        timer.start()
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                for _ in range(200):
+                    get_solver("cpsat-full").solve(p)
+        finally:
+            timer.cancel()
+            timer.join()
+    assert sent and time.perf_counter() - sent[0] < 1.0
 
 
 def test_sigint_interrupts_the_isolated_clingo_worker_within_a_second():
@@ -276,19 +294,15 @@ def test_sigint_interrupts_the_isolated_clingo_worker_within_a_second():
     p = synthetic_frame(100, 0.8, 2)
     solver._worker.solve_one(synthetic_frame(5, 0.2, 0), None)  # the child is up
     first = solver._worker._proc
-    sent: list[float] = []
-
-    def fire():
-        sent.append(time.perf_counter())
-        os.kill(os.getpid(), signal.SIGINT)
-
-    timer = threading.Timer(1.0, fire)
-    timer.start()
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            solver.solve(p)
-    finally:
-        timer.cancel()
+    with _sigint_armed() as (kill, sent):
+        timer = threading.Timer(1.0, kill)
+        timer.start()
+        try:
+            with pytest.raises(KeyboardInterrupt):
+                solver.solve(p)
+        finally:
+            timer.cancel()
+            timer.join()
     assert sent and time.perf_counter() - sent[0] < 1.0
     assert first.poll() is not None  # the busy child was killed, not left running
     assert solver.solve(synthetic_frame(5, 0.2, 0)).optimal  # and a new one serves the next solve
