@@ -51,6 +51,7 @@ from .queries import (LIFETIME, MOVEMENT, MOVEMENT_WINDOW, QUERY_FORMS, RCC_SHOR
 from .scoring import (DURATION_BUCKETS, EpisodeOutcome, evaluate_anticipation, format_evaluation, main,
                       score_scene, summarise_outcomes)
 
+
 __all__ = [
     "Box", "Scene", "SceneError", "SceneTrack", "fluent_timelines", "frame_runs", "make_scene", "scene_from_result",
     "track_id",

@@ -4,4 +4,5 @@ import sys
 
 from .scoring import main
 
+
 sys.exit(main())

@@ -11,6 +11,7 @@ from .. import relations as rel
 from .episodes import hiding_end, hiding_episodes
 from .model import Box, Scene, SceneError, SceneTrack
 
+
 @dataclass(frozen=True)
 class EgoRegion:
     """The image region "in front of the ego vehicle", in fractions of the image width and height.

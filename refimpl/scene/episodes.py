@@ -8,6 +8,7 @@ from ..events import EVENT_TABLE, explaining
 from ..spec import natural_key
 from .model import Scene, track_id
 
+
 ENDINGS = tuple(e.name for e in explaining("end"))
 _HALTS = {e.name: e for e in explaining("halt")}
 _RESUMES = tuple(e.name for e in explaining("resume"))

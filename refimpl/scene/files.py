@@ -13,6 +13,7 @@ import os
 from ..spec import HistoryEvent, ProblemFormatError, parse_term
 from .model import Box, Scene, SceneError, SceneTrack
 
+
 SCENE_FORMAT = "refimpl-scene"
 SCENE_VERSION = 1
 

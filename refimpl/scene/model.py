@@ -15,6 +15,7 @@ from typing import Iterable, Mapping, Sequence
 from ..events import EVENT_TABLE, EventState
 from ..spec import HistoryEvent, Term, natural_key
 
+
 Box = tuple[float, float, float, float]
 
 

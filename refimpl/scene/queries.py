@@ -14,6 +14,7 @@ from .episodes import ENDINGS, episodes
 from .model import Box, Scene, SceneError, frame_runs, track_id
 from .situations import situations
 
+
 # ---------------------------------------------------------------------------------------
 # Relations between tracks (Table 2)
 # ---------------------------------------------------------------------------------------

@@ -16,6 +16,7 @@ from .episodes import hiding_episodes
 from .files import load_scene, save_scene
 from .model import Scene, scene_from_result
 
+
 # ---------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)

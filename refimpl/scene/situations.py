@@ -10,6 +10,7 @@ from .anticipation import DEFAULT_CONFIG, ReasoningConfig
 from .episodes import hiding_end, hiding_episodes
 from .model import Box, Scene, frame_runs
 
+
 @dataclass(frozen=True)
 class Situation:
     """A safety-critical situation with its objects and time span (frames, inclusive)."""
