@@ -577,6 +577,43 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_detectors(args: argparse.Namespace) -> int:
+    from . import benchmarks as bm
+    from . import detector_sweep as sw
+    from . import detectors as dt
+    from .solvers import BACKENDS
+    if args.backend not in BACKENDS:
+        raise UserError(f"--backend takes one of {', '.join(BACKENDS)}, got {args.backend!r}")
+    try:
+        p_max, fp, noise = (bm.parse_list(v, float) for v in (args.p_max, args.fp_per_frame, args.noise))
+    except ValueError as exc:
+        raise UserError(f"--p-max, --fp-per-frame and --noise take comma-separated numbers ({exc})") from None
+    benches = bm.parse_list(args.benchmarks, str)
+    datasets = bm.parse_list(args.sweep_datasets, str)
+    sequences = bm.parse_list(args.sequences, str) if args.sequences else None
+    for name, given, known in (("--benchmarks", benches, tuple(dt.REAL_DETECTORS)),
+                               ("--sweep-datasets", datasets, sw.SWEEP_DATASETS)):
+        unknown = [b for b in given if b not in known]
+        if unknown or not given:
+            raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
+    if sequences and len(datasets if args.sweep else benches) != 1:
+        raise UserError("--sequences needs exactly one benchmark (or one --sweep-datasets entry)")
+    if args.max_frames is not None and args.max_frames < 1:
+        raise UserError("--max-frames must be >= 1")
+    if args.sweep and not (p_max and fp and noise):
+        raise UserError("--p-max, --fp-per-frame and --noise must not be empty")
+    progress = None if args.quiet else (lambda total, label: Progress(total, label))
+    try:
+        print(dt.run_detectors(
+            data=args.data, backend=args.backend, do_sweep=args.sweep, benchmarks=benches, sequences=sequences,
+            max_frames=args.max_frames, sweep_datasets=datasets, p_max=p_max, fp_per_frame=fp, noise=noise,
+            seed=args.seed, out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
+            command=bm.format_command(sys.argv[1:]), with_ungated=args.ungated, progress=progress))
+    except ValueError as exc:  # an unknown sequence name, a parameter out of range
+        raise UserError(str(exc)) from None
+    return EXIT_OK
+
+
 def cmd_occlusion_suite(args: argparse.Namespace) -> int:
     from .occlusion import SCENARIOS, write_suite
     out = Path(args.out)
@@ -805,6 +842,28 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--data", default="../shared/data", help="benchmark data root for --throughput")
     sc.add_argument("--quiet", action="store_true", help="no progress bar")
     sc.set_defaults(func=cmd_bench_scale)
+
+    dt = sub.add_parser("detectors", help="which detector, and how much abduction helps it: real detectors side "
+                                          "by side, or (--sweep) a simulated detector-quality grid")
+    dt.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    dt.add_argument("--backend", default="cpsat", help="abduction backend (default cpsat)")
+    dt.add_argument("--benchmarks", default="mot15,kitti-car", help="real-detector benchmarks (default mot15,kitti-car)")
+    dt.add_argument("--sequences", help="comma-separated subset of sequences (one benchmark or sweep dataset)")
+    dt.add_argument("--max-frames", type=int, help="only the first N frames of every sequence")
+    dt.add_argument("--ungated", action="store_true",
+                    help="also track every detector's boxes by abduction with every confidence set to 100")
+    dt.add_argument("--sweep", action="store_true", help="instead: the simulated detector-quality sweep")
+    dt.add_argument("--sweep-datasets", default="mot17,kitti-car", help="sweep ground truth (default mot17,kitti-car)")
+    dt.add_argument("--p-max", default="0.5,0.7,0.9", help="sweep: detection probabilities (default 0.5,0.7,0.9)")
+    dt.add_argument("--fp-per-frame", default="0.5,2,5", help="sweep: false positives per frame (default 0.5,2,5)")
+    dt.add_argument("--noise", default="0.03,0.1", help="sweep: localisation noise (default 0.03,0.1)")
+    dt.add_argument("--seed", type=int, default=0, help="sweep: simulated detector seed (default 0)")
+    dt.add_argument("--out", default="-", help="markdown file whose generated section is replaced "
+                    "(e.g. docs/detectors.md; default - for none)")
+    dt.add_argument("--plot", help="sweep: PNG plot (default detectors-sweep.png beside --out)")
+    dt.add_argument("--json", help="also write the raw numbers as JSON")
+    dt.add_argument("--quiet", action="store_true", help="no progress bar")
+    dt.set_defaults(func=cmd_detectors)
 
     oc = sub.add_parser("occlusion-suite", help="write the long-occlusion suite (docs/occlusion.md) as "
                                                 "MOTChallenge sequences: DIR/<scenario>/{det,gt,seqinfo.ini}")
