@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 
-from .scene import (EgoRegion, Scene, SceneError, SceneTrack, _runs, frame_relations, holds_at, load_scene)
+from .scene import (EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, holds_at, load_scene)
 from .events import EVENT_TABLE
 from .spec import natural_key
 
@@ -75,7 +75,7 @@ def _label(t: SceneTrack) -> str:
 
 def halted_spans(scene: Scene, t: SceneTrack) -> list[tuple[int, int, bool]]:
     """(first, last, resumed) for each run of halted frames: resumed when the frame after it is observed."""
-    return [(a, b, t.observed_box(b + 1) is not None) for a, b in _runs(f for f, _ in t.halted)]
+    return [(a, b, t.observed_box(b + 1) is not None) for a, b in frame_runs(f for f, _ in t.halted)]
 
 
 def plot_timeline(scene: Scene, out: str, tracks: list[SceneTrack] | None = None,
@@ -97,7 +97,7 @@ def plot_timeline(scene: Scene, out: str, tracks: list[SceneTrack] | None = None
     height = 0.6
     for t in tracks:
         y = row[t.id]
-        obs = [(a - 0.5, b - a + 1) for a, b in _runs(f for f, _ in t.observed)]
+        obs = [(a - 0.5, b - a + 1) for a, b in frame_runs(f for f, _ in t.observed)]
         ax.broken_barh(obs, (y - height / 2, height), facecolors=OBSERVED_COLOUR)
         for a, b, resumed in halted_spans(scene, t):
             ax.broken_barh([(a - 0.5, b - a + 1)], (y - height / 2, height),

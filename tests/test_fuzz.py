@@ -1,4 +1,4 @@
-"""Robustness of the fact-format parser and the MOTChallenge / KITTI readers (tools/fuzz.py).
+"""Robustness of the fact-format parser and the MOTChallenge / KITTI readers (tools/fuzz.py, tools.fuzzing).
 
 A small seeded fuzz run must end with zero tracebacks; then one hand-made case per category of
 the robustness issue (truncated lines, wrong arity, non-numbers, NaN/inf, non-positive sizes,
@@ -10,10 +10,9 @@ found (see docs/robustness.md).
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import io as stdio
+import os
 import re
-import sys
 import time
 from pathlib import Path
 
@@ -22,19 +21,10 @@ import pytest
 from refimpl import cli, io
 from refimpl.io import InputFormatError
 from refimpl.spec import ProblemFormatError, parse_facts, read_problem, write_facts
+from tools import fuzzing as fuzz
 
 REPO = Path(__file__).resolve().parent.parent
 
-
-def _load_fuzz():
-    spec = importlib.util.spec_from_file_location("refimpl_tools_fuzz", REPO / "tools" / "fuzz.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look the module up while the class is created
-    spec.loader.exec_module(module)
-    return module
-
-
-fuzz = _load_fuzz()
 
 DET = "1,-1,10,20,30,40,0.9\n2,-1,11,21,30,40,0.8\n"
 GT = "1,1,10,20,30,40,1,-1,-1,-1\n2,1,11,21,30,40,1,-1,-1,-1\n"
@@ -339,7 +329,7 @@ def test_cli_track_write_failure_leaves_no_partial_file(tmp_path, monkeypatch):
     def broken_fsync(fd):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(io.os, "fsync", broken_fsync)
+    monkeypatch.setattr(os, "fsync", broken_fsync)
     code, _, err = run_cli(["track", "--dets", str(d), "--backend", "baseline", "--out", str(out)])
     errors = [line for line in err.splitlines() if not line.startswith("refimpl: warning:")]
     assert code == 2 and errors == ["refimpl track: error: No space left on device"]  # (+ the no-seqinfo warning)

@@ -1,23 +1,8 @@
-"""The scene / CLI-value / output-path fuzzer (tools/fuzz_cli.py) finds no failure on a seeded run."""
+"""The scene / CLI-value / output-path fuzzer (tools/fuzz_cli.py, tools.fuzzing.cli_inputs) finds no failure on a seeded run."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
-REPO = Path(__file__).resolve().parent.parent
-
-
-def _load():
-    spec = importlib.util.spec_from_file_location("refimpl_tools_fuzz_cli", REPO / "tools" / "fuzz_cli.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-fuzz_cli = _load()
+from tools.fuzzing import cli_inputs as fuzz_cli
 
 
 def test_seeded_cli_fuzz_run_ends_without_failures():

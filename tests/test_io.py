@@ -493,7 +493,7 @@ def test_write_mot_results_never_leaves_a_partial_file(tmp_path, monkeypatch):
     def crash(src, dst):
         raise OSError("disk gone")
 
-    monkeypatch.setattr(io.os, "replace", crash)
+    monkeypatch.setattr(os, "replace", crash)
     with pytest.raises(OSError, match="disk gone"):
         io.write_mot_results(out, [[1, 2, 0, 0, 5, 5]])
     assert out.read_text() == before

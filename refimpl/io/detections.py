@@ -1,0 +1,215 @@
+"""Detections: MOTChallenge det.txt and KITTI PointRCNN files as DetectionSequence, with the
+confidence rule (refimpl.io's package doc)."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .errors import InputFormatError, InputFormatWarning
+from .ground_truth import _kitti_label_num_frames
+from .lines import (MAX_DET_AREA, MIN_DET_SIZE, _check_coordinates, _check_integral, _check_max_frame,
+                    _check_min_frame, _first_bad, _object_type, _read_table, _round_half_up)
+from .seqinfo import _mot_frames_and_boxes, _mot_sequence_name, _resolve_seqinfo
+
+
+KITTI_IMAGE_SIZE = (1242, 375)
+KITTI_FPS = 10.0
+
+_KITTI_DET_TYPE = {"pedestrian": 1, "car": 2, "cyclist": 3}
+
+
+@dataclass(frozen=True)
+class DetectionFrame:
+    """The detections of one frame: xywh boxes, raw scores, 0..100 confidences and types."""
+
+    frame: int
+    boxes: np.ndarray
+    scores: np.ndarray
+    confidences: np.ndarray
+    types: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.types)
+
+
+@dataclass(frozen=True)
+class DetectionSequence:
+    """All frames of a sequence from first to last, empty frames included, in order."""
+
+    name: str
+    frames: tuple[DetectionFrame, ...]
+    first_frame: int
+    image_size: tuple[int, int] | None
+    fps: float | None
+    dropped: tuple[tuple[int, str], ...] = ()
+    """(line, reason) of rows skipped by a documented policy (KITTI zero-area boxes)."""
+
+    @property
+    def num_frames(self) -> int:
+        return len(self.frames)
+
+    @property
+    def num_detections(self) -> int:
+        return sum(len(f) for f in self.frames)
+
+    def frame(self, number: int) -> DetectionFrame:
+        """The frame with this frame number (numbering as in the file)."""
+        i = number - self.first_frame
+        if not 0 <= i < len(self.frames):
+            raise KeyError(number)
+        return self.frames[i]
+
+
+def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, conf: np.ndarray,
+                  types: Sequence[str], first: int, count: int) -> tuple[DetectionFrame, ...]:
+    """One DetectionFrame per frame first..first+count-1, keeping file order within a frame."""
+    order = np.argsort(frames, kind="stable")
+    frames, boxes, scores, conf = frames[order], boxes[order], scores[order], conf[order]
+    types = [types[i] for i in order]
+    numbers = np.arange(first, first + count)
+    starts = np.searchsorted(frames, numbers, side="left")
+    ends = np.searchsorted(frames, numbers, side="right")
+    out = []
+    for n, a, b in zip(numbers, starts, ends):
+        out.append(DetectionFrame(
+            frame=int(n),
+            boxes=boxes[a:b].copy(),
+            scores=scores[a:b].copy(),
+            confidences=conf[a:b].copy(),
+            types=tuple(types[a:b]),
+        ))
+    return tuple(out)
+
+
+SCORE_RULES = ("auto", "probability", "raw")
+
+
+def _mot_confidences(path: Path, linenos: Sequence[int], scores: np.ndarray, rule: str) -> np.ndarray:
+    """The confidence rule of a MOTChallenge detection file (module doc), one rule for every row."""
+    if rule not in SCORE_RULES:
+        raise ValueError(f"scores must be one of {', '.join(SCORE_RULES)}, got {rule!r}")
+    inside = (scores >= 0.0) & (scores <= 1.0)
+    if rule == "auto":
+        share = float(inside.mean())
+        if share == 1.0:
+            rule = "probability"
+        elif share <= 0.5:
+            rule = "raw"
+        else:
+            bad = _first_bad(~inside)
+            raise InputFormatError(
+                f"score {scores[bad]:g} is outside 0..1 although {int(inside.sum())} of {len(scores)} scores "
+                "are probabilities in 0..1: fix the line, or choose the rule (--scores probability|raw)",
+                path, linenos[bad])
+    if rule == "probability":
+        bad = _first_bad(~inside)
+        if bad is not None:
+            raise InputFormatError(f"score {scores[bad]:g} is not a probability in 0..1", path, linenos[bad])
+        return _round_half_up(100.0 * scores)
+    return _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
+
+
+def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray) -> None:
+    """A detection's area must fit the solvers' 32-bit arithmetic (refimpl.ranges): w*h <= MAX_DET_AREA."""
+    bad = _first_bad(np.round(w) * np.round(h) > MAX_DET_AREA)
+    if bad is not None:
+        raise InputFormatError(f"box area w*h = {w[bad]:g}*{h[bad]:g} exceeds {MAX_DET_AREA} px^2 "
+                               "(the solvers compute 100 * area in 32-bit integers)", path, linenos[bad])
+
+
+def read_mot_detections(path: str | os.PathLike, seqinfo=None,
+                        object_type: str = "pedestrian", scores_rule: str = "auto") -> DetectionSequence:
+    """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
+    path = Path(path)
+    otype = _object_type(object_type, path)
+    a, linenos = _read_table(path, ",", 7, 10, "frame,id,x,y,w,h,score,...", range(7),
+                             ("frame", "id", "x", "y", "w", "h", "score"))
+    info = _resolve_seqinfo(seqinfo, path)
+    frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
+    tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
+    if tiny is not None:
+        raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
+                               f"w={boxes[tiny, 2]:g} h={boxes[tiny, 3]:g}", path, linenos[tiny])
+    _check_area(path, linenos, boxes[:, 2], boxes[:, 3])
+    scores = a[:, 6]
+    conf = _mot_confidences(path, linenos, scores, scores_rule)
+    count = int(info["seqLength"]) if info is not None else int(frames.max())
+    return DetectionSequence(
+        name=_mot_sequence_name(path, info),
+        frames=_build_frames(frames, boxes, scores, conf, [otype] * len(frames), 1, count),
+        first_frame=1,
+        image_size=(int(info["imWidth"]), int(info["imHeight"])) if info is not None else None,
+        fps=float(info["frameRate"]) if info is not None else None,
+    )
+
+
+def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames: int | None = None,
+                          on_degenerate: str = "drop") -> DetectionSequence:
+    """PointRCNN detections of one class as a DetectionSequence over frames 0..num_frames-1.
+
+    num_frames defaults to the frame count of ``../../label_02/NNNN.txt`` (relative to the class
+    folder) if present, else max frame + 1.  Zero-width/height boxes: see module doc.
+    """
+    path = Path(path)
+    otype = _object_type(object_class, path)
+    if on_degenerate not in ("drop", "error"):
+        raise ValueError("on_degenerate must be 'drop' or 'error'")
+    a, linenos = _read_table(path, ",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
+                             ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z",
+                              "rot_y", "alpha"))
+    frames = _check_integral(path, linenos, a[:, 0], "frame")
+    types = _check_integral(path, linenos, a[:, 1], "type")
+    _check_min_frame(path, linenos, frames, 0)
+    bad = _first_bad(~np.isin(types, list(_KITTI_DET_TYPE.values())))
+    if bad is not None:
+        raise InputFormatError(
+            f"unknown class type {types[bad]} (1 pedestrian, 2 car, 3 cyclist)", path, linenos[bad])
+    if num_frames is None:
+        label = path.parent.parent.parent / "label_02" / path.name
+        num_frames = _kitti_label_num_frames(label) if label.is_file() else int(frames.max()) + 1
+    elif num_frames < 1:
+        raise ValueError("num_frames must be >= 1")
+    _check_max_frame(path, linenos, frames, num_frames - 1, f"num_frames={num_frames}")
+    _check_coordinates(path, linenos, a[:, 2:6], ("x1", "y1", "x2", "y2"))
+    w = a[:, 4] - a[:, 2]
+    h = a[:, 5] - a[:, 3]
+    neg = _first_bad((w < 0) | (h < 0))
+    if neg is not None:
+        raise InputFormatError(
+            f"box has negative size: x2-x1={w[neg]:g}, y2-y1={h[neg]:g}", path, linenos[neg])
+    keep = types == _KITTI_DET_TYPE[otype]
+    zero = keep & ((w < MIN_DET_SIZE) | (h < MIN_DET_SIZE))  # zero-area, or too thin for a results file
+    dropped: list[tuple[int, str]] = []
+    if zero.any():
+        first = int(np.flatnonzero(zero)[0])
+        if on_degenerate == "error":
+            raise InputFormatError(
+                f"box width and height must be > 0, got w={w[first]:g} h={h[first]:g}" if
+                w[first] == 0 or h[first] == 0 else
+                f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got w={w[first]:g} h={h[first]:g}",
+                path, linenos[first])
+        for i in np.flatnonzero(zero):
+            kind = "zero-area" if w[i] == 0 or h[i] == 0 else f"below {MIN_DET_SIZE:g} px"
+            dropped.append((linenos[i], f"{kind} box w={w[i]:g} h={h[i]:g}"))
+        warnings.warn(
+            f"{path}: dropped {len(dropped)} zero-area (or thinner than {MIN_DET_SIZE:g} px) detection "
+            f"box(es) on line(s) {', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=2)
+        keep &= ~zero
+    _check_area(path, np.asarray(linenos)[keep], w[keep], h[keep])
+    boxes = np.column_stack([a[:, 2], a[:, 3], w, h])[keep]
+    scores = a[keep, 6]
+    conf = _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))  # sigmoid, overflow-free
+    return DetectionSequence(
+        name=path.stem,
+        frames=_build_frames(frames[keep], boxes, scores, conf, [otype] * int(keep.sum()), 0, num_frames),
+        first_frame=0,
+        image_size=KITTI_IMAGE_SIZE,
+        fps=KITTI_FPS,
+        dropped=tuple(dropped),
+    )

@@ -1,0 +1,8 @@
+"""``python -m refimpl.scene anticipation-eval`` (refimpl.scene.scoring.main)."""
+
+import sys
+
+from .scoring import main
+
+
+sys.exit(main())
