@@ -1,0 +1,447 @@
+"""The abduction model as a CP-SAT model and its lexicographic solve (refimpl.solvers.cpsat).
+
+The admissibility of actions (docs/model-spec.md section 1: match_type, assignment_constraints,
+resume_constraints, start_constraints), ``build_model`` (one Boolean per candidate action and
+event, the explanation rules as linear equalities, the five objectives) and
+``solve_lexicographic`` (priority by priority).  The contract is in refimpl/solvers/cpsat.py.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ortools.sat.python import cp_model
+
+from ..events import EVENT_TABLE, EventState, EventType, explaining
+from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
+from ..relations import area
+from ..spec import Detection, FrameProblem, TrackPrediction
+from . import NoAdmissibleHypothesis, SolveTimeout
+from .common import intersection_matrix, tiebreak_weights
+
+_EVENT_AT = PRIORITIES.index(EVENT_LEVEL)
+_TIE_AT = PRIORITIES.index(TIEBREAK_LEVEL)
+
+
+def _cost(action: str, likelihood: int = 0, event: int = 0, tiebreak: int = 0) -> tuple[int, ...]:
+    """An action's cost vector in PRIORITIES order, with its explaining event's cost and tie-break."""
+    out = list(action_cost(action, likelihood))
+    out[_EVENT_AT] += event
+    out[_TIE_AT] += tiebreak
+    return tuple(out)
+
+
+def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
+                     state: EventState) -> Sequence[TrackPrediction]:
+    """The second tracks worth testing poss for a pair event of tracks[i]: every other track, narrowed
+    (as a speed-up only, same answers) by what the precondition needs first: hides_behind needs
+    overlapping_top (the top matrix), unhides_from_behind needs the track not_visible."""
+    if spec.name == "hides_behind":
+        return [tracks[j] for j in np.flatnonzero(top[i]).tolist()]
+    if spec.name == "unhides_from_behind" and not _hidden(state, tracks[i].id):
+        return ()
+    return [t2 for t2 in tracks if t2.id != tracks[i].id]
+
+
+def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
+                  state: EventState, constants: Mapping[str, int],
+                  by_id: Mapping[str, TrackPrediction]) -> list[tuple[EventType, tuple[str, ...]]]:
+    """The possible events explaining ``action`` of tracks[i]: (event type, argument ids), in
+    event-table order, pair events by their candidate order."""
+    t = tracks[i]
+    out: list[tuple[EventType, tuple[str, ...]]] = []
+    for spec in explaining(action):
+        if spec.arity == 1:
+            if spec.poss(state, constants, t, tracks=by_id):
+                out.append((spec, (t.id,)))
+        else:
+            out.extend((spec, (t.id, t2.id)) for t2 in _pair_candidates(spec, i, tracks, top, state)
+                       if spec.poss(state, constants, t, t2, tracks=by_id))
+    return out
+
+
+EXPLANATION = -1
+"""AbductionModel.objectives key of the tie-break's explanation part (solved after the pair part)."""
+
+TIEBREAK_WORD_BITS = 60
+"""CP-SAT's sums are 64-bit: the tie-break's pair part is solved in chunks that keep every sum
+below 2^59 (common.py, solve_lexicographic)."""
+
+
+class CpSatFailure(RuntimeError):
+    """CP-SAT ended without any solution for a reason other than infeasibility (e.g. UNKNOWN at a
+    time limit with no fallback answer, or MODEL_INVALID)."""
+
+
+# ---------------------------------------------------------------------------------------
+# Integrity constraints of the actions (docs/model-spec.md section 1)
+# ---------------------------------------------------------------------------------------
+
+def match_type(problem: FrameProblem, trk_type: str, det_type: str) -> bool:
+    """match_type(TrkType, DetType): equal types or a match_type/2 fact of the problem."""
+    return trk_type == det_type or (trk_type, det_type) in problem.match_types
+
+
+def assignment_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
+                           trk: TrackPrediction, det: Detection) -> bool:
+    """Appendix A assignment_constraints(Trk, Det)."""
+    v = iou.get((trk.id, det.id))
+    return (
+        trk.state == "active"
+        and match_type(problem, trk.type, det.type)
+        and det.conf > constants["conf_thresh_assign"]
+        and v is not None and v > constants["iou_thresh"]
+    )
+
+
+def resume_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
+                       trk: TrackPrediction, det: Detection) -> bool:
+    """Appendix A resume_constraints(Trk, Det) plus refimpl's IoU condition (docs/model-spec.md)."""
+    v = iou.get((trk.id, det.id))
+    return (
+        trk.state == "halted"
+        and match_type(problem, trk.type, det.type)
+        and det.conf > constants["conf_thresh_resume"]
+        and v is not None and v > constants["iou_thresh_resume"]
+    )
+
+
+def start_constraints(constants: Mapping[str, int], det: Detection) -> bool:
+    """Appendix A start_constraints(Det): confidence and size(bigger, Det, size_threshold) as area."""
+    return det.conf > constants["conf_thresh_new_track"] and area(det.box) > constants["size_threshold"]
+
+
+# ---------------------------------------------------------------------------------------
+# Model building
+# ---------------------------------------------------------------------------------------
+
+@dataclass
+class AbductionModel:
+    """A built CP-SAT model with its variables by atom string and its five objectives."""
+
+    model: cp_model.CpModel
+    time: int
+    actions: dict[str, cp_model.IntVar] = field(default_factory=dict)
+    """action atom ('assign(trk_1,det_0)') -> Boolean."""
+    events: dict[str, cp_model.IntVar] = field(default_factory=dict)
+    """event ('hides_behind(trk_13,trk_12)', 'enters_fov(det_3)') -> Boolean."""
+    objectives: dict[int, list[tuple[int, cp_model.IntVar]]] = field(default_factory=dict)
+    """priority -> [(coefficient, Boolean)], minimised.  TIEBREAK_LEVEL holds the tie-break's pair
+    part (coefficients 2^q, Python integers of any size); EXPLANATION its explanation part."""
+    tiebreak_shift: int = 0
+    """E of the tie-break (common.py): level 0 = pair part * 2^E + explanation part."""
+
+    def all_vars(self) -> list[cp_model.IntVar]:
+        return list(self.actions.values()) + list(self.events.values())
+
+
+def _overlapping_top_matrix(tracks: Sequence[TrackPrediction], inter: np.ndarray, hide_overlap: int) -> np.ndarray:
+    """top[i, j] = relations.overlapping_top(tracks[i].box, tracks[j].box, hide_overlap) and i != j,
+    for all pairs at once (exact integer arithmetic on the intersection matrix)."""
+    b = np.asarray([t.box for t in tracks], dtype=np.int64).reshape(-1, 4)
+    bottom = b[:, 1] + b[:, 3]
+    top = (100 * inter > hide_overlap * (b[:, 2] * b[:, 3])[:, None]) & (bottom[None, :] >= bottom[:, None])
+    np.fill_diagonal(top, False)
+    return top
+
+
+def _hidden(state: EventState, trk: str) -> bool:
+    return state.holds_at(("visibility", trk), "not_visible")
+
+
+def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str, int]) -> AbductionModel:
+    """The CP-SAT model of one frame problem (see the module docstring).
+
+    Raises NoAdmissibleHypothesis when some track has no candidate action at all.
+    """
+    model = cp_model.CpModel()
+    am = AbductionModel(model, problem.time, objectives={p: [] for p in PRIORITIES + (EXPLANATION,)})
+    iou = problem.iou_map
+    inter = intersection_matrix([t.box for t in problem.tracks])
+    tb = tiebreak_weights(problem, inter)
+    w = tb.pair  # 2^q per pair; events: tb.event (common.py)
+    am.tiebreak_shift = tb.shift
+    # Only pairs with an iou/3 fact can be assigned or resumed, and hides_behind(T, T2) needs
+    # overlapping_top(T, T2): the loops below skip everything else before calling the rules
+    # (same candidates, same variable order as testing every pair, without n^2 Python calls).
+    paired = {t for t, _, _ in problem.iou}
+    by_id = {t.id: t for t in problem.tracks}
+    top = _overlapping_top_matrix(problem.tracks, inter, constants["hide_overlap"])
+    obj = am.objectives
+    cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
+
+    def action(atom: str, name: str, likelihood: int = 0) -> cp_model.IntVar:
+        v = model.new_bool_var(atom)
+        am.actions[atom] = v
+        for p, c in zip(PRIORITIES, action_cost(name, likelihood)):
+            if c:
+                obj[p].append((c, v))
+        return v
+
+    def event(spec: EventType, args: tuple[str, ...]) -> cp_model.IntVar:
+        v = model.new_bool_var(f"{spec.name}({','.join(args)})")
+        am.events[f"{spec.name}({','.join(args)})"] = v
+        if cost[spec.name]:
+            obj[EVENT_LEVEL].append((cost[spec.name], v))
+        tie = tb.event.get(f"{spec.name}({','.join(args)})", 0)
+        if tie:
+            obj[EXPLANATION].append((tie, v))
+        return v
+
+    per_trk: dict[str, list[cp_model.IntVar]] = {t.id: [] for t in problem.tracks}
+    per_det: dict[str, list[cp_model.IntVar]] = {d.id: [] for d in problem.detections}
+
+    for i, t in enumerate(problem.tracks):
+        if t.state == "active":
+            # assign(T, D): assignment_constraints
+            for d in (problem.detections if t.id in paired else ()):
+                if assignment_constraints(problem, constants, iou, t, d):
+                    a = action(f"assign({t.id},{d.id})", "assign", iou[(t.id, d.id)])
+                    per_trk[t.id].append(a)
+                    per_det[d.id].append(a)
+                    obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
+            # halt(T) <=> exactly one of its possible explanations   (explain_halt)
+            halts = _explanations("halt", i, problem.tracks, top, state, constants, by_id)
+            if halts:
+                h = action(f"halt({t.id})", "halt")
+                per_trk[t.id].append(h)
+                model.add(sum(event(spec, args) for spec, args in halts) == h)
+        else:  # halted
+            # end(T) <=> exactly one of its possible explanations   (explain_end)
+            ends = _explanations("end", i, problem.tracks, top, state, constants, by_id)
+            if ends:
+                en = action(f"end({t.id})", "end")
+                per_trk[t.id].append(en)
+                model.add(sum(event(spec, args) for spec, args in ends) == en)
+            per_trk[t.id].append(action(f"ignore_trk({t.id})", "ignore_trk"))
+            # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
+            resumable = [d for d in (problem.detections if t.id in paired else ())
+                         if resume_constraints(problem, constants, iou, t, d)]
+            expl = _explanations("resume", i, problem.tracks, top, state, constants, by_id) if resumable else []
+            if resumable and expl:
+                res = []
+                for d in resumable:
+                    a = action(f"resume({t.id},{d.id})", "resume", iou[(t.id, d.id)])
+                    res.append(a)
+                    per_trk[t.id].append(a)
+                    per_det[d.id].append(a)
+                    obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
+                model.add(sum(event(spec, args) for spec, args in expl) == sum(res))
+
+    for d in problem.detections:
+        # start(D) <=> exactly one of its possible explanations (enters_fov)   (explain_start)
+        starts = [spec for spec in explaining("start") if spec.poss(state, constants, d.id, tracks=None)]
+        if start_constraints(constants, d) and starts:
+            s = action(f"start({d.id})", "start")
+            per_det[d.id].append(s)
+            model.add(sum(event(spec, (d.id,)) for spec in starts) == s)
+        per_det[d.id].append(action(f"ignore_det({d.id})", "ignore_det"))
+
+    for t in problem.tracks:
+        if not per_trk[t.id]:
+            raise NoAdmissibleHypothesis(
+                f"track {t.id} ({t.state}) has no admissible action at time {problem.time}")
+        model.add_exactly_one(per_trk[t.id])
+    for d in problem.detections:
+        model.add_exactly_one(per_det[d.id])
+    return am
+
+
+# ---------------------------------------------------------------------------------------
+# Solving
+# ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class LexResult:
+    values: dict[str, int]
+    """atom (action or event) -> 0/1 in the final solution."""
+    cost: tuple[tuple[int, int], ...]
+    optimal: bool
+    statuses: tuple[str, ...]
+    """CP-SAT's status name per level; SKIPPED: the level has no terms; NO_TIME: the time limit
+    was used up before the level; BOUND: the solution so far already has the level's lower bound 0 (all coefficients > 0)."""
+
+
+def _solution(solver: cp_model.CpSolver, indices: list[int]) -> dict[int, int]:
+    """var index -> value of the solver's last solution (read from the response in one go)."""
+    values = solver.response_proto.solution
+    return {i: int(values[i]) for i in indices}
+
+
+def _level_value(terms: list[tuple[int, cp_model.IntVar]], values: Mapping[int, int]) -> int:
+    return sum(c * values[v.index] for c, v in terms)
+
+
+def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, int] | None:
+    """A solution found without search, if the obvious one exists: every detection ignored, every
+    halted track ignored, every active track halted (missing_detections, else the first possible
+    hides_behind); None if some active track cannot be halted."""
+    chosen = {f"ignore_det({d.id})" for d in problem.detections}
+    for t in problem.tracks:
+        if f"ignore_trk({t.id})" in am.actions:
+            chosen.add(f"ignore_trk({t.id})")
+            continue
+        if f"halt({t.id})" not in am.actions:
+            return None
+        chosen.add(f"halt({t.id})")
+        expl = [e for e in am.events if e == f"missing_detections({t.id})"]
+        expl += [e for e in am.events if e.startswith(f"hides_behind({t.id},")]
+        chosen.add(expl[0])
+    return {v.index: int(atom in chosen) for atom, v in list(am.actions.items()) + list(am.events.items())}
+
+
+LevelTerms = list[tuple[int, cp_model.IntVar]]
+
+SCALAR_BITS = 62
+"""A group of consecutive levels is minimised as one weighted sum when its range fits in this many bits."""
+
+
+def _range(terms: LevelTerms) -> int:
+    """max - min + 1 of a level's sum over 0/1 variables."""
+    return sum(abs(c) for c, _ in terms) + 1
+
+
+def _pack_levels(levels: list[tuple[int, LevelTerms]]) -> list[list[tuple[int, LevelTerms]]]:
+    """Consecutive levels grouped so that each group's scalarised objective (below) fits in
+    SCALAR_BITS: one CP-SAT solve per group instead of per level."""
+    groups: list[list[tuple[int, LevelTerms]]] = []
+    span = 0
+    for prio, terms in levels:
+        r = _range(terms)
+        if groups and span * r < (1 << SCALAR_BITS):
+            groups[-1].append((prio, terms))
+            span *= r
+        else:
+            groups.append([(prio, terms)])
+            span = r
+    return groups
+
+
+def _scalarised(group: list[tuple[int, LevelTerms]]) -> LevelTerms:
+    """One objective whose order is the group's lexicographic order: level i is weighted by the
+    product of the ranges of the levels after it, which exceeds any difference those can make."""
+    out: LevelTerms = []
+    weight = 1
+    for _, terms in reversed(group):
+        out += [(c * weight, v) for c, v in terms]
+        weight *= _range(terms)
+    return out
+
+
+def _fix_levels(model: cp_model.CpModel, group: list[tuple[int, LevelTerms]], solution: Mapping[int, int]) -> None:
+    """Every level of a group solved to optimality, fixed at its value (as ``<=``, see below)."""
+    for _, terms in group:
+        if terms:
+            model.add(sum(c * v for c, v in terms) <= _level_value(terms, solution))
+
+
+def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: float | None = None,
+                        workers: int = 1, seed: int = 0) -> LexResult:
+    """Minimise the objectives of PRIORITIES one after another (see the module docstring).
+
+    Each level is solved with the previous level's solution as a complete hint.  A level proven
+    OPTIMAL at value V is fixed with ``expr <= V``: since nothing below V is feasible this is the
+    equality ``expr == V`` on every solution, and CP-SAT propagates it far better (an equality
+    over IoU-sized coefficients is a subset-sum constraint: on a 100-track frame the next levels
+    took 1.8 s with ``==`` and 0.09 s with ``<=``).  A level whose coefficients are all positive and whose
+    value in the solution so far is 0 is optimal without a solve (0 is its lower bound).
+
+    With a time limit, the remaining budget is split evenly over the levels still to solve.  A
+    level that ends FEASIBLE, or UNKNOWN (no solution in its share), makes the answer not optimal
+    and is bounded by "no worse than the best solution so far" (an inequality), so lower levels
+    never make a higher one worse.  If the first level finds no solution in time, the obvious
+    hypothesis (everything ignored or halted, see _trivial_solution) stands in when it exists.
+    """
+    model = am.model
+    deadline = None if time_limit is None else time.perf_counter() + max(0.0, time_limit)
+    variables = am.all_vars()
+    indices = [v.index for v in variables]
+    solution: dict[int, int] | None = None  # var index -> value
+    optimal = True
+    statuses: list[str] = []
+
+    # levels 10..1, then the tie-break: its pair part in chunks small enough for 64-bit sums
+    # (powers of two 2^q -> chunk q // width, coefficient 2^(q % width); comparing the chunks
+    # most significant first compares the integers), then its explanation part
+    levels: list[tuple[int, list[tuple[int, cp_model.IntVar]]]] = [
+        (p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
+    pair_terms = am.objectives[TIEBREAK_LEVEL]
+    width = max(1, TIEBREAK_WORD_BITS - 1 - max(len(pair_terms), 1).bit_length())
+    chunked: dict[int, list[tuple[int, cp_model.IntVar]]] = {}
+    for c, v in pair_terms:
+        q = c.bit_length() - 1
+        chunked.setdefault(q // width, []).append((1 << (q % width), v))
+    levels += [(TIEBREAK_LEVEL, chunked[j]) for j in sorted(chunked, reverse=True)]
+    levels.append((TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, [])))
+    groups = _pack_levels(levels)
+
+    for i, group in enumerate(groups):
+        prio = group[0][0]
+        terms = _scalarised(group)
+        expr = sum(c * v for c, v in terms) if terms else 0
+        if not terms and solution is not None:
+            statuses.append("SKIPPED")
+            continue
+        if solution is not None and all(c > 0 for c, _ in terms) and _level_value(terms, solution) == 0:
+            model.add(expr == 0)
+            statuses.append("BOUND")
+            continue
+        solver = cp_model.CpSolver()
+        solver.parameters.num_workers = workers
+        solver.parameters.random_seed = seed
+        solver.parameters.catch_sigint_signal = False  # Ctrl-C interrupts refimpl, not just this level
+        status = None
+        if deadline is not None:
+            share = (deadline - time.perf_counter()) / (len(groups) - i)
+            if share > 0:
+                solver.parameters.max_time_in_seconds = share
+            else:
+                status = cp_model.UNKNOWN  # no time left for this level
+        if status is None:
+            model.clear_objective()
+            if terms:
+                model.minimize(expr)
+            model.clear_hints()
+            if solution is not None:  # the same hints as add_hint per variable, in one go
+                hint = model.proto.solution_hint
+                hint.vars.extend(indices)
+                hint.values.extend(solution[i] for i in indices)
+            status = solver.solve(model)
+            statuses.append(solver.status_name(status))
+        else:
+            statuses.append("NO_TIME")
+
+        if status == cp_model.OPTIMAL:
+            solution = _solution(solver, indices)
+            _fix_levels(model, group, solution)
+        elif status in (cp_model.FEASIBLE, cp_model.UNKNOWN):
+            optimal = False
+            if status == cp_model.FEASIBLE:
+                solution = _solution(solver, indices)
+            elif solution is None:
+                solution = _trivial_solution(am, problem)
+            if solution is not None and terms:
+                model.add(expr <= _level_value(terms, solution))
+        elif status == cp_model.INFEASIBLE:
+            if solution is None:
+                raise NoAdmissibleHypothesis(
+                    f"no hypothesis satisfies the model at time {am.time} (CP-SAT: INFEASIBLE)")
+            raise CpSatFailure(f"level {prio} became INFEASIBLE after a solution was fixed (time {am.time})")
+        else:  # MODEL_INVALID
+            raise CpSatFailure(f"CP-SAT status {solver.status_name(status)} at level {prio} "
+                               f"(time {am.time}): {model.validate()}")
+
+    if solution is None:
+        raise SolveTimeout(f"no answer at t={am.time} within the time limit "
+                           f"({'none' if time_limit is None else f'{time_limit:g} s'})")
+    level0 = (_level_value(pair_terms, solution) << am.tiebreak_shift) + _level_value(
+        am.objectives.get(EXPLANATION, []), solution)
+    cost = tuple((p, level0 if p == TIEBREAK_LEVEL else _level_value(am.objectives[p], solution))
+                 for p in PRIORITIES)
+    values = {atom: solution[v.index] for atom, v in list(am.actions.items()) + list(am.events.items())}
+    return LexResult(values, cost, optimal, tuple(statuses))
+

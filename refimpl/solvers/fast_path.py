@@ -1,0 +1,412 @@
+"""The exact fast path of the CP-SAT backend ``cpsat`` (refimpl.solvers.cpsat): ``solve_fast``.
+
+The model of refimpl.solvers.cpsat_model is a bipartite matching with lexicographic costs; it is
+solved exactly in Python component by component, and answered only when the optimum is unique
+(otherwise FastPathDeclined, and the full CP-SAT model answers).  Also ``TrackwiseState``, the
+per-track memoised event state both paths query.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key
+from ..hypothesis import PRIORITIES
+from ..spec import FrameProblem
+from .common import intersection_matrix, tiebreak_weights
+from .cpsat_model import (_cost, _explanations, _overlapping_top_matrix, assignment_constraints,
+                          resume_constraints, start_constraints)
+
+# ---------------------------------------------------------------------------------------
+# The fast exact path
+# ---------------------------------------------------------------------------------------
+#
+# Why the model of cpsat_model.py is a bipartite matching (docs/benchmarks.md, "The fast exact path"):
+#
+# * Every event variable occurs in exactly one explanation constraint, that of one action (halt(T),
+#   end(T), the resumes of T, start(D)), and whether it is possible depends on the history only,
+#   never on another choice of this frame.  So once the actions are fixed, each chosen action
+#   independently takes its cheapest explanation: an action is an option with a fixed cost vector.
+# * Every action belongs to one track, one detection, or (assign, resume) one track and one
+#   detection, and each of those takes exactly one action.  With the pair actions as edges, an
+#   answer is a matching of tracks to detections; every unmatched track or detection takes its
+#   best "solo" action (halt / end / ignore_trk; start / ignore_det).
+# * All five levels, the tie-break level 0 included, are sums over the chosen variables, so the
+#   cost of an answer is a sum of per-option vectors, and minimising the levels one after another
+#   is minimising that vector sum lexicographically.  Integer vectors are mapped into one Python
+#   integer (base B larger than twice any level's range), which keeps the lexicographic order
+#   exact; then it is a maximum-weight bipartite matching, solved per connected component.
+#
+# The answer is returned only when the optimum is unique: no other matching of equal weight (no
+# zero-weight cycle in the residual graph), no tie between a chosen action's explanations, and
+# none between an unmatched node's solo options.  A unique optimum is the answer of every exact
+# solver, the full CP-SAT model included, so the fast path gives the identical Hypothesis; in
+# every other case (a tie, a track with no solo action, a component larger than max_component)
+# it declines and the full model answers.
+
+FAST_PATH_MAX_COMPONENT = 400
+"""Largest component (tracks + detections) the fast path solves in Python; larger: the full model."""
+
+
+class FastPathDeclined(Exception):
+    """The fast path cannot vouch for the full model's answer; ``reason`` says why."""
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
+@dataclass
+class _Option:
+    """One way for a node (or a pair of nodes) to take its action: the action atom, its explaining
+    event (None when it needs none), its cost vector in PRIORITIES order, and whether another
+    explanation is equally cheap (then the full model may pick either)."""
+
+    action: str
+    event: str | None
+    cost: tuple[int, int, int, int, int]
+    tie: bool = False
+
+
+def _cheapest(explanations: list[tuple[tuple[int, int], str]]) -> tuple[tuple[int, int], str, bool]:
+    """The (level-1, level-0) cheapest explanation, and whether another one costs the same."""
+    best = min(explanations)
+    return best[0], best[1], sum(1 for c, _ in explanations if c == best[0]) > 1
+
+
+def _best_solo(options: list[_Option]) -> _Option:
+    """The cheapest solo option; marked tied when another solo option has the same cost vector."""
+    best = min(options, key=lambda o: o.cost)
+    if sum(1 for o in options if o.cost == best.cost) > 1:
+        return _Option(best.action, best.event, best.cost, True)
+    return best
+
+
+def _max_weight_matching(nl: int, nr: int, edges: list[tuple[int, int, int]]) -> list[int]:
+    """The maximum-weight matching of a bipartite graph (left 0..nl-1, right 0..nr-1, edges
+    (l, r, gain), gains any integers, not every node matched) as mate[l] (-1: unmatched).
+
+    Successive longest augmenting paths (Bellman-Ford over the alternating residual graph): the
+    matching after k augmentations has the greatest weight among matchings of size k, and the
+    weight is concave in k, so it stops at the first augmenting path of negative gain.  Raises
+    FastPathDeclined("tie") when the maximum is not unique (an augmenting path of gain 0, or a
+    zero-weight cycle found by _unique_optimum)."""
+    adj: list[list[tuple[int, int]]] = [[] for _ in range(nl)]
+    gain: dict[tuple[int, int], int] = {}
+    for l, r, g in edges:
+        adj[l].append((r, g))
+        gain[(l, r)] = g
+    mate_l, mate_r = [-1] * nl, [-1] * nr
+    while True:
+        dl: list[int | None] = [0 if m < 0 else None for m in mate_l]
+        dr: list[int | None] = [None] * nr
+        pred: list[int] = [-1] * nr
+        for _ in range(nl + nr + 2):
+            changed = False
+            for l in range(nl):
+                d = dl[l]
+                if d is None:
+                    continue
+                for r, g in adj[l]:
+                    if mate_l[l] != r and (dr[r] is None or d + g > dr[r]):
+                        dr[r], pred[r], changed = d + g, l, True
+            for r in range(nr):
+                l2 = mate_r[r]
+                if l2 >= 0 and dr[r] is not None:
+                    v = dr[r] - gain[(l2, r)]
+                    if dl[l2] is None or v > dl[l2]:
+                        dl[l2], changed = v, True
+            if not changed:
+                break
+        else:
+            raise FastPathDeclined("internal: positive alternating cycle")
+        best = -1
+        for r in range(nr):
+            if mate_r[r] < 0 and dr[r] is not None and (best < 0 or dr[r] > dr[best]):
+                best = r
+        if best < 0 or dr[best] < 0:
+            break
+        if dr[best] == 0:
+            raise FastPathDeclined("tie")
+        r, steps = best, 0
+        while True:  # augment: flip the path back to its free left end
+            l = pred[r]
+            nxt = mate_l[l]
+            mate_l[l], mate_r[r] = r, l
+            steps += 1
+            if nxt < 0:
+                break
+            if steps > nl + nr:
+                raise FastPathDeclined("internal: augmenting path")
+            r = nxt
+    if not _unique_optimum(nl, nr, edges, mate_l, mate_r):
+        raise FastPathDeclined("tie")
+    return mate_l
+
+
+def _unique_optimum(nl: int, nr: int, edges: list[tuple[int, int, int]], mate_l: list[int],
+                    mate_r: list[int]) -> bool:
+    """Whether the matching is the only one of maximum weight.
+
+    Residual graph H on left nodes, right nodes and an end node z, arc costs = weight lost:
+    l -> r adds an unmatched edge (-gain), r -> l removes a matched one (+gain), z -> l for a free l,
+    l -> z for a matched l, z -> r for a matched r, r -> z for a free r.  Every alternating path
+    (through z) or cycle is a cycle of H and the other way round; the matching is of maximum
+    weight iff H has no negative cycle, and the only one iff H also has no zero-cost cycle, i.e.
+    iff the arcs of zero reduced cost under shortest-path potentials form no cycle."""
+    z = nl + nr
+    arcs: list[tuple[int, int, int]] = []
+    for l, r, g in edges:
+        arcs.append((nl + r, l, g) if mate_l[l] == r else (l, nl + r, -g))
+    arcs += [(z, l, 0) if mate_l[l] < 0 else (l, z, 0) for l in range(nl)]
+    arcs += [(nl + r, z, 0) if mate_r[r] < 0 else (z, nl + r, 0) for r in range(nr)]
+    n = z + 1
+    dist = [0] * n
+    for _ in range(n + 1):
+        changed = False
+        for u, v, c in arcs:
+            if dist[u] + c < dist[v]:
+                dist[v], changed = dist[u] + c, True
+        if not changed:
+            break
+    else:
+        raise FastPathDeclined("internal: the matching is not of maximum weight")
+    out: list[list[int]] = [[] for _ in range(n)]
+    indeg = [0] * n
+    for u, v, c in arcs:
+        if dist[u] + c == dist[v]:
+            out[u].append(v)
+            indeg[v] += 1
+    stack = [x for x in range(n) if indeg[x] == 0]
+    seen = 0
+    while stack:
+        x = stack.pop()
+        seen += 1
+        for y in out[x]:
+            indeg[y] -= 1
+            if indeg[y] == 0:
+                stack.append(y)
+    return seen == n
+
+
+class TrackwiseState:
+    """The queries of an EventState (values, holds_at, started_at, halted_at) answered from one
+    EventState per track, each folded from that track's own events only, and memoised.
+
+    Exact because every effect, start and halt time of an event concerns its first argument only
+    (refimpl.events.EFFECTS: each effect's fluent has the event's first argument as its own first
+    argument; recover's "hidden_by(T, X) for every X" too), and the set-valued grouping of one
+    time point is per fluent; folding a track's events in time order (stable, as EventState does)
+    gives that track's fluents exactly.  Per-track states are reused across frames while the
+    track's events are unchanged (``cache``), so a tracker's frame folds only new events;
+    ``used`` holds the entries this frame needed, the cache to pass to the next frame."""
+
+    _EMPTY = EventState()
+
+    def __init__(self, history: Sequence, tracks: Sequence[str],
+                 cache: dict[tuple[str, tuple], EventState] | None = None):
+        groups: dict[str, list] = {}
+        for h in history:
+            args = h.event.args
+            if args:  # events without arguments have no effect (no EFFECTS entry of arity 0)
+                groups.setdefault(str(args[0]), []).append(h)
+        cache = {} if cache is None else cache
+        self.used: dict[tuple[str, tuple], EventState] = {}
+        self._per: dict[str, EventState] = {}
+        for trk in tracks:
+            events = groups.get(trk)
+            if not events:
+                continue
+            key = (trk, tuple(events))
+            st = cache.get(key)
+            if st is None:
+                st = EventState(events, (trk,))
+            self.used[key] = self._per[trk] = st
+        self._memo: dict = {}
+
+    def _state(self, trk: str) -> EventState:
+        return self._per.get(trk, self._EMPTY)
+
+    def values(self, fluent) -> frozenset[str]:
+        key = fluent_key(fluent)
+        return self._state(key[1]).values(key)
+
+    def holds_at(self, fluent, value: str) -> bool:
+        memo_key = (fluent, value) if isinstance(fluent, tuple) else None
+        if memo_key is not None:
+            got = self._memo.get(memo_key)
+            if got is not None:
+                return got
+        got = value in self.values(fluent)
+        if memo_key is not None:
+            self._memo[memo_key] = got
+        return got
+
+    def started_at(self, trk: str) -> int | None:
+        return self._state(trk).started_at(trk)
+
+    def halted_at(self, trk: str) -> int | None:
+        return self._state(trk).halted_at(trk)
+
+
+@dataclass
+class FastAnswer:
+    """What solve_fast found: the answer and how the frame fell apart."""
+
+    actions: list[str]
+    events: list[str]
+    cost: tuple[tuple[int, int], ...]
+    components: int
+    largest: int
+    """Nodes (tracks + detections) of the largest component."""
+
+
+def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str, int],
+               max_component: int = FAST_PATH_MAX_COMPONENT) -> FastAnswer:
+    """The unique lexicographic optimum of the model, without CP-SAT, or FastPathDeclined.
+
+    Candidates are those of build_model (same rules: cpsat_model's constraint functions and the
+    poss functions of refimpl.events), costs those of build_model's objectives."""
+    tracks, dets = problem.tracks, problem.detections
+    iou = problem.iou_map
+    inter = intersection_matrix([t.box for t in tracks])
+    tb = tiebreak_weights(problem, inter)
+    ev = tb.event  # level 0 of an explaining event: its index (common.py)
+    w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
+    cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
+    top = _overlapping_top_matrix(tracks, inter, constants["hide_overlap"])
+    t_index = {t.id: i for i, t in enumerate(tracks)}
+    d_index = {d.id: j for j, d in enumerate(dets)}
+    paired = {tid for tid, _ in iou}
+    by_id = {t.id: t for t in tracks}
+
+    def priced(found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:
+        return [((cost[spec.name], ev.get(f"{spec.name}({','.join(args)})", 0)), f"{spec.name}({','.join(args)})")
+                for spec, args in found]
+
+    # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
+    solo_t: list[_Option] = []
+    resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
+    for i, t in enumerate(tracks):
+        if t.state == "active":
+            expl = priced(_explanations("halt", i, tracks, top, state, constants, by_id))
+            if not expl:
+                raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
+            (c1, c0), event, tie = _cheapest(expl)
+            solo_t.append(_Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie))
+        else:
+            options = [_Option(f"ignore_trk({t.id})", None, _cost("ignore_trk"))]
+            ends = priced(_explanations("end", i, tracks, top, state, constants, by_id))
+            if ends:
+                (c1, c0), event, tie = _cheapest(ends)
+                options.append(_Option(f"end({t.id})", event, _cost("end", event=c1, tiebreak=c0), tie))
+            solo_t.append(_best_solo(options))
+            if t.id not in paired:
+                continue  # no iou/3 pair: no resume, no explanation needed
+            expl = priced(_explanations("resume", i, tracks, top, state, constants, by_id))
+            if expl:
+                resume_expl[i] = _cheapest(expl)
+
+    # -- solo options of the detections ---------------------------------------------------------
+    solo_d: list[_Option] = []
+    for d in dets:
+        options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
+        starts = [((cost[spec.name], ev.get(f"{spec.name}({d.id})", 0)), f"{spec.name}({d.id})")
+                  for spec in explaining("start")
+                  if spec.poss(state, constants, d.id, tracks=None)]
+        if start_constraints(constants, d) and starts:
+            (c1, c0), event, tie = _cheapest(starts)
+            options.append(_Option(f"start({d.id})", event, _cost("start", event=c1, tiebreak=c0), tie))
+        solo_d.append(_best_solo(options))
+
+    # -- pair options (edges): assign for active tracks, resume for halted ones ------------------
+    edges: list[tuple[int, int, _Option]] = []
+    for (tid, did), v in iou.items():
+        i, j = t_index.get(tid), d_index.get(did)
+        if i is None or j is None:
+            continue
+        t, d = tracks[i], dets[j]
+        if t.state == "active":
+            if assignment_constraints(problem, constants, iou, t, d):
+                edges.append((i, j, _Option(f"assign({tid},{did})", None,
+                                            _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))))
+        elif i in resume_expl and resume_constraints(problem, constants, iou, t, d):
+            (c1, c0), event, tie = resume_expl[i]
+            edges.append((i, j, _Option(f"resume({tid},{did})", event,
+                                        _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0),
+                                        tie)))
+
+    # -- one integer per cost vector, in the lexicographic order ---------------------------------
+    bound = sum(abs(c) for o in solo_t + solo_d for c in o.cost) + sum(abs(c) for _, _, o in edges for c in o.cost)
+    base = 2 * bound + 1
+
+    def scalar(v: tuple[int, ...]) -> int:
+        s = 0
+        for c in v:
+            s = s * base + c
+        return s
+
+    # -- components (union-find over the edges) and their matchings ------------------------------
+    nt = len(tracks)
+    parent = list(range(nt + len(dets)))
+
+    def find(x: int) -> int:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for i, j, _ in edges:
+        a, b = find(i), find(nt + j)
+        if a != b:
+            parent[a] = b
+    comp_edges: dict[int, list[tuple[int, int, _Option]]] = {}
+    for e in edges:
+        comp_edges.setdefault(find(e[0]), []).append(e)
+    sizes: dict[int, int] = {}
+    for x in range(len(parent)):
+        root = find(x)
+        sizes[root] = sizes.get(root, 0) + 1
+    chosen: list[_Option] = []
+    matched_t: set[int] = set()
+    matched_d: set[int] = set()
+    for root, ces in comp_edges.items():
+        if sizes[root] > max_component:
+            raise FastPathDeclined("component too large")
+        if len(ces) == 1:  # one track, one detection, one pair option: closed form
+            i, j, o = ces[0]
+            g = scalar(solo_t[i].cost) + scalar(solo_d[j].cost) - scalar(o.cost)
+            if g == 0:
+                raise FastPathDeclined("tie")
+            if g > 0:
+                chosen.append(o)
+                matched_t.add(i)
+                matched_d.add(j)
+            continue
+        ls = sorted({i for i, _, _ in ces})
+        rs = sorted({j for _, j, _ in ces})
+        lpos = {i: a for a, i in enumerate(ls)}
+        rpos = {j: b for b, j in enumerate(rs)}
+        by_pair = {(lpos[i], rpos[j]): o for i, j, o in ces}
+        mate = _max_weight_matching(len(ls), len(rs), [
+            (lpos[i], rpos[j], scalar(solo_t[i].cost) + scalar(solo_d[j].cost) - scalar(o.cost))
+            for i, j, o in ces])
+        for a, b in enumerate(mate):
+            if b >= 0:
+                chosen.append(by_pair[(a, b)])
+                matched_t.add(ls[a])
+                matched_d.add(rs[b])
+    chosen += [o for i, o in enumerate(solo_t) if i not in matched_t]
+    chosen += [o for j, o in enumerate(solo_d) if j not in matched_d]
+    if any(o.tie for o in chosen):
+        raise FastPathDeclined("tie")
+    t = problem.time
+    total = [sum(o.cost[p] for o in chosen) for p in range(len(PRIORITIES))]
+    return FastAnswer(
+        actions=[o.action for o in chosen],
+        events=[f"occurs_at({o.event},{t})" for o in chosen if o.event is not None],
+        cost=tuple(zip(PRIORITIES, total)),
+        components=len(sizes),
+        largest=max(sizes.values(), default=0),
+    )
