@@ -1,0 +1,149 @@
+"""The `refimpl` command: argument parsing, exit codes and one-line errors; no logic of its own.
+
+This package holds the entry points (``main``, ``run``) and the error handling; ``parser`` builds
+the argument parser, ``common`` holds what the commands share (exit codes, ``UserError``), and one
+module per command group holds the commands: ``solving`` (solve, diff), ``tracking`` (track,
+eval), ``benchmarks`` (benchmark, calibrate, table6, sweep, bench-scale, detectors,
+occlusion-suite, bench-occlusion), ``scenes`` (query, explain, plot) and ``demo``.  Every name
+that refimpl/cli.py had is importable from here."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import warnings
+from typing import Sequence
+
+from ..progress import Progress  # noqa: F401  (re-exported, as refimpl/cli.py had it)
+from ..solvers import BACKENDS  # noqa: F401
+from .benchmarks import (  # noqa: F401  (re-exported: every command stays importable from refimpl.cli)
+    _benchmark_peers,
+    cmd_bench_occlusion,
+    cmd_bench_scale,
+    cmd_benchmark,
+    cmd_calibrate,
+    cmd_detectors,
+    cmd_occlusion_suite,
+    cmd_sweep,
+    cmd_table6,
+)
+from .common import (  # noqa: F401  (the public names of refimpl.cli)
+    BENCHMARKS,
+    CLASSES,
+    EXIT_FAILURE,
+    EXIT_OK,
+    EXIT_USAGE,
+    TRACKERS,
+    CheckFailed,
+    UserError,
+    _abduction_constants,
+    _load_sequence,
+    _parse_const,
+    _parse_img_size,
+    _plan,
+    _time_limit,
+)
+from .demo import _run_tracker, cmd_demo  # noqa: F401
+from .parser import _add_scaleout, _class_name, _parse_grid, build_parser  # noqa: F401
+from .scenes import cmd_explain, cmd_plot, cmd_query  # noqa: F401
+from .solving import cmd_diff, cmd_solve  # noqa: F401
+from .tracking import (  # noqa: F401
+    _prefix,
+    _track_abduction,
+    _track_constants,
+    _track_inputs,
+    _track_outputs,
+    _track_streaming,
+    cmd_eval,
+    cmd_track,
+)
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    from ..calibrate import CalibrationRefused
+    from ..io import InputFormatError
+    from ..peers import PeersUnavailable
+    from ..solvers import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout
+    from ..spec import ProblemFormatError
+    from ..scene import SceneError
+    from ..scaleout import ClusterError
+    from ..outputs import OutputError
+    from ..benchmarks import BenchmarkFileError
+    return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable,
+            NoAdmissibleHypothesis, SceneError, ClusterError, PeersUnavailable, CalibrationRefused, SolveTimeout)
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"refimpl: warning: {message}", file=sys.stderr)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The command line; Ctrl-C (SIGINT) anywhere ends it with exit code 130 and one line, after the
+    outputs' temporary files are removed (refimpl.outputs), so no partial output is left."""
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        _recheck_choices(parser, args)
+        with warnings.catch_warnings():  # one-line warnings for this command only, restored after it
+            warnings.showwarning = _one_line_warning
+            return _run(args)
+    except KeyboardInterrupt:
+        print("refimpl: interrupted", file=sys.stderr)
+        return 130
+
+
+def _recheck_choices(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """argparse drops a value '--' (``--backend=--`` gives [], and neither the option's type nor its
+    choices are applied to it): check every option again, so a command never sees such a value."""
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    sub = subparsers.choices[args.command]
+    for action in sub._actions:
+        if not hasattr(args, action.dest):
+            continue
+        value = getattr(args, action.dest)
+        name = "/".join(action.option_strings) or action.dest
+        if isinstance(action, argparse._AppendAction):
+            if any(isinstance(v, list) for v in value or ()):
+                sub.error(f"argument {name}: expected a value, got '--'")
+            continue
+        if action.nargs is None and isinstance(value, list):
+            sub.error(f"argument {name}: expected one value, got '--'")
+        if action.choices is None or value is action.default:
+            continue
+        values = value if isinstance(value, list) else [value]
+        if not values or any(v not in action.choices for v in values):
+            sub.error(f"argument {name}: invalid choice: {value!r} (choose from {', '.join(map(str, action.choices))})")
+
+
+def run() -> None:
+    """The process entry point (``refimpl`` and ``python -m refimpl``): main, then exit.  After an
+    interrupt the process ends at once (os._exit, outputs already cleaned up, streams flushed)
+    rather than spending half a second tearing down numpy, scipy and the solvers' modules."""
+    code = main()
+    if code == 130:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+    sys.exit(code)
+
+
+def _run(args: argparse.Namespace) -> int:
+    try:
+        return args.func(args)
+    except _user_errors() as exc:
+        print(f"refimpl {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except BrokenPipeError:
+        sys.stderr.close()  # the reader went away (e.g. `| head`): not an error of ours
+        return EXIT_OK
+    except OSError as exc:
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        print(f"refimpl {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except CheckFailed as exc:
+        print(f"refimpl {args.command}: check failed: {exc}", file=sys.stderr)
+        return EXIT_FAILURE

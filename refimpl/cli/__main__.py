@@ -1,0 +1,5 @@
+"""`python -m refimpl.cli` runs the command line, as `python -m refimpl` does."""
+
+from . import run
+
+run()

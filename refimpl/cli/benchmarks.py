@@ -1,0 +1,250 @@
+"""The measuring commands: `benchmark`, `calibrate`, `table6`, `sweep`, `bench-scale`, `detectors`,
+`occlusion-suite` and `bench-occlusion`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from ..progress import Progress
+from ..solvers import BACKENDS
+from .common import EXIT_OK, UserError, _abduction_constants, _plan
+
+
+def cmd_benchmark(args: argparse.Namespace) -> int:
+    from ..evaluate import format_table
+    from ..table6 import TITLES, dataset_kind, load_dataset
+    from ..tasks import RunRequest, run_requests
+    from ..outputs import check_outputs
+    check_outputs({"--json": args.json, "--out": args.out})
+    if args.peers is not None:
+        return _benchmark_peers(args)
+    if args.out:
+        raise UserError("--out writes the peer comparison: give --peers too")
+    if args.backend == "baseline" and args.const:
+        raise UserError(f"--const needs an abduction backend ({', '.join(BACKENDS)})")
+    plan = _plan(args)
+    requests = []
+    for name in args.names:
+        constants = () if args.backend == "baseline" else \
+            tuple(_abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset).items())
+        requests.append(RunRequest(name, load_dataset(name, args.data), args.backend, constants))
+    runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
+    report = {}
+    for name, run in zip(args.names, runs):
+        print(f"## {TITLES[name]} — {args.backend}\n")
+        print(format_table(run.per_sequence, run.overall))
+        print()
+        report[name] = {"per_sequence": run.per_sequence, "overall": run.overall, "events": run.events}
+    if args.json:
+        from ..io import write_text_atomic
+        write_text_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
+                                                default=float))
+    return EXIT_OK
+
+
+def _benchmark_peers(args: argparse.Namespace) -> int:
+    """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
+    from ..benchmarks import format_command, machine_note, write_section
+    from ..peers import PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table
+    from ..table6 import dataset_kind, load_dataset
+    peers = [p.strip() for p in args.peers.split(",") if p.strip()]
+    unknown = [p for p in peers if p not in PEERS]
+    if unknown:
+        raise UserError(f"--peers takes a comma-separated list out of {','.join(PEERS)}, got {args.peers!r}")
+    backend = "cpsat" if args.backend == "baseline" else args.backend
+    comparisons, report = [], {}
+    for name in args.names:
+        dataset = load_dataset(name, args.data)
+        constants = _abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset)
+        progress = Progress(len(dataset) * (2 + bool(constants) + len(peers)), f"{name}/peers",
+                            enabled=not args.quiet)
+        c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step)
+        comparisons.append(c)
+        print(f"## {c.title}\n")
+        print(comparison_table(c))
+        report[name] = {s.label: {"overall": s.overall, "per_sequence": s.per_sequence, "frames": s.frames,
+                                  "seconds": s.seconds, "parameters": s.parameters} for s in c.scores}
+        report[name]["constants"] = c.constants
+    if args.out:
+        write_section(args.out, PEERS_BEGIN, PEERS_END,
+                      comparison_report(comparisons, format_command(sys.argv[1:]), machine_note()))
+        print(f"written: {args.out}")
+    if args.json:
+        from ..io import write_text_atomic
+        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "benchmarks": report},
+                                                indent=2, default=float))
+    return EXIT_OK
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
+    from ..benchmarks import format_command, write_section
+    from ..calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
+                            chosen_preset, parse_grid)
+    try:
+        grid = parse_grid(args.grid)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    plan = _plan(args)
+    for name in args.benchmark:
+        check_tunable(name, args.data)  # refuse before hours of tracking, not after
+    command = format_command(sys.argv[1:])
+    for name in args.benchmark:
+        cal = calibrate(name, args.data, grid, args.backend, plan, args.quiet,
+                        loso=True if args.loso else None)
+        text = calibration_report(cal, command, args.top)
+        print(text)
+        if args.out:
+            write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
+            print(f"written: {args.out}")
+        if args.write_presets:
+            from ..presets import write_preset
+            print(f"preset {cal.format}/{cal.object_class} written: {write_preset(chosen_preset(cal))}")
+    return EXIT_OK
+
+
+def cmd_table6(args: argparse.Namespace) -> int:
+    from ..table6 import DATASETS, TABLE6_DATASETS, BenchmarkRun, format_table6, load_dataset
+    from ..tasks import RunRequest, run_requests
+    datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
+    from ..outputs import check_outputs
+    check_outputs({"--out": args.out})
+    unknown = [d for d in datasets if d not in DATASETS]
+    if unknown or not all(datasets):
+        raise UserError(f"--datasets takes a comma-separated list out of {','.join(DATASETS)}, "
+                        f"got {','.join(unknown)!r}")
+    plan = _plan(args)
+    requests = []
+    for name in datasets:
+        dataset = load_dataset(name, args.data)
+        requests += [RunRequest(name, dataset, "baseline"), RunRequest(name, dataset, args.backend)]
+    summaries = run_requests(requests, plan, label="table6", quiet=args.quiet)
+    runs = [BenchmarkRun(r.dataset, r.tracker, s.per_sequence, s.overall, s.events, s.frames, s.seconds)
+            for r, s in zip(requests, summaries)]
+    text = format_table6([tuple(runs[i:i + 2]) for i in range(0, len(runs), 2)])
+    print(text)
+    if args.out:
+        from ..io import write_text_atomic
+        write_text_atomic(args.out, text + "\n")
+    return EXIT_OK
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from ..io import InputFormatError
+    from ..outputs import check_outputs
+    from ..sweep import format_sweep, plan_sweep, run_sweep, sweep_json
+    check_outputs({"--json": args.json})
+    plan = _plan(args)
+    try:
+        sweep = plan_sweep(args.benchmark, args.data, args.backend, args.grid, split=args.split)
+    except InputFormatError:
+        raise
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    result = run_sweep(sweep, plan, quiet=args.quiet)
+    print(format_sweep(result), end="")
+    if args.json:
+        from ..io import write_text_atomic
+        write_text_atomic(args.json, json.dumps(sweep_json(result), indent=2, default=float) + "\n")
+    return EXIT_OK
+
+
+def cmd_bench_scale(args: argparse.Namespace) -> int:
+    from .. import benchmarks as bm
+    try:
+        sizes = bm.parse_list(args.sizes, int)
+        overlaps = bm.parse_list(args.overlaps, float)
+    except ValueError as exc:
+        raise UserError(f"--sizes takes integers and --overlaps numbers, comma-separated ({exc})") from None
+    backends = bm.parse_list(args.backends, str)
+    trackers = bm.parse_list(args.trackers, str)
+    for name, given, known in (("--backends", backends, bm.SCALE_BACKENDS),
+                               ("--trackers", trackers, bm.THROUGHPUT_TRACKERS)):
+        unknown = [b for b in given if b not in known]
+        if unknown or not given:
+            raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
+    if args.seeds < 1 or args.time_limit <= 0 or not sizes or not overlaps:
+        raise UserError("--seeds must be >= 1, --time-limit > 0, --sizes and --overlaps not empty")
+    from ..outputs import check_outputs
+    out = None if args.out == "-" else args.out
+    default_plot = str(Path(out).with_name("scalability.png")) if out and not args.throughput else None
+    check_outputs({"--out": out, "--plot": args.plot or default_plot, "--json": args.json},
+                  {"--from-json": args.from_json})
+    progress = lambda total, label: Progress(total, label, enabled=not args.quiet)  # noqa: E731
+    print(bm.run_bench_scale(
+        sizes=sizes, overlaps=overlaps, seeds=args.seeds, backends=backends, time_limit=args.time_limit,
+        out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
+        from_json=args.from_json, throughput=args.throughput, trackers=trackers, data=args.data,
+        command=bm.format_command(sys.argv[1:]), progress=progress))
+    return EXIT_OK
+
+
+def cmd_detectors(args: argparse.Namespace) -> int:
+    from .. import benchmarks as bm
+    from .. import detector_sweep as sw
+    from .. import detectors as dt
+    from ..solvers import BACKENDS
+    if args.backend not in BACKENDS:
+        raise UserError(f"--backend takes one of {', '.join(BACKENDS)}, got {args.backend!r}")
+    try:
+        p_max, fp, noise = (bm.parse_list(v, float) for v in (args.p_max, args.fp_per_frame, args.noise))
+    except ValueError as exc:
+        raise UserError(f"--p-max, --fp-per-frame and --noise take comma-separated numbers ({exc})") from None
+    benches = bm.parse_list(args.benchmarks, str)
+    datasets = bm.parse_list(args.sweep_datasets, str)
+    sequences = bm.parse_list(args.sequences, str) if args.sequences else None
+    for name, given, known in (("--benchmarks", benches, tuple(dt.REAL_DETECTORS)),
+                               ("--sweep-datasets", datasets, sw.SWEEP_DATASETS)):
+        unknown = [b for b in given if b not in known]
+        if unknown or not given:
+            raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
+    if sequences and len(datasets if args.sweep else benches) != 1:
+        raise UserError("--sequences needs exactly one benchmark (or one --sweep-datasets entry)")
+    if args.max_frames is not None and args.max_frames < 1:
+        raise UserError("--max-frames must be >= 1")
+    if args.sweep and not (p_max and fp and noise):
+        raise UserError("--p-max, --fp-per-frame and --noise must not be empty")
+    progress = None if args.quiet else (lambda total, label: Progress(total, label))
+    try:
+        print(dt.run_detectors(
+            data=args.data, backend=args.backend, do_sweep=args.sweep, benchmarks=benches, sequences=sequences,
+            max_frames=args.max_frames, sweep_datasets=datasets, p_max=p_max, fp_per_frame=fp, noise=noise,
+            seed=args.seed, out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
+            command=bm.format_command(sys.argv[1:]), with_ungated=args.ungated, progress=progress))
+    except ValueError as exc:  # an unknown sequence name, a parameter out of range
+        raise UserError(str(exc)) from None
+    return EXIT_OK
+
+
+def cmd_occlusion_suite(args: argparse.Namespace) -> int:
+    from ..occlusion import SCENARIOS, write_suite
+    out = Path(args.out)
+    taken = [s.name for s in SCENARIOS if (out / s.name).exists() and any((out / s.name).iterdir())]
+    if taken and not args.force:
+        raise UserError(f"{out / taken[0]} exists and is not empty (pass --force to overwrite the suite there)")
+    for path in write_suite(out, args.seed):
+        print(path)
+    return EXIT_OK
+
+
+def cmd_bench_occlusion(args: argparse.Namespace) -> int:
+    from ..benchmarks import write_section
+    from ..occlusion_bench import format_results, parse_variant, run_suite
+    from ..occlusion import SCENARIOS
+    variants = [v.strip() for v in args.trackers.split(",") if v.strip()]
+    for v in variants:
+        try:
+            parse_variant(v)
+        except ValueError as exc:
+            raise UserError(f"--trackers: {exc}") from None
+    progress = Progress(len(SCENARIOS), "occlusion suite", enabled=not args.quiet)
+    text = format_results(run_suite(variants, args.seed, progress.step))
+    command = f"refimpl bench-occlusion --trackers {','.join(variants)} --seed {args.seed}"
+    body = f"Command: `{command}`\n\n{text}"
+    print(text)
+    if args.out != "-":
+        write_section(args.out, "<!-- bench-occlusion:begin -->", "<!-- bench-occlusion:end -->", body)
+    return EXIT_OK

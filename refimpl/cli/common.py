@@ -1,0 +1,83 @@
+"""What every command group of the `refimpl` command shares: exit codes, the name lists, the
+one-line user error, and the argument types and helpers used by more than one command."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from ..solvers import BACKENDS  # the registry: every abduction backend
+from ..table6 import DATASETS as BENCHMARKS  # noqa: F401  (refimpl.io's benchmarks + simulated ones)
+
+EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
+TRACKERS = ("baseline",) + BACKENDS
+CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
+
+
+class UserError(Exception):
+    """A mistake in the command line or its inputs: reported in one line, exit code 2."""
+
+
+def _parse_const(text: str) -> tuple[str, int]:
+    name, sep, value = text.partition("=")
+    try:
+        if not sep or not name.strip():
+            raise ValueError
+        return name.strip(), int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NAME=INTEGER, got {text!r}") from None
+
+
+def _time_limit(text: str) -> float:
+    """--time-limit: a positive finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive finite number of seconds, got {text!r}")
+    return value
+
+
+def _parse_img_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.split(","))
+        if w <= 0 or h <= 0:
+            raise ValueError
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected W,H (two positive integers, pixels), got {text!r}") from None
+    return w, h
+
+
+def _load_sequence(args: argparse.Namespace, path: str | None = None):
+    from .. import io
+    path = args.dets if path is None else path
+    if args.format == "mot":
+        return io.read_mot_detections(path, scores_rule=getattr(args, "scores", "auto"))
+    if args.cls is None:
+        raise UserError("--format kitti needs --class Car|Pedestrian|Cyclist")
+    return io.read_kitti_detections(path, args.cls)
+
+
+def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> dict[str, int]:
+    """The preset of (format, class) unless --no-preset, then --const overrides (refimpl.presets)."""
+    from ..presets import constants_for
+    overrides = dict(consts or [])
+    try:
+        return constants_for(fmt, cls or "pedestrian", overrides, use_preset=not no_preset)
+    except ValueError as exc:
+        raise UserError(f"--const: {exc}") from None
+
+
+def _plan(args: argparse.Namespace):
+    """Where the tasks of a many-sequence command run (refimpl.scaleout)."""
+    from ..scaleout import Plan
+    if args.workers is not None and args.workers < 1:
+        raise UserError(f"--workers must be >= 1, got {args.workers}")
+    if args.workers is not None and args.scheduler is not None:
+        raise UserError("give --workers N (a local cluster) or --scheduler ADDRESS (an existing one), not both")
+    return Plan(workers=args.workers or 1, scheduler=args.scheduler)
+
+
+class CheckFailed(Exception):
+    """The independent checker found answers that break the model (a backend bug): exit 1."""

@@ -1,0 +1,280 @@
+"""The argument parser of the `refimpl` command: every subcommand, its options and help."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..solvers import BACKENDS
+from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
+                         cmd_occlusion_suite, cmd_sweep, cmd_table6)
+from .common import BENCHMARKS, CLASSES, TRACKERS, _parse_const, _parse_img_size, _time_limit
+from .demo import cmd_demo
+from .scenes import cmd_explain, cmd_plot, cmd_query
+from .solving import cmd_diff, cmd_solve
+from .tracking import cmd_eval, cmd_track
+
+
+def _class_name(text: str) -> str:
+    key = text.lower()
+    if key not in CLASSES:
+        raise argparse.ArgumentTypeError(f"unknown class {text!r} (choose Car, Pedestrian or Cyclist)")
+    return CLASSES[key]
+
+
+def _add_scaleout(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="run the sequences as tasks on a local Dask cluster of N processes (docs/scale-out.md)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run the tasks on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+
+
+def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
+    name, sep, values = text.partition("=")
+    try:
+        if not sep or not name.strip():
+            raise ValueError
+        parsed = tuple(int(v) for v in values.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NAME=INTEGER,INTEGER,..., got {text!r}") from None
+    if len(set(parsed)) != len(parsed):
+        raise argparse.ArgumentTypeError(f"a value is given twice in {text!r}")
+    return name.strip(), parsed
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from ..io import RESULT_FORMATS
+    p = argparse.ArgumentParser(
+        prog="refimpl",
+        description="Online visual abduction for multi-object tracking: the paper's ASP model "
+                    "and an equivalent CP-SAT model.")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    s = sub.add_parser("solve", help="abduce the best hypothesis for one frame problem (fact file)")
+    s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
+    s.add_argument("--backend", choices=BACKENDS, default="cpsat")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
+    s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant (repeatable)")
+    s.add_argument("--check", action="store_true",
+                   help="verify the answer with the independent checker; exit 1 on any violation")
+    s.set_defaults(func=cmd_solve)
+
+    t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
+    t.add_argument("--dets", required=True, nargs="+", metavar="PATH",
+                   help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir)")
+    t.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
+    t.add_argument("--backend", choices=TRACKERS, default="baseline")
+    t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti; "
+                                 "- for standard output)")
+    t.add_argument("--scores", choices=("auto", "probability", "raw"), default="auto",
+                   help="MOTChallenge detection scores: probabilities in 0..1 or raw detector scores "
+                        "(default auto: decided by the file, see refimpl/io/detections.py)")
+    t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
+                   "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
+    t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
+                   help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
+                        "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
+    t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant (repeatable; as solve --const; abduction backends; on top "
+                        "of the preset of --format/--class)")
+    t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
+                   help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
+                        "1242,375 for KITTI, unknown otherwise)")
+    t.add_argument("--events", help="write the abduced event log in the paper's syntax")
+    t.add_argument("--events-json", help="write the event log as JSON lines")
+    t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
+                   help="per-frame solver limit; the best answer found in time is used and counted")
+    t.add_argument("--check", action="store_true",
+                   help="verify every frame's answer with the independent checker; exit 1 on any violation")
+    t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
+                   "for query / explain / plot (cpsat or clingo backend)")
+    t.add_argument("--no-preset", action="store_true",
+                   help="run with model/constants.lp's defaults instead of the calibrated preset (model/presets.json)")
+    _add_scaleout(t)
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.set_defaults(func=cmd_track)
+
+    e = sub.add_parser("eval", help="HOTA, CLEAR MOT and IDF1 of a results file, or of a folder of them "
+                                     "(one <SEQ>.txt per sequence), against ground truth")
+    e.add_argument("results", help="results file, or folder of <SEQ>.txt results files (MOTChallenge lines; "
+                                   "for --format kitti also the KITTI tracking format)")
+    e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
+                   "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
+    e.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
+    e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
+                                  "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
+    e.set_defaults(func=cmd_eval)
+
+    b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
+    b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
+                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate)")
+    b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    b.add_argument("--backend", choices=TRACKERS, default="baseline")
+    b.add_argument("--json", help="also write the metrics as JSON")
+    b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument("--peers", metavar="LIST",
+                   help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
+                        "baseline, abduction (--backend, cpsat if baseline) and every peer in one table per dataset")
+    b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
+    b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
+    b.add_argument("--no-preset", action="store_true",
+                   help="abduction with model/constants.lp's defaults instead of the calibrated preset")
+    _add_scaleout(b)
+    b.set_defaults(func=cmd_benchmark)
+
+    cb = sub.add_parser("calibrate", help="grid-search the model's thresholds on a benchmark (its training split) "
+                                          "and print the ranked table; the best point is the preset")
+    cb.add_argument("--benchmark", required=True, nargs="+", choices=BENCHMARKS, metavar="NAME",
+                    help="one or more benchmarks to tune on, each giving the preset of its format/class: "
+                         "kitti-car-train, kitti-ped-train, mot15 (leave-one-sequence-out)")
+    cb.add_argument("--grid", action="append", metavar="NAME=V1,V2,...",
+                    help="replace (or add) one dimension of the search space (repeatable)")
+    cb.add_argument("--backend", choices=[t for t in TRACKERS if t != "baseline"], default="cpsat")
+    cb.add_argument("--loso", action="store_true", help="also leave-one-sequence-out (default for MOT benchmarks)")
+    cb.add_argument("--top", type=int, default=None, help="print only the best N points")
+    cb.add_argument("--write-presets", action="store_true", help="store the best point as the preset (model/presets.json)")
+    cb.add_argument("--out", help="write the report into this markdown file (between marker comments)")
+    cb.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    cb.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(cb)
+    cb.set_defaults(func=cmd_calibrate)
+
+    t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
+    t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    t6.add_argument("--backend", choices=BACKENDS, default="cpsat")
+    t6.add_argument("--datasets", help="comma-separated subset of mot15,kitti-car,kitti-ped,mot17-sim,mot20-01-sim")
+    t6.add_argument("--out", help="also write the markdown table to this file")
+    t6.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(t6)
+    t6.set_defaults(func=cmd_table6)
+
+    x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
+                                     "exit 1 on any cost disagreement")
+    x.add_argument("--dets", nargs="+", metavar="PATH", help="detections of one or more sequences")
+    x.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
+    x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
+    x.add_argument("--data", default="../shared/data", help="benchmark data root (with --benchmark)")
+    x.add_argument("--backends", default="cpsat-full,clingo",
+                   help=f"FIRST,SECOND[,THIRD] out of {','.join(BACKENDS)}: track with the first, re-solve every "
+                        "frame with the others (default cpsat-full,clingo)")
+    x.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
+                   help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
+                        "is reported as such")
+    x.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(x)
+    x.set_defaults(func=cmd_diff)
+
+    sw = sub.add_parser("sweep", help="track and score a benchmark for every combination of model constants "
+                                      "(one task per setting and sequence); one table")
+    sw.add_argument("--benchmark", required=True, choices=BENCHMARKS, metavar="NAME",
+                    help=f"one of {', '.join(BENCHMARKS)}")
+    sw.add_argument("--grid", required=True, action="append", type=_parse_grid, metavar="NAME=V1,V2,...",
+                    help="a model constant and its integer values (repeatable; the settings are all combinations)")
+    sw.add_argument("--split", choices=("all", "tune", "val"), default="all",
+                    help="KITTI: tune = the 10 training sequences outside evaluate_tracking.seqmap.val, "
+                         "val = the 11 in it (default all)")
+    sw.add_argument("--backend", choices=BACKENDS, default="cpsat")
+    sw.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    sw.add_argument("--json", help="also write every setting's overall scores as JSON")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_scaleout(sw)
+    sw.set_defaults(func=cmd_sweep)
+
+    d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
+    d.add_argument("--backends", default="baseline,cpsat",
+                   help="comma-separated trackers to run: baseline, cpsat, clingo (default baseline,cpsat)")
+    d.set_defaults(func=cmd_demo)
+
+    sc = sub.add_parser("bench-scale", help="time the backends on synthetic frames (or, with --throughput, "
+                                             "the tracking loop on MOT15 and KITTI Car); writes docs/benchmarks.md")
+    sc.add_argument("--sizes", default="5,10,20,50,100,200", help="tracks per frame (default 5,10,20,50,100,200)")
+    sc.add_argument("--overlaps", default="0.2,0.5,0.8", help="overlap shares (default 0.2,0.5,0.8)")
+    sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
+    sc.add_argument("--backends", default=",".join(BACKENDS),
+                    help=f"solvers to time (default {','.join(BACKENDS)}; cpsat-full = CP-SAT without the fast path)")
+    sc.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
+                    help="per-frame time limit of every backend (default 20)")
+    sc.add_argument("--out", default="docs/benchmarks.md",
+                    help="markdown file whose generated section is replaced (default docs/benchmarks.md; - for none)")
+    sc.add_argument("--plot", help="PNG plot of a scalability run (default scalability.png beside --out)")
+    sc.add_argument("--json", help="also save the raw per-frame (per-sequence) results as JSON")
+    sc.add_argument("--from-json", metavar="PATH", help="redraw tables and plot from saved JSON, solving nothing")
+    sc.add_argument("--throughput", action="store_true",
+                    help="instead: frames/s of the tracking loop per tracker on MOT15 and KITTI Car")
+    sc.add_argument("--trackers", default="baseline,cpsat,clingo",
+                    help="trackers for --throughput (default baseline,cpsat,clingo; also cpsat-full)")
+    sc.add_argument("--data", default="../shared/data", help="benchmark data root for --throughput")
+    sc.add_argument("--quiet", action="store_true", help="no progress bar")
+    sc.set_defaults(func=cmd_bench_scale)
+
+    dt = sub.add_parser("detectors", help="which detector, and how much abduction helps it: real detectors side "
+                                          "by side, or (--sweep) a simulated detector-quality grid")
+    dt.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    dt.add_argument("--backend", default="cpsat", help="abduction backend (default cpsat)")
+    dt.add_argument("--benchmarks", default="mot15,kitti-car", help="real-detector benchmarks (default mot15,kitti-car)")
+    dt.add_argument("--sequences", help="comma-separated subset of sequences (one benchmark or sweep dataset)")
+    dt.add_argument("--max-frames", type=int, help="only the first N frames of every sequence")
+    dt.add_argument("--ungated", action="store_true",
+                    help="also track every detector's boxes by abduction with every confidence set to 100")
+    dt.add_argument("--sweep", action="store_true", help="instead: the simulated detector-quality sweep")
+    dt.add_argument("--sweep-datasets", default="mot17,kitti-car", help="sweep ground truth (default mot17,kitti-car)")
+    dt.add_argument("--p-max", default="0.5,0.7,0.9", help="sweep: detection probabilities (default 0.5,0.7,0.9)")
+    dt.add_argument("--fp-per-frame", default="0.5,2,5", help="sweep: false positives per frame (default 0.5,2,5)")
+    dt.add_argument("--noise", default="0.03,0.1", help="sweep: localisation noise (default 0.03,0.1)")
+    dt.add_argument("--seed", type=int, default=0, help="sweep: simulated detector seed (default 0)")
+    dt.add_argument("--out", default="-", help="markdown file whose generated section is replaced "
+                    "(e.g. docs/detectors.md; default - for none)")
+    dt.add_argument("--plot", help="sweep: PNG plot (default detectors-sweep.png beside --out)")
+    dt.add_argument("--json", help="also write the raw numbers as JSON")
+    dt.add_argument("--quiet", action="store_true", help="no progress bar")
+    dt.set_defaults(func=cmd_detectors)
+
+    oc = sub.add_parser("occlusion-suite", help="write the long-occlusion suite (docs/occlusion.md) as "
+                                                "MOTChallenge sequences: DIR/<scenario>/{det,gt,seqinfo.ini}")
+    oc.add_argument("--out", required=True, metavar="DIR", help="folder to write the scenarios into")
+    oc.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    oc.add_argument("--force", action="store_true", help="overwrite scenario folders that exist")
+    oc.set_defaults(func=cmd_occlusion_suite)
+
+    bo = sub.add_parser("bench-occlusion", help="baseline vs abduction on the long-occlusion suite: identity kept, "
+                                                "hide/unhide events on time (writes docs/occlusion.md)")
+    bo.add_argument("--trackers", default="baseline,cpsat",
+                    help="comma-separated variants: baseline, a backend, backend+hold, backend+oru, "
+                         "backend+hold+oru (default baseline,cpsat)")
+    bo.add_argument("--seed", type=int, default=0, help="suite seed (default 0)")
+    bo.add_argument("--out", default="docs/occlusion.md",
+                    help="markdown file whose generated section is replaced (default docs/occlusion.md; - for none)")
+    bo.add_argument("--quiet", action="store_true", help="no progress bar")
+    bo.set_defaults(func=cmd_bench_occlusion)
+
+    q = sub.add_parser("query", help="ask a scene a question (docs/reasoning.md): tracks | track T | hidden_by T | "
+                                      "holds_at T FRAME | events FROM TO [T] | relation T REL | "
+                                      "anticipate T FRAME | situations")
+    q.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    q.add_argument("query", nargs="+", help="the query, e.g. hidden_by trk_12")
+    q.add_argument("--json", action="store_true", help="print the answer as JSON")
+    q.add_argument("--anticipation-threshold", type=int, default=None, metavar="FRAMES",
+                   help="warn when a hidden track reappears in front within this many frames (default 30)")
+    q.add_argument("--ego-region", default=None, metavar="X0,X1,Y0,Y1",
+                   help="the region in front of the ego vehicle, fractions of the image (default 0.333,0.667,0.5,1)")
+    q.set_defaults(func=cmd_query)
+
+    xp = sub.add_parser("explain", help="the event log of a scene as plain English sentences")
+    xp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    xp.add_argument("--track", help="only the episodes of this track (13 or trk_13)")
+    xp.set_defaults(func=cmd_explain)
+
+    pl = sub.add_parser("plot", help="a space-time picture of a scene, or its boxes and relations at one frame")
+    pl.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    pl.add_argument("--out", required=True, help="PNG file to write")
+    pl.add_argument("--frame", type=int, help="draw the boxes and relations of this frame instead")
+    pl.add_argument("--tracks", help="comma-separated tracks to draw (default: those observed in 3+ frames)")
+    pl.add_argument("--frames", metavar="FROM:TO", help="frame range of the space-time picture")
+    pl.set_defaults(func=cmd_plot)
+    return p

@@ -1,0 +1,27 @@
+"""The commands on a scene file: `query`, `explain` and `plot`."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import EXIT_OK
+
+
+def cmd_query(args: argparse.Namespace) -> int:
+    from ..scene import load_scene, query, reasoning_config
+    config = reasoning_config(args.anticipation_threshold, args.ego_region)
+    answer = query(load_scene(args.scene), " ".join(args.query), config)
+    print(answer.to_json() if args.json else "\n".join(answer.lines))
+    return EXIT_OK
+
+
+def cmd_explain(args: argparse.Namespace) -> int:
+    from ..scene import explain, load_scene
+    print("\n".join(explain(load_scene(args.scene), args.track)))
+    return EXIT_OK
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from ..plots import plot_scene_file
+    print(plot_scene_file(args.scene, args.out, frame=args.frame, tracks=args.tracks, frames=args.frames))
+    return EXIT_OK

@@ -1,0 +1,77 @@
+"""The commands on one frame problem and on backends: `solve` and `diff`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..solvers import BACKENDS
+from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
+
+
+def cmd_solve(args: argparse.Namespace) -> int:
+    from ..solvers import get_solver
+    from ..spec import ProblemFormatError, read_problem, with_constants
+
+    from ..constants import resolve_constants
+    from ..ranges import check_constant, check_ranges
+    problem = read_problem(args.file)
+    if args.const:
+        for name, value in args.const:
+            check_constant(name, value, f"--const {name}={value}")
+        problem = with_constants(problem, dict(args.const))
+    try:
+        resolve_constants(problem)  # an unknown #const name is the file's (or --const's) mistake
+    except ProblemFormatError as exc:
+        raise ProblemFormatError(exc.reason, args.file) from None
+    check_ranges(problem, args.file)
+    hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
+    violations = ()
+    if args.check:
+        from ..check import check_answer
+        report = check_answer(problem, hyp)
+        violations = tuple(str(v) for v in report.violations)
+        if report.cost != hyp.cost:
+            violations += (f"[cost_vector] the answer's cost is {list(report.cost)}, not {list(hyp.cost)}",)
+    if args.json:
+        print(hyp.to_json())
+    else:
+        print(f"time {hyp.time}  backend {hyp.backend}  {'optimal' if hyp.optimal else 'NOT proven optimal'}"
+              f"  {hyp.solve_ms:.1f} ms")
+        print("actions: " + " ".join(hyp.actions))
+        print("events:  " + (" ".join(hyp.events) or "-"))
+        print("cost:    " + " ".join(f"{v}@{p}" for p, v in hyp.cost))
+    if args.check:
+        print("check:   " + ("; ".join(violations) if violations else "every rule holds, cost vector confirmed"),
+              file=sys.stderr if args.json else sys.stdout)
+    return EXIT_FAILURE if violations else EXIT_OK
+
+
+def cmd_diff(args: argparse.Namespace) -> int:
+    from .. import io
+    from ..diff import DiffReport
+    from ..scaleout import run_tasks
+    from ..tasks import DiffJob, diff_job
+    backends = tuple(b.strip() for b in args.backends.split(","))
+    if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
+        raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
+                        f"got {args.backends!r}")
+    plan = _plan(args)
+    if args.benchmark:
+        from ..table6 import load_dataset  # real and simulated (*-sim) benchmarks alike
+        seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
+    elif args.dets:
+        seqs = [_load_sequence(args, path) for path in args.dets]
+    else:
+        raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
+    total = DiffReport(backends)
+    reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit) for seq in seqs], plan,
+                        label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name)
+    for seq, report in zip(seqs, reports):
+        total.add(report)
+        print(f"{seq.name}: {report.summary()}")
+        if report.first_divergence:
+            print(report.first_divergence.describe())
+    if len(seqs) > 1:
+        print(f"TOTAL: {total.summary()}")
+    return EXIT_OK if total.ok else EXIT_FAILURE

@@ -1,0 +1,203 @@
+"""The commands that track and score: `track` and `eval`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from pathlib import Path
+
+from ..progress import Progress
+from ..solvers import BACKENDS
+from .common import CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _plan
+
+
+def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
+    """Where each --dets goes: --out for one, or DIR/<sequence>.txt with --out-dir."""
+    from ..tasks import results_file_name
+    if (args.out is None) == (args.out_dir is None):
+        raise UserError("give --out FILE (one --dets) or --out-dir DIR (one results file per --dets)")
+    if args.out is not None:
+        if len(args.dets) > 1:
+            raise UserError(f"{len(args.dets)} --dets need --out-dir DIR (one results file per sequence), not --out")
+        return [args.out]
+    if args.events or args.events_json or args.scene:
+        raise UserError("--events, --events-json and --scene write one sequence's file: use them with --out")
+    seen: dict[str, str] = {}
+    for path in args.dets:
+        name = results_file_name(path)
+        if name in seen:
+            raise UserError(f"{seen[name]} and {path} would both write {Path(args.out_dir) / name}")
+        seen[name] = path
+    return [Path(args.out_dir) / name for name in seen]
+
+
+def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
+    """The files `track` reads: the detections and the sequence files found beside them."""
+    inputs: dict[str, str | None] = {}
+    for k, path in enumerate(args.dets):
+        dets = Path(path)
+        label = "--dets" if len(args.dets) == 1 else f"--dets #{k + 1}"
+        inputs[label] = path
+        if args.format == "mot":
+            inputs[f"{label} seqinfo.ini"] = str(dets.parent.parent / "seqinfo.ini")
+        else:
+            inputs[f"{label} label_02"] = str(dets.parent.parent.parent / "label_02" / dets.name)
+    return inputs
+
+
+def _track_constants(args: argparse.Namespace) -> dict[str, int]:
+    """--const overrides, checked against the model's constants before any frame is tracked."""
+    from ..constants import default_constants
+    consts = dict(args.const or [])
+    known = default_constants()
+    unknown = sorted(set(consts) - set(known))
+    if unknown:
+        raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+    if args.img_size is not None and {"img_width", "img_height"} & set(consts):
+        raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
+    from ..ranges import check_constant
+    for name, value in consts.items():
+        check_constant(name, value, f"--const {name}={value}")
+    return consts
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from .. import io
+    from ..outputs import STDOUT, OutputSet, check_outputs
+    from ..scaleout import run_tasks
+    from ..tasks import TrackJob, track_job
+    if args.out_format == "kitti" and args.format != "kitti":
+        raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
+                        "it needs --format kitti")
+    if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
+                                       or args.img_size):
+        raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
+                        f"({', '.join(BACKENDS)}); the baseline abduces no events")
+    outs = _track_outputs(args)
+    outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
+    outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
+    check_outputs(outputs, _track_inputs(args))  # before any work: never an input, never each other
+    plan = _plan(args)
+    constants = tuple(_abduction_constants(args.format, args.cls, _track_constants(args), args.no_preset).items()) \
+        if args.backend != "baseline" else ()
+    seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
+    if args.img_size is not None:
+        seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
+    for seq, path in zip(seqs, args.dets):
+        if args.format == "mot" and seq.image_size is None and "img_width" not in dict(constants):
+            warnings.warn(f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
+                          "is unknown, so the right and bottom field-of-view borders are not tested "
+                          "(enters_fov, leaves_fov, clipped)")
+    summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
+    if len(seqs) == 1 and not plan.distributed:
+        _track_streaming(seqs[0], args, outs[0], dict(constants), summary)
+        return EXIT_OK
+    jobs = [TrackJob(seq, args.backend, args.time_limit, args.check, False, constants) for seq in seqs]
+    results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name)
+    failed = 0
+    with OutputSet() as files:  # every results file lands together, after the last sequence
+        for seq, out, path in zip(seqs, results, outs):  # input order: the same bytes however tasks ran
+            if out.not_optimal_frames:
+                print(f"refimpl track: {_prefix(seqs, seq)}{out.not_optimal_frames} of {out.frames} frames not "
+                      f"proven optimal within the time limit (best answer found used)", file=sys.stderr)
+            for line in out.violations:
+                print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
+            if args.check:
+                print(f"check: {_prefix(seqs, seq)}{out.checked} answers checked, {len(out.violations)} with "
+                      "violations")
+                if out.violations:
+                    failed += len(out.violations)
+                    continue  # a backend that broke the model writes no results
+            files.write(path, io.results_formatter(args.out_format, seq.first_frame, args.cls)(out.rows))
+            print(f"{seq.name}: {len(seq.frames)} frames, "
+                  f"{len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0} tracks -> {path}", file=summary)
+    if failed:
+        raise CheckFailed(f"{failed} answers break a rule of the model")
+    return EXIT_OK
+
+
+def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[str, int], summary) -> None:
+    """One sequence in this process: results and event logs streamed to staged files as frames are
+    decided (bounded memory, docs/robustness.md), committed together at the end."""
+    from ..io import ResultWriter, results_formatter
+    from ..outputs import OutputSet
+    with OutputSet() as outs:
+        sink = ResultWriter(outs.open(out_path), outs.open(args.events) if args.events else None,
+                            outs.open(args.events_json) if args.events_json else None, seq.first_frame,
+                            results_formatter(args.out_format, seq.first_frame, args.cls))
+        if args.backend == "baseline":
+            from ..baseline import stream_sequence
+            for rows in stream_sequence(seq):
+                sink.rows(rows)
+        else:
+            bar = Progress(len(seq.frames), seq.name, enabled=not args.quiet, unit="frame")
+            with bar:
+                _track_abduction(seq, args, sink, outs, constants, bar.step, summary)
+    print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
+
+
+def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int], on_frame, summary) -> None:
+    """Algorithm 1 with the chosen backend, streaming to ``sink``, optionally checking every frame's answer."""
+    from ..tracker import track_sequence
+    checked = violations = 0
+
+    def observe(problem, hyp) -> None:
+        nonlocal checked, violations
+        on_frame()
+        if not args.check:
+            return
+        from ..check import check_answer
+        report = check_answer(problem, hyp)
+        checked += 1
+        if report.violations or report.cost != hyp.cost:
+            violations += 1
+            found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
+            print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
+
+    result = track_sequence(seq, backend=args.backend, constants=constants, time_limit=args.time_limit,
+                            observer=observe, sink=sink, keep_records=bool(args.scene))
+    if result.not_optimal_frames:
+        print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
+              f"within the time limit (best answer found used)", file=sys.stderr)
+    if args.check:
+        print(f"check: {checked} answers checked, {violations} with violations", file=summary)
+        if violations:
+            raise CheckFailed(f"{violations} answers break a rule of the model")
+    if args.scene:
+        from ..scene import scene_from_result, scene_to_json
+        outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)), separators=(",", ":")) + "\n")
+
+
+def _prefix(seqs, seq) -> str:
+    return f"{seq.name}: " if len(seqs) > 1 else ""
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from .. import io
+    from ..evaluate import evaluate_many, format_table, refuse_misfit
+    from ..folder_eval import evaluate_folder, metrics_json, read_ground_truth
+    from ..outputs import check_outputs
+    check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
+    if args.format == "kitti" and args.cls is None:
+        raise UserError("--format kitti needs --class Car|Pedestrian")
+    if Path(args.results).is_dir():
+        run = evaluate_folder(args.results, args.gt, args.format, args.cls)
+        per_seq, overall = run.per_sequence, run.overall
+        if run.unscored:
+            print(f"refimpl eval: note: {len(run.unscored)} ground-truth sequence(s) without a results file "
+                  f"not scored: {', '.join(run.unscored)}", file=sys.stderr)
+    else:
+        if Path(args.gt).is_dir():
+            raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
+        gt = read_ground_truth(args.gt, args.format, args.cls)
+        results = io.read_results(args.results, args.format, args.cls)
+        refuse_misfit(gt, results, args.results)
+        per_seq, overall = evaluate_many([(gt.name, gt, results)])
+    print(format_table(per_seq, overall))
+    if args.json:
+        io.write_text_atomic(args.json, json.dumps(metrics_json(per_seq, overall), indent=2) + "\n")
+    return EXIT_OK
