@@ -10,6 +10,7 @@ from refimpl import io
 from refimpl.api import confidences_from_scores
 from refimpl.cli import main
 from refimpl.tracker import DEFAULT_BRIDGE_GAP, track_sequence
+from refimpl.solvers import BACKENDS
 
 
 def _xyxys(frame) -> np.ndarray:
@@ -134,7 +135,7 @@ def test_bad_input_is_a_clear_error(dets, classes, message):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"backend": "baseline"}, "backend must be one of cpsat, clingo"),
+    ({"backend": "baseline"}, f"backend must be one of {', '.join(BACKENDS)}"),
     ({"constants": {"iou_treshold": 1}}, "unknown model constant 'iou_treshold'"),
     ({"constants": {"iou_thresh": 0.3}}, "must be an integer"),
     ({"img_size": (640,)}, "(width, height)"),
