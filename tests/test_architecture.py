@@ -95,3 +95,12 @@ def test_the_checker_can_tell_a_bad_import():
     module_layer, may = layer_table()
     assert module_layer["io"] not in may[module_layer["tracker"]]
     assert module_layer["cli"] not in may[module_layer["solvers.cpsat"]]
+
+
+def test_every_package_folder_is_installed():
+    # a non-editable `pip install .` installs only the packages pyproject.toml lists: a new
+    # package folder missing there breaks the installed `refimpl` command, not the checkout
+    import tomllib
+    listed = set(tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]["packages"])
+    folders = {".".join(p.parent.relative_to(REPO).parts) for p in PACKAGE.rglob("__init__.py")}
+    assert folders <= listed, f"package folders missing from pyproject.toml: {sorted(folders - listed)}"
