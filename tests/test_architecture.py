@@ -4,6 +4,8 @@ exactly one layer, and imports refimpl modules only from its own layer or the la
 from __future__ import annotations
 
 import ast
+
+import pytest
 import re
 from pathlib import Path
 
@@ -100,7 +102,7 @@ def test_the_checker_can_tell_a_bad_import():
 def test_every_package_folder_is_installed():
     # a non-editable `pip install .` installs only the packages pyproject.toml lists: a new
     # package folder missing there breaks the installed `refimpl` command, not the checkout
-    import tomllib
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
     listed = set(tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]["packages"])
     folders = {".".join(p.parent.relative_to(REPO).parts) for p in PACKAGE.rglob("__init__.py")}
     assert folders <= listed, f"package folders missing from pyproject.toml: {sorted(folders - listed)}"
