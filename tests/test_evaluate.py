@@ -16,7 +16,7 @@ from refimpl import io
 from refimpl.io import GroundTruth
 
 REPO = Path(__file__).resolve().parent.parent
-DATA = Path(os.environ.get("REFIMPL_DATA_ROOT", "/work/shared/data"))
+DATA = Path(os.environ.get("REFIMPL_DATA_ROOT", Path(__file__).resolve().parent.parent.parent / "shared" / "data"))
 
 
 def make_gt(rows, num_frames, first_frame=1, dontcare=(), name="seq"):

@@ -13,7 +13,7 @@ import pytest
 from refimpl import io
 from refimpl.io import InputFormatError, InputFormatWarning
 
-DATA = Path(os.environ.get("REFIMPL_DATA_ROOT", "/work/shared/data"))
+DATA = Path(os.environ.get("REFIMPL_DATA_ROOT", Path(__file__).resolve().parent.parent.parent / "shared" / "data"))
 needs_data = pytest.mark.skipif(
     not (DATA / "PROVENANCE.md").is_file(),
     reason=f"benchmark data folder {DATA} absent (set REFIMPL_DATA_ROOT to run these)")
@@ -39,7 +39,7 @@ def raises_at(path: Path, line: int | None, reason_part: str):
 
 
 # ---------------------------------------------------------------------------------------
-# real benchmark files (exact counts from /work/shared/data/PROVENANCE.md)
+# real benchmark files (exact counts from ../shared/data/PROVENANCE.md)
 
 
 @needs_data
