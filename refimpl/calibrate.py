@@ -137,7 +137,7 @@ def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] 
     tasks on ``plan`` (refimpl.scaleout.Plan: serial by default, or a Dask cluster), each with
     the dataset it tracks; results come back in grid order whatever the worker count."""
     from .scaleout import Plan, run_tasks
-    from .table6 import dataset_kind, load_dataset
+    from .datasets import dataset_kind, load_dataset
 
     check_tunable(benchmark, data_root)
     fmt, cls = dataset_kind(benchmark, data_root)

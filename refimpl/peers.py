@@ -157,7 +157,8 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = "cpsat
             constants: Mapping[str, int] | None = None, dataset=None, step=None) -> Comparison:
     """Every tracker on the same detections of a dataset, scored by the same evaluator."""
     from .evaluate import evaluate_many
-    from .table6 import TITLES, load_dataset, run_benchmark
+    from .datasets import TITLES, load_dataset
+    from .table6 import run_benchmark
 
     for p in peers:
         peer_class(p)  # unknown name or missing package: fail before tracking anything

@@ -86,7 +86,7 @@ class SweepPlan:
 def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tuple[str, Sequence[int]]],
                split: str = "all") -> SweepPlan:
     """Check the grid and read the data: ValueError (or io.InputFormatError) for a user's mistake."""
-    from .table6 import load_dataset
+    from .datasets import load_dataset
     names, settings = grid_settings(grid)
     split_dataset(benchmark, [], data_root, split)  # a split that does not apply, before reading the data
     dataset = split_dataset(benchmark, load_dataset(benchmark, data_root), data_root, split)

@@ -14,25 +14,8 @@ from typing import Callable
 
 import numpy as np
 
-from . import io
+from .datasets import TABLE6_DATASETS, TITLES, load_dataset
 from .evaluate import evaluate_many
-
-PUBLIC = io.BENCHMARKS
-SIMULATED = ("mot17-sim", "mot20-01-sim")
-DATASETS = PUBLIC + SIMULATED
-TABLE6_DATASETS = ("mot15", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
-TITLES = {
-    "mot15": "MOT15 train, 11 sequences (SORT's Faster R-CNN detections)",
-    "mot15-sort6": "MOT15 train, SORT's six sequences (SORT's Faster R-CNN detections)",
-    "kitti-car": "KITTI tracking train, Car, 21 sequences (PointRCNN detections)",
-    "kitti-ped": "KITTI tracking train, Pedestrian, 21 sequences (PointRCNN detections)",
-    "kitti-car-val": "KITTI tracking train, Car, the 11 val-split sequences (PointRCNN detections)",
-    "kitti-ped-val": "KITTI tracking train, Pedestrian, the 11 val-split sequences (PointRCNN detections)",
-    "kitti-car-train": "KITTI tracking train, Car, the 10 sequences outside the val split (PointRCNN detections)",
-    "kitti-ped-train": "KITTI tracking train, Pedestrian, the 10 sequences outside the val split (PointRCNN detections)",
-    "mot17-sim": "MOT17 train, 7 sequences (SIMULATED detections, seed 0)",
-    "mot20-01-sim": "MOT20-01 (SIMULATED detections, seed 0)",
-}
 
 
 @dataclass(frozen=True)
@@ -44,24 +27,6 @@ class BenchmarkRun:
     events: dict
     frames: int
     seconds: float
-
-
-def load_dataset(name: str, data_root: str, seed: int = 0):
-    """[(sequence name, DetectionSequence, GroundTruth)] of a dataset."""
-    if name in SIMULATED:
-        from .simulate import simulated_benchmark_sequences
-        return simulated_benchmark_sequences(name[: -len("-sim")], data_root, seed=seed)
-    if name not in PUBLIC:
-        raise ValueError(f"unknown dataset {name!r} (choose from {', '.join(DATASETS)})")
-    return [(s.name, io.load_detections(s), io.load_ground_truth(s)) for s in io.benchmark_sequences(name, data_root)]
-
-
-def dataset_kind(name: str, data_root: str) -> tuple[str, str]:
-    """(format, object class) of a dataset: what selects its preset (refimpl.presets)."""
-    if name in SIMULATED:
-        return "mot", "pedestrian"
-    first = io.benchmark_sequences(name, data_root)[0]
-    return first.format, first.object_class
 
 
 def run_tracker(seq, tracker: str, constants=None):

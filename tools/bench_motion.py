@@ -17,7 +17,7 @@ from pathlib import Path
 
 from refimpl.evaluate import combine, evaluate_many
 from refimpl.occlusion_bench import parse_variant
-from refimpl.table6 import load_dataset
+from refimpl.datasets import load_dataset
 from refimpl.tracker import track_sequence
 
 VAL_SEQMAP = Path("KITTI/tracking/training/evaluate_tracking.seqmap.val")

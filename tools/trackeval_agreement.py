@@ -26,7 +26,8 @@ import numpy as np
 
 from refimpl import io
 from refimpl.folder_eval import evaluate_folder
-from refimpl.table6 import load_dataset, run_tracker
+from refimpl.datasets import load_dataset
+from refimpl.table6 import run_tracker
 
 MOT17_VARIANT = "FRCNN"
 

@@ -15,7 +15,7 @@ from .common import EXIT_OK, UserError, _abduction_constants, _plan
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..evaluate import format_table
-    from ..table6 import TITLES, dataset_kind, load_dataset
+    from ..datasets import TITLES, dataset_kind, load_dataset
     from ..tasks import RunRequest, run_requests
     from ..outputs import check_outputs
     check_outputs({"--json": args.json, "--out": args.out})
@@ -49,7 +49,7 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
     from ..benchmarks import format_command, machine_note, write_section
     from ..peers import PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table
-    from ..table6 import dataset_kind, load_dataset
+    from ..datasets import dataset_kind, load_dataset
     peers = [p.strip() for p in args.peers.split(",") if p.strip()]
     unknown = [p for p in peers if p not in PEERS]
     if unknown:
@@ -107,7 +107,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def cmd_table6(args: argparse.Namespace) -> int:
-    from ..table6 import DATASETS, TABLE6_DATASETS, BenchmarkRun, format_table6, load_dataset
+    from ..datasets import DATASETS, TABLE6_DATASETS, load_dataset
+    from ..table6 import BenchmarkRun, format_table6
     from ..tasks import RunRequest, run_requests
     datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
     from ..outputs import check_outputs

@@ -7,7 +7,7 @@ import argparse
 import math
 
 from ..solvers import BACKENDS  # the registry: every abduction backend
-from ..table6 import DATASETS as BENCHMARKS  # noqa: F401  (refimpl.io's benchmarks + simulated ones)
+from ..datasets import DATASETS as BENCHMARKS  # noqa: F401  (the one dataset catalogue)
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 TRACKERS = ("baseline",) + BACKENDS

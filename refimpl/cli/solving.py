@@ -58,7 +58,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
                         f"got {args.backends!r}")
     plan = _plan(args)
     if args.benchmark:
-        from ..table6 import load_dataset  # real and simulated (*-sim) benchmarks alike
+        from ..datasets import load_dataset  # real and simulated (*-sim) benchmarks alike
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
     elif args.dets:
         seqs = [_load_sequence(args, path) for path in args.dets]
