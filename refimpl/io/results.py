@@ -30,6 +30,16 @@ def _results_array(path: Path, lines: list[tuple[int, str]], first_frame: int) -
     return a
 
 
+def _result_lines(path: Path, allow_empty: bool):
+    """The numbered lines of a results file, or None for an empty file when that is allowed."""
+    try:
+        return _read_lines(path)
+    except InputFormatError as exc:
+        if allow_empty and exc.reason.startswith("empty file"):
+            return None
+        raise
+
+
 def read_mot_results(path: str | os.PathLike, allow_empty: bool = False, first_frame: int = 1) -> np.ndarray:
     """A MOTChallenge results file as an (n, 6) float array ``frame, id, x, y, w, h`` in file order.
 
@@ -37,12 +47,9 @@ def read_mot_results(path: str | os.PathLike, allow_empty: bool = False, first_f
     ``first_frame`` are errors: 1 for MOTChallenge, 0 for KITTI results kept 0-based.
     """
     path = Path(path)
-    try:
-        lines = _read_lines(path)
-    except InputFormatError as exc:
-        if allow_empty and exc.reason.startswith("empty file"):
-            return np.zeros((0, 6))
-        raise
+    lines = _result_lines(path, allow_empty)
+    if lines is None:
+        return np.zeros((0, 6))
     return _results_array(path, lines, first_frame)
 
 
@@ -142,12 +149,9 @@ def read_kitti_results(path: str | os.PathLike, object_class: str, allow_empty: 
     """
     path = Path(path)
     otype = _object_type(object_class, path)
-    try:
-        lines = _read_lines(path)
-    except InputFormatError as exc:
-        if allow_empty and exc.reason.startswith("empty file"):
-            return np.zeros((0, 6))
-        raise
+    lines = _result_lines(path, allow_empty)
+    if lines is None:
+        return np.zeros((0, 6))
     rows = _split(path, lines, None, 17, 18, "frame id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry [score]")
     linenos = [n for n, _ in lines]
     for fields, lineno in zip(rows, linenos):

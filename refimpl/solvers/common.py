@@ -107,6 +107,25 @@ def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
     return out
 
 
+class DisjointSets:
+    """Union-find over 0..n-1 (path halving); the root of a set is its smallest member."""
+
+    def __init__(self, n: int):
+        self.parent = list(range(n))
+
+    def find(self, x: int) -> int:
+        parent = self.parent
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    def union(self, a: int, b: int) -> None:
+        a, b = self.find(a), self.find(b)
+        if a != b:
+            self.parent[max(a, b)] = min(a, b)
+
+
 def components(problem: FrameProblem) -> list[Component]:
     """The independent components of the frame (module docstring), in the order of their first
     node (tracks before detections, problem order)."""
@@ -114,21 +133,14 @@ def components(problem: FrameProblem) -> list[Component]:
     nt = len(tracks)
     t_index = {t.id: i for i, t in enumerate(tracks)}
     d_index = {d.id: nt + j for j, d in enumerate(dets)}
-    parent = list(range(nt + len(dets)))
-
-    def find(x: int) -> int:
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
+    sets = DisjointSets(nt + len(dets))
+    find = sets.find
 
     pairs = candidate_pairs(problem)
     for t, d in pairs:
-        a, b = find(t_index[t]), find(d_index[d])
-        if a != b:
-            parent[max(a, b)] = min(a, b)
+        sets.union(t_index[t], d_index[d])
     groups: dict[int, list[int]] = {}
-    for x in range(len(parent)):
+    for x in range(nt + len(dets)):
         groups.setdefault(find(x), []).append(x)
     by_root: dict[int, list[tuple[str, str]]] = {}
     for t, d in pairs:

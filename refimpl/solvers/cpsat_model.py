@@ -86,28 +86,29 @@ def match_type(problem: FrameProblem, trk_type: str, det_type: str) -> bool:
     return trk_type == det_type or (trk_type, det_type) in problem.match_types
 
 
+def _pair_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
+                      trk: TrackPrediction, det: Detection, state: str, conf: str, iou_key: str) -> bool:
+    """A track in ``state``, a detection of a matching type above the ``conf`` threshold, and an
+    iou/3 fact above the ``iou_key`` threshold: the shape both pair actions share."""
+    v = iou.get((trk.id, det.id))
+    return (
+        trk.state == state
+        and match_type(problem, trk.type, det.type)
+        and det.conf > constants[conf]
+        and v is not None and v > constants[iou_key]
+    )
+
+
 def assignment_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
                            trk: TrackPrediction, det: Detection) -> bool:
     """Appendix A assignment_constraints(Trk, Det)."""
-    v = iou.get((trk.id, det.id))
-    return (
-        trk.state == "active"
-        and match_type(problem, trk.type, det.type)
-        and det.conf > constants["conf_thresh_assign"]
-        and v is not None and v > constants["iou_thresh"]
-    )
+    return _pair_constraints(problem, constants, iou, trk, det, "active", "conf_thresh_assign", "iou_thresh")
 
 
 def resume_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
                        trk: TrackPrediction, det: Detection) -> bool:
     """Appendix A resume_constraints(Trk, Det) plus refimpl's IoU condition (docs/model-spec.md)."""
-    v = iou.get((trk.id, det.id))
-    return (
-        trk.state == "halted"
-        and match_type(problem, trk.type, det.type)
-        and det.conf > constants["conf_thresh_resume"]
-        and v is not None and v > constants["iou_thresh_resume"]
-    )
+    return _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_resume", "iou_thresh_resume")
 
 
 def start_constraints(constants: Mapping[str, int], det: Detection) -> bool:

@@ -14,7 +14,7 @@ from typing import Mapping, Sequence
 from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key
 from ..hypothesis import PRIORITIES
 from ..spec import FrameProblem
-from .common import intersection_matrix, tiebreak_weights
+from .common import DisjointSets, intersection_matrix, tiebreak_weights
 from .cpsat_model import (_cost, _explanations, _overlapping_top_matrix, assignment_constraints,
                           resume_constraints, start_constraints)
 
@@ -349,23 +349,15 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
 
     # -- components (union-find over the edges) and their matchings ------------------------------
     nt = len(tracks)
-    parent = list(range(nt + len(dets)))
-
-    def find(x: int) -> int:
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
+    sets = DisjointSets(nt + len(dets))
+    find = sets.find
     for i, j, _ in edges:
-        a, b = find(i), find(nt + j)
-        if a != b:
-            parent[a] = b
+        sets.union(i, nt + j)
     comp_edges: dict[int, list[tuple[int, int, _Option]]] = {}
     for e in edges:
         comp_edges.setdefault(find(e[0]), []).append(e)
     sizes: dict[int, int] = {}
-    for x in range(len(parent)):
+    for x in range(nt + len(dets)):
         root = find(x)
         sizes[root] = sizes.get(root, 0) + 1
     chosen: list[_Option] = []
