@@ -148,14 +148,21 @@ def _time_limit(seconds: float):
         signal.signal(signal.SIGALRM, old)
 
 
-def run_reader(case: Case, root: Path, timeout: float) -> Result:
-    target = next(t for t in TARGETS if t.name == case.target)
+def case_files(case: Case, root: Path) -> tuple[Path, dict[str, bytes]]:
+    """Write the case under root: its input file's path, and every file it wrote (path -> bytes),
+    side files included, for checking that nothing was modified."""
     path = _paths(case, root)
     files = {str(path): case.data}
     if case.layout == "seq":
         files[str(root / "seq" / "seqinfo.ini")] = case.side["seqinfo.ini"]
     if case.layout == "kitti":
         files[str(root / "label_02" / "0000.txt")] = case.side["label"]
+    return path, files
+
+
+def run_reader(case: Case, root: Path, timeout: float) -> Result:
+    target = next(t for t in TARGETS if t.name == case.target)
+    path, files = case_files(case, root)
     ctx: dict = {"class": "pedestrian" if case.seed_name.startswith("ped") else "car",
                  "first_frame": 0 if case.seed_name.startswith("kitti") else 1}
     if case.layout == "seq":

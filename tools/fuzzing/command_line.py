@@ -13,7 +13,7 @@ from pathlib import Path
 
 from refimpl import io as rio
 
-from .cases import Case, Result, _paths, _time_limit, _Timeout
+from .cases import Case, Result, _time_limit, _Timeout, case_files
 from .seeds import Seeds
 
 
@@ -58,12 +58,7 @@ def cli_argv(case: Case, path: Path, out: Path, fx: CliFixtures) -> list[str] | 
 def run_cli(case: Case, root: Path, fx: CliFixtures, timeout: float) -> Result:
     from refimpl import cli
 
-    path = _paths(case, root)
-    files = {str(path): case.data}
-    if case.layout == "seq":
-        files[str(root / "seq" / "seqinfo.ini")] = case.side["seqinfo.ini"]
-    if case.layout == "kitti":
-        files[str(root / "label_02" / "0000.txt")] = case.side["label"]
+    path, files = case_files(case, root)
     outdir = root / "out"
     outdir.mkdir()
     out = outdir / "results.txt"
