@@ -2,9 +2,9 @@
 
 Given a frame problem and a hypothesis, it verifies every rule of the model
 (docs/model-spec.md) — each track and each detection in exactly one action, every integrity
-constraint, every event's precondition, every halt/resume/start/end explained and no event
-without its action — recomputes the cost vector from the answer, and reports each violation
-by the rule's label.  It shares only the problem data, the constants, the event-calculus
+constraint, every event's precondition, every halt/resume/start/end explained (and the ignore
+of a missing track that a track now covers from the front) and no event without its action —
+recomputes the cost vector from the answer, and reports each violation by the rule's label.  It shares only the problem data, the constants, the event-calculus
 state and the preconditions (refimpl.events) with the backends: the numbers are the same,
 the reasoning over them is written again here.
 """
@@ -24,6 +24,14 @@ _ACTION_ARITY = {a.name: len(a.args) for a in ACTION_TABLE.values()}
 _EXPLAINED_BY = {e.name: e.explains for e in EVENT_TABLE.values()}  # event -> the action it explains
 _EVENT_ARITY = {e.name: e.arity for e in EVENT_TABLE.values()}
 _EXPLAINED_ACTIONS = frozenset(_EXPLAINED_BY.values())
+_ALSO = {e.name: e.also_explains for e in EVENT_TABLE.values()}  # event -> actions it re-explains
+
+
+def _inter(a, b) -> int:
+    """The overlap area of two integer boxes (x, y, w, h), written again here."""
+    w = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    h = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    return max(w, 0) * max(h, 0)
 
 
 @dataclass(frozen=True)
@@ -102,7 +110,14 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
                 bad.append(Violation("assignment_constraints", f"{atom} is not admissible"))
         elif name == "resume":
             t, d = tracks[args[0]], dets[args[1]]
-            if not (t.state == "halted" and match_type(t.type, d.type) and d.conf > c["conf_thresh_resume"]
+            # the confidence a resume needs: conf_thresh_new_track where the track is anticipated to
+            # unhide now (hidden, and at least half of its predicted box out of a current track it is
+            # hidden_by), else conf_thresh_resume (association.lp resume_constraints)
+            unhiding = state.holds_at(("visibility", t.id), "not_visible") and any(
+                o != t.id and state.holds_at(("hidden_by", t.id, o), "true")
+                and 2 * _inter(t.box, tracks[o].box) <= t.box[2] * t.box[3] for o in tracks)
+            need = min(c["conf_thresh_resume"], c["conf_thresh_new_track"]) if unhiding else c["conf_thresh_resume"]
+            if not (t.state == "halted" and match_type(t.type, d.type) and d.conf > need
                     and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh_resume"]):
                 bad.append(Violation("resume_constraints", f"{atom} is not admissible"))
         elif name == "start":
@@ -134,9 +149,19 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
         event_names.append(event.name)
         if not poss(event, problem, state, c):
             bad.append(Violation(f"poss_{event.name}", f"{atom}: its precondition does not hold"))
-        explanations[(_EXPLAINED_BY[event.name], event.args[0].name)].append(str(event))
+        subject = event.args[0].name
+        explains = _EXPLAINED_BY[event.name]
+        if subject in tracks and tracks[subject].state == "halted" and "ignore_trk" in _ALSO[event.name]:
+            explains = "ignore_trk"  # a halted track cannot halt: it is the re-explanation of its ignore
+        explanations[(explains, subject)].append(str(event))
 
     subjects = {(n, a[0]) for n, a in actions if n in _EXPLAINED_ACTIONS}
+    # explain_ignore: an ignored track that is clipped needs one explanation iff one is possible
+    for n, a in actions:
+        if n == "ignore_trk" and state.holds_at(("clipped", a[0]), "true") and any(
+                poss(f"{e}({a[0]},{o})", problem, state, c) for e, spec in EVENT_TABLE.items()
+                if "ignore_trk" in spec.also_explains for o in tracks if o != a[0]):
+            subjects.add((n, a[0]))
     for action, subject in sorted(subjects | set(explanations)):
         found = explanations.get((action, subject), [])
         if (action, subject) not in subjects:

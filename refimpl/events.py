@@ -362,6 +362,21 @@ def kept_in_mind(state: EventState, constants: Mapping[str, int], trk: TrackPred
         or overlapping_top(trk.box, other.box, constants["hide_overlap"])) for t2, other in tracks.items())
 
 
+def anticipated_unhide(state: EventState, constants: Mapping[str, int], trk: TrackPrediction,
+                       tracks: Mapping[str, TrackPrediction]) -> bool:
+    """refimpl rule (docs/model.md 3.17, events.lp [anticipated_unhide]; grows from Section 4.1.2's
+    anticipate(unhides_from_behind(T1,T2),T) :- holds_at(hidden_by(T1,T2)), topology(proper_part,T1,T2),
+    movement(moves_out_of,T1,T2,T)): a hidden track is anticipated to unhide now when its predicted
+    box has moved out of the box of a current track T2 it is hidden_by, at least half of it:
+    2 * inter(T1, T2) <= W1 * H1.  Then a detection there may resume it with the confidence a new
+    track needs (association.lp [resume_constraints], second rule)."""
+    if not state.holds_at(("visibility", trk.id), "not_visible"):
+        return False
+    w, h = trk.box[2], trk.box[3]
+    return any(t2 != trk.id and state.holds_at(("hidden_by", trk.id, t2), "true")
+               and 2 * intersection_area(trk.box, other.box) <= w * h for t2, other in tracks.items())
+
+
 def poss_lost(state: EventState, constants: Mapping[str, int], trk: TrackPrediction, *,
               tracks: Mapping[str, TrackPrediction]) -> bool:
     """refimpl decision (docs/model.md): halted_at(T,Tm) and either curr_time - Tm >= L and T is not
@@ -420,6 +435,9 @@ class EventType:
     marker: str
     colour: str
     """Its marker and colour in plots."""
+    also_explains: tuple[str, ...] = ()
+    """Actions it explains when they must be re-explained (REEXPLAINED): hides_behind also explains
+    the ignore_trk of a missing track that a current track now covers (events.lp [explain_ignore])."""
 
     @property
     def cost_constant(self) -> str:
@@ -429,7 +447,7 @@ class EventType:
 
 EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
     EventType("hides_behind", 2, "halt", _EFFECTS["hides_behind"], poss_hides_behind,
-              "went out of sight behind", "hidden", "v", "#d62728"),
+              "went out of sight behind", "hidden", "v", "#d62728", also_explains=("ignore_trk",)),
     EventType("missing_detections", 1, "halt", _EFFECTS["missing_detections"], poss_missing_detections,
               "was missed by the detector", "missing", "x", "#e377c2"),
     EventType("unhides_from_behind", 2, "resume", _EFFECTS["unhides_from_behind"], poss_unhides_from_behind,
@@ -452,8 +470,22 @@ EXPLAINED_ACTIONS = ("halt", "resume", "start", "end")
 
 
 def explaining(action: str) -> tuple[EventType, ...]:
-    """The events that may explain an action, in table order (() for assign and the ignores)."""
-    return tuple(e for e in EVENT_TABLE.values() if e.explains == action)
+    """The events that may explain an action, in table order (() for assign and ignore_det; for
+    ignore_trk the events that re-explain a missing track, see :func:`reexplained`)."""
+    return tuple(e for e in EVENT_TABLE.values() if e.explains == action or action in e.also_explains)
+
+
+REEXPLAINED = ("ignore_trk",)
+"""Actions explained only when :func:`reexplained` says so (events.lp [explain_ignore])."""
+
+
+def reexplained(state: EventState, trk: str) -> bool:
+    """refimpl rule (docs/model.md 3.16, events.lp [explain_ignore]): an ignored halted track that
+    is clipped (halted as missing_detections) must be explained by one possible event of
+    explaining('ignore_trk') when there is one: the track that now covers it from the front is why
+    it is still unseen, so it hides behind that track (hides_behind needs it not not_visible, so
+    this happens once per halt)."""
+    return state.holds_at(("clipped", trk), "true")
 
 
 EVENT_NAMES = tuple(EVENT_TABLE)

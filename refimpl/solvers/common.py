@@ -97,12 +97,19 @@ def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
     tracks = {t.id: t for t in problem.tracks}
     dets = {d.id: d for d in problem.detections}
     out = []
+    state = None  # the event state, built once if a resume needs it (anticipated_unhide)
     for t, d, _ in problem.iou:
         trk, det = tracks.get(t), dets.get(d)
         if trk is None or det is None:
             continue
-        rule = assignment_constraints if trk.state == "active" else resume_constraints
-        if rule(problem, constants, iou, trk, det):
+        if trk.state == "active":
+            ok = assignment_constraints(problem, constants, iou, trk, det)
+        else:
+            if state is None and det.conf <= constants["conf_thresh_resume"]:
+                from ..events import EventState
+                state = EventState.from_problem(problem)
+            ok = resume_constraints(problem, constants, iou, trk, det, state, tracks)
+        if ok:
             out.append((t, d))
     return out
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ortools.sat.python import cp_model
 
-from ..events import EVENT_TABLE, EventState, EventType, explaining
+from ..events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
 from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..relations import area
 from ..spec import Detection, FrameProblem, TrackPrediction
@@ -106,9 +106,22 @@ def assignment_constraints(problem: FrameProblem, constants: Mapping[str, int], 
 
 
 def resume_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
-                       trk: TrackPrediction, det: Detection) -> bool:
-    """Appendix A resume_constraints(Trk, Det) plus refimpl's IoU condition (docs/model-spec.md)."""
-    return _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_resume", "iou_thresh_resume")
+                       trk: TrackPrediction, det: Detection, state: EventState | None = None,
+                       by_id: Mapping[str, TrackPrediction] | None = None) -> bool:
+    """Appendix A resume_constraints(Trk, Det) plus refimpl's IoU condition (docs/model-spec.md);
+    refimpl rule (docs/model.md 3.17): a track anticipated to unhide now (events.anticipated_unhide)
+    resumes with any detection above conf_thresh_new_track.  ``state``/``by_id``: the frame's event
+    state and tracks by id (computed from the problem when not given, only if needed)."""
+    if _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_resume", "iou_thresh_resume"):
+        return True
+    if not _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_new_track",
+                             "iou_thresh_resume"):
+        return False
+    if state is None:
+        state = EventState.from_problem(problem)
+    if by_id is None:
+        by_id = {t.id: t for t in problem.tracks}
+    return anticipated_unhide(state, constants, trk, by_id)
 
 
 def start_constraints(constants: Mapping[str, int], det: Detection) -> bool:
@@ -218,10 +231,16 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
                 en = action(f"end({t.id})", "end")
                 per_trk[t.id].append(en)
                 model.add(sum(event(spec, args) for spec, args in ends) == en)
-            per_trk[t.id].append(action(f"ignore_trk({t.id})", "ignore_trk"))
+            ig = action(f"ignore_trk({t.id})", "ignore_trk")
+            per_trk[t.id].append(ig)
+            # ignore_trk(T) of a missing track <=> exactly one possible re-explanation, if any   (explain_ignore)
+            again = (_explanations("ignore_trk", i, problem.tracks, top, state, constants, by_id)
+                     if reexplained(state, t.id) else [])
+            if again:
+                model.add(sum(event(spec, args) for spec, args in again) == ig)
             # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
             resumable = [d for d in (problem.detections if t.id in paired else ())
-                         if resume_constraints(problem, constants, iou, t, d)]
+                         if resume_constraints(problem, constants, iou, t, d, state, by_id)]
             expl = _explanations("resume", i, problem.tracks, top, state, constants, by_id) if resumable else []
             if resumable and expl:
                 res = []
@@ -285,6 +304,9 @@ def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, in
     for t in problem.tracks:
         if f"ignore_trk({t.id})" in am.actions:
             chosen.add(f"ignore_trk({t.id})")
+            again = [e for e in am.events if e.startswith(f"hides_behind({t.id},")]  # explain_ignore
+            if again:
+                chosen.add(again[0])
             continue
         if f"halt({t.id})" not in am.actions:
             return None

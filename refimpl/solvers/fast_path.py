@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
-from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key
+from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key, reexplained
 from ..hypothesis import PRIORITIES
 from ..spec import FrameProblem
 from .common import DisjointSets, intersection_matrix, tiebreak_weights
@@ -296,7 +296,13 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             (c1, c0), event, tie = _cheapest(expl)
             solo_t.append(_Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie))
         else:
-            options = [_Option(f"ignore_trk({t.id})", None, _cost("ignore_trk"))]
+            again = (priced(_explanations("ignore_trk", i, tracks, top, state, constants, by_id))
+                     if reexplained(state, t.id) else [])
+            if again:  # explain_ignore: the ignore of a missing track carries its re-explanation
+                (c1, c0), event, tie = _cheapest(again)
+                options = [_Option(f"ignore_trk({t.id})", event, _cost("ignore_trk", event=c1, tiebreak=c0), tie)]
+            else:
+                options = [_Option(f"ignore_trk({t.id})", None, _cost("ignore_trk"))]
             ends = priced(_explanations("end", i, tracks, top, state, constants, by_id))
             if ends:
                 (c1, c0), event, tie = _cheapest(ends)
@@ -331,7 +337,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             if assignment_constraints(problem, constants, iou, t, d):
                 edges.append((i, j, _Option(f"assign({tid},{did})", None,
                                             _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))))
-        elif i in resume_expl and resume_constraints(problem, constants, iou, t, d):
+        elif i in resume_expl and resume_constraints(problem, constants, iou, t, d, state, by_id):
             (c1, c0), event, tie = resume_expl[i]
             edges.append((i, j, _Option(f"resume({tid},{did})", event,
                                         _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0),
