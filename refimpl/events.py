@@ -68,7 +68,10 @@ Effect = tuple[str, tuple[Union[int, str], ...], str]
 _EFFECTS: Mapping[str, tuple[Effect, ...]] = {
     # Appendix A: causesValue(hides_behind(T1,T2), visibility(T1), not_visible) and
     # causesValue(hides_behind(T1,T2), hidden_by(T1,T2), true).
-    "hides_behind": (("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true")),
+    # refimpl decision (docs/model.md 3.16): and clipped(T1) := false, so that hiding re-explains
+    # a missing track (explain_ignore) and a resume leaves every fluent at its initial value.
+    "hides_behind": (("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true"),
+                     ("clipped", (0,), "false")),
     # refimpl decision (docs/model-spec.md): the inverse of hides_behind.
     "unhides_from_behind": (("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false")),
     # Appendix A: causesValue(missing_detections(T), clipped(T), true).

@@ -81,7 +81,7 @@ def test_holds_at_after_a_history():
     t = 10
     assert values(facts, "visibility(trk_1)", t) == {"fully_visible"}   # hidden at 3, unhidden at 6
     assert values(facts, "hidden_by(trk_1,trk_2)", t) == {"false"}
-    assert values(facts, "clipped(trk_3)", t) == {"true"}                 # missing at 4
+    assert values(facts, "clipped(trk_3)", t) == {"false"}    # missing at 4, hiding at 8 re-explains it
     assert values(facts, "visibility(trk_3)", t) == {"not_visible"}       # hid at 8
     assert values(facts, "hidden_by(trk_3,trk_1)", t) == {"true"}
     assert values(facts, "in_fov(trk_2)", t) == {"true"}                  # left at 7, entered at 8
