@@ -28,6 +28,8 @@ import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
+from .solvers import DEFAULT_BACKEND
+
 DEFAULT_GRID: dict[str, tuple[int, ...]] = {
     "conf_thresh_new_track": (60, 80, 90),
     "conf_thresh_assign": (0, 40, 60),
@@ -131,7 +133,7 @@ def leave_one_sequence_out(points: Sequence[GridPoint], use_hota: bool) -> dict:
 
 
 def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] = DEFAULT_GRID,
-              backend: str = "cpsat", plan=None, quiet: bool = True,
+              backend: str = DEFAULT_BACKEND, plan=None, quiet: bool = True,
               loso: bool | None = None) -> Calibration:
     """Run the grid on a benchmark and rank it; see the module docstring.  The grid points run as
     tasks on ``plan`` (refimpl.scaleout.Plan: serial by default, or a Dask cluster), each with

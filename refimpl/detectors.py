@@ -42,6 +42,7 @@ import numpy as np
 
 from . import io
 from .evaluate import _check_results, _frame_slices, _match, _preprocess, evaluate_many
+from .solvers import BASELINE, DEFAULT_BACKEND
 
 IOU_THRESHOLD = 0.5
 
@@ -246,7 +247,7 @@ def ungated(dets: io.DetectionSequence) -> io.DetectionSequence:
         dataclasses.replace(f, confidences=np.full(len(f), 100, dtype=np.int64)) for f in dets.frames))
 
 
-def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str = "cpsat",
+def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str = DEFAULT_BACKEND,
                       sequences: Sequence[str] | None = None, max_frames: int | None = None,
                       step: ProgressStep | None = None, with_ungated: bool = False) -> list[DetectorResult]:
     """Every registered detector of a benchmark on the common sequences: quality + both trackers.
@@ -268,9 +269,9 @@ def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str
                 lo, hi = min(lo, float(scores.min())), max(hi, float(scores.max()))
             quality = quality + detection_quality(gt, dets)
             triples.append((name, dets, gt))
-        for t in ("baseline", backend):  # imports and solver set-up must not count against the first timing
+        for t in (BASELINE, backend):  # imports and solver set-up must not count against the first timing
             warm_up(triples, t)
-        runs = tuple(track_and_evaluate(triples, t, step) for t in ("baseline", backend))
+        runs = tuple(track_and_evaluate(triples, t, step) for t in (BASELINE, backend))
         frames = sum(len(d.frames) for _, d, _ in triples)
         out.append(DetectorResult(benchmark, key, label, tuple(names), frames, quality, runs, (lo, hi)))
         if with_ungated:
@@ -306,7 +307,7 @@ def detectors_table(results: Sequence[DetectorResult]) -> str:
                 o = run.overall
                 det = ([f"{r.detector}", str(q.num_dets), fmt_ratio(q.recall), fmt_ratio(q.precision), fmt_pct(q.startable)]
                        if k == 0 else ["", "", "", "", ""])
-                tracker = "baseline (SORT)" if run.tracker == "baseline" else f"abduction ({run.tracker})"
+                tracker = "baseline (SORT)" if run.tracker == BASELINE else f"abduction ({run.tracker})"
                 cells = det + [tracker, fmt_pct(o.get("hota")), fmt_pct(o["mota"]), fmt_pct(o["motp"]), fmt_pct(o["idf1"]),
                                str(o["fp"]), str(o["fn"]), str(o["idsw"]), f"{run.fps:.0f}"]
                 lines.append("| " + " | ".join(cells) + " |")
@@ -370,7 +371,7 @@ def real_report(results: Sequence[DetectorResult], command: str, seconds: float)
             "(files read beforehand, evaluation excluded). HOTA: '-' where the evaluator does not provide it.\n")
 
 
-def run_detectors(*, data: str = "../shared/data", backend: str = "cpsat", do_sweep: bool = False,
+def run_detectors(*, data: str = "../shared/data", backend: str = DEFAULT_BACKEND, do_sweep: bool = False,
                   benchmarks: Sequence[str] = tuple(REAL_DETECTORS), sequences: Sequence[str] | None = None,
                   max_frames: int | None = None, sweep_datasets: Sequence[str] | None = None,
                   p_max: Sequence[float] | None = None, fp_per_frame: Sequence[float] | None = None,

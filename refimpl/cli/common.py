@@ -6,11 +6,10 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..solvers import BACKENDS  # the registry: every abduction backend
+from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND, TRACKERS  # noqa: F401  (the registry)
 from ..datasets import DATASETS as BENCHMARKS  # noqa: F401  (the one dataset catalogue)
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
-TRACKERS = ("baseline",) + BACKENDS
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 

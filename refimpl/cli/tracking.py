@@ -9,7 +9,7 @@ import warnings
 from pathlib import Path
 
 from ..progress import Progress
-from ..solvers import BACKENDS
+from ..solvers import BACKENDS, BASELINE
 from .common import CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _plan
 
 
@@ -73,7 +73,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     if args.out_format == "kitti" and args.format != "kitti":
         raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
                         "it needs --format kitti")
-    if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
+    if args.backend == BASELINE and (args.check or args.time_limit is not None or args.scene or args.const
                                        or args.img_size):
         raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
                         f"({', '.join(BACKENDS)}); the baseline abduces no events")
@@ -83,7 +83,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     check_outputs(outputs, _track_inputs(args))  # before any work: never an input, never each other
     plan = _plan(args)
     constants = tuple(_abduction_constants(args.format, args.cls, _track_constants(args), args.no_preset).items()) \
-        if args.backend != "baseline" else ()
+        if args.backend != BASELINE else ()
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
@@ -129,7 +129,7 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[st
         sink = ResultWriter(outs.open(out_path), outs.open(args.events) if args.events else None,
                             outs.open(args.events_json) if args.events_json else None, seq.first_frame,
                             results_formatter(args.out_format, seq.first_frame, args.cls))
-        if args.backend == "baseline":
+        if args.backend == BASELINE:
             from ..baseline import stream_sequence
             for rows in stream_sequence(seq):
                 sink.rows(rows)

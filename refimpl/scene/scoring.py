@@ -11,6 +11,7 @@ import sys
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
+from ..solvers import DEFAULT_BACKEND
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate
 from .episodes import hiding_episodes
 from .files import load_scene, save_scene
@@ -154,7 +155,7 @@ def _benchmark_scenes(name: str, data_root: str, cache: str | None, progress: bo
             out.append(load_scene(path))
         else:
             dets = io.load_detections(s)
-            scene = scene_from_result(dets, track_sequence(dets, backend="cpsat"))
+            scene = scene_from_result(dets, track_sequence(dets, backend=DEFAULT_BACKEND))
             if path:
                 os.makedirs(cache, exist_ok=True)
                 save_scene(path, scene)
