@@ -69,6 +69,6 @@ def load_dataset(name: str, data_root: str, seed: int = 0):
 def dataset_kind(name: str, data_root: str) -> tuple[str, str]:
     """(format, object class) of a dataset: what selects its preset (refimpl.presets)."""
     if dataset(name).simulated:
-        return "mot", "pedestrian"
+        return io.MOT, "pedestrian"
     first = io.benchmark_sequences(name, data_root)[0]
     return first.format, first.object_class

@@ -65,7 +65,7 @@ def split_dataset(benchmark: str, dataset, data_root: str | Path, split: str):
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}")
     kitti = benchmark in io.BENCHMARKS and all(
-        s.format == "kitti" for s in io.benchmark_sequences(benchmark, data_root))
+        s.format == io.KITTI for s in io.benchmark_sequences(benchmark, data_root))
     if not kitti:
         raise ValueError(f"--split {split} is defined for the KITTI benchmarks only (its seqmap.val)")
     val = set(val_sequences(data_root))

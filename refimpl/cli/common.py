@@ -51,11 +51,11 @@ def _parse_img_size(text: str) -> tuple[int, int]:
 def _load_sequence(args: argparse.Namespace, path: str | None = None):
     from .. import io
     path = args.dets if path is None else path
-    if args.format == "mot":
-        return io.read_mot_detections(path, scores_rule=getattr(args, "scores", "auto"))
-    if args.cls is None:
-        raise UserError("--format kitti needs --class Car|Pedestrian|Cyclist")
-    return io.read_kitti_detections(path, args.cls)
+    fmt = io.get_format(args.format)
+    if fmt.needs_class and args.cls is None:
+        raise UserError(f"--format {fmt.name} needs --class Car|Pedestrian|Cyclist")
+    return fmt.read_detections(path, object_class=args.cls if fmt.needs_class else None,
+                               scores_rule=getattr(args, "scores", "auto"))
 
 
 def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> dict[str, int]:

@@ -42,7 +42,7 @@ def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..io import RESULT_FORMATS
+    from ..io import FORMAT_NAMES, MOT, RESULT_FORMATS
     p = argparse.ArgumentParser(
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
@@ -64,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
     t.add_argument("--dets", required=True, nargs="+", metavar="PATH",
                    help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir)")
-    t.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    t.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     t.add_argument("--backend", choices=TRACKERS, default=BASELINE)
     t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti; "
@@ -74,7 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default auto: decided by the file, see refimpl/io/detections.py)")
     t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
                    "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
-    t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
+    t.add_argument("--out-format", choices=RESULT_FORMATS, default=MOT,
                    help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
                         "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
     t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
@@ -103,7 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "for --format kitti also the KITTI tracking format)")
     e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
                    "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
-    e.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    e.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
     e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
                                   "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
@@ -156,7 +156,7 @@ def build_parser() -> argparse.ArgumentParser:
     x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
                                      "exit 1 on any cost disagreement")
     x.add_argument("--dets", nargs="+", metavar="PATH", help="detections of one or more sequences")
-    x.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    x.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
     x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
     x.add_argument("--data", default="../shared/data", help="benchmark data root (with --benchmark)")
