@@ -35,6 +35,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
+from .datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS
 from .solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BACKEND, REFERENCE_BACKEND, TRACKERS, get_solver
 
 THROUGHPUT_TRACKERS = TRACKERS
@@ -42,7 +43,6 @@ DEFAULT_SIZES = (5, 10, 20, 50, 100, 200)
 DEFAULT_OVERLAPS = (0.2, 0.5, 0.8)
 DEFAULT_SEEDS = 10
 DEFAULT_TIME_LIMIT = 20.0
-THROUGHPUT_BENCHMARKS = ("mot15", "kitti-car")
 
 PAPER_MS_PER_FRAME = {5: 23.33, 10: 31.36, 20: 62.08, 50: 511.83, 100: 3996.38}
 """The paper's Fig. "Scalability" (clingo, synthetic frames; overlap share not stated)."""

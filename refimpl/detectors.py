@@ -42,17 +42,10 @@ import numpy as np
 
 from . import io
 from .evaluate import _check_results, _frame_slices, _match, _preprocess, evaluate_many
+from .datasets import REAL_DETECTORS  # noqa: F401  (benchmark -> (key, file beside its detections or None, label))
 from .solvers import BASELINE, DEFAULT_BACKEND
 
 IOU_THRESHOLD = 0.5
-
-REAL_DETECTORS: dict[str, tuple[tuple[str, str | None, str], ...]] = {
-    "mot15": (("acf", "det.txt", "ACF (official MOT15 public detections)"),
-              ("frcnn", "det_sort_frcnn.txt", "Faster R-CNN (SORT's detections)")),
-    "kitti-car": (("pointrcnn", None, "PointRCNN (AB3DMOT's detections)"),),
-}
-"""benchmark -> (detector key, file name beside the benchmark's detection file or None for that
-file itself, label).  Benchmarks are those of refimpl.io.benchmark_sequences."""
 
 ProgressStep = Callable[[str], None]
 

@@ -6,6 +6,7 @@ import argparse
 
 from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
                          cmd_occlusion_suite, cmd_sweep, cmd_table6)
+from ..datasets import REAL_DETECTORS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
@@ -217,7 +218,8 @@ def build_parser() -> argparse.ArgumentParser:
                                           "by side, or (--sweep) a simulated detector-quality grid")
     dt.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     dt.add_argument("--backend", default=DEFAULT_BACKEND, help=f"abduction backend (default {DEFAULT_BACKEND})")
-    dt.add_argument("--benchmarks", default="mot15,kitti-car", help="real-detector benchmarks (default mot15,kitti-car)")
+    dt.add_argument("--benchmarks", default=",".join(REAL_DETECTORS),
+                    help=f"real-detector benchmarks (default {','.join(REAL_DETECTORS)})")
     dt.add_argument("--sequences", help="comma-separated subset of sequences (one benchmark or sweep dataset)")
     dt.add_argument("--max-frames", type=int, help="only the first N frames of every sequence")
     dt.add_argument("--ungated", action="store_true",

@@ -11,6 +11,7 @@ import sys
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
+from ..datasets import THROUGHPUT_DATASETS
 from ..solvers import DEFAULT_BACKEND
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate
 from .episodes import hiding_episodes
@@ -173,7 +174,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                             "(tracked with the cpsat backend).")
     p.add_argument("command", choices=("anticipation-eval",))
     p.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    p.add_argument("--benchmarks", default="mot15,kitti-car", help="comma-separated (default mot15,kitti-car)")
+    p.add_argument("--benchmarks", default=",".join(THROUGHPUT_DATASETS),
+                   help=f"comma-separated (default {','.join(THROUGHPUT_DATASETS)})")
     p.add_argument("--cache", help="folder to keep / reuse the tracked scenes (NAME-SEQ.scene.json)")
     p.add_argument("--json", help="also write the summaries as JSON")
     p.add_argument("--quiet", action="store_true")
