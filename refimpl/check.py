@@ -29,6 +29,7 @@ _EXPLAINED_ACTIONS = frozenset(_EXPLAINED_BY.values())
 @dataclass(frozen=True)
 class Violation:
     rule: str
+    """The rule of the model the answer breaks (the names docs/model.md uses)."""
     detail: str
 
     def __str__(self) -> str:

@@ -189,10 +189,13 @@ def first_frames(dets: io.DetectionSequence, gt: io.GroundTruth, n: int | None
 
 @dataclass(frozen=True)
 class DetectorResult:
+    """One real detector on one benchmark: its detections' quality and every tracker run on them."""
+
     benchmark: str
     detector: str
     label: str
     sequences: tuple[str, ...]
+    """The sequences every detector of the benchmark covers (scored on exactly these)."""
     frames: int
     quality: DetectionQuality
     runs: tuple[TrackerRun, ...]
