@@ -167,10 +167,11 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
             subjects.add((n, a[0]))
     for action, subject in sorted(subjects | set(explanations)):
         found = explanations.get((action, subject), [])
+        label = "explain_ignore" if action == "ignore_trk" else f"explain_{action}"  # events.lp labels
         if (action, subject) not in subjects:
-            bad.append(Violation(f"explain_{action}", f"{found} occur without {action} of {subject}"))
+            bad.append(Violation(label, f"{found} occur without {action} of {subject}"))
         elif len(found) != 1:
-            bad.append(Violation(f"explain_{action}",
+            bad.append(Violation(label,
                                  f"{action} of {subject} needs exactly one explanation, has {found}"))
 
     valid_events = [a for a in hyp.events if _well_formed_event(a)]

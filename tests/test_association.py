@@ -715,3 +715,71 @@ def test_resume_prefers_the_likelier_detection(backend, exact):
     # (trk_1,det_1) 2^1, shifted by E = bit length of 5 + 5 + 5 (three nodes, six arity-1 events
     # each) = 4; recover is trk_1's event 1, enters_fov the other detection's event 2
     assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, ((1 << exact) << 4) + 1 + 2))
+
+
+# --- explain_ignore (docs/model.md 3.16) and anticipated_unhide (3.17) ------------------------
+
+BUS = (200, 250, 300, 150)  # x 200..500, y 250..400: bottom edge 400
+
+
+def test_an_ignored_missing_track_covered_from_the_front_is_re_explained_as_hidden(backend):
+    # trk_1 halted at 9 by missing_detections (clipped), box (460, 320, 50, 60): bottom 380; the
+    # active bus trk_2 (no detection: it halts too) covers x 460..500, y 320..380 = 2400 of 3000 px
+    # (80 % > hide_overlap 10 %) and its bottom 400 >= 380: overlapping_top(trk_1, trk_2).
+    # 10 - 9 = 1 < lost_after_missing: trk_1 cannot end, so it is ignored, and its ignore must be
+    # re-explained: hides_behind(trk_1, trk_2).  trk_2 halts by missing_detections (nothing covers it).
+    p = frame([], [trk(1, "halted", box=(460, 320, 50, 60)), trk(2, box=BUS)], [],
+              [hist("missing_detections(trk_1)", 9)])
+    h = solve(backend, p)
+    assert h.answer == tuple(sorted(["ignore_trk(trk_1)", "halt(trk_2)", ev("hides_behind(trk_1,trk_2)"),
+                                     ev("missing_detections(trk_2)")]))
+    # @3: ignore_trk 10;  @1: hides_behind 1 + missing_detections 2 = 3
+    assert [c for p_, c in h.cost if p_ in (3, 2, 1)] == [10, 0, 3]
+
+
+def test_no_re_explanation_without_cover_or_for_a_hidden_track(backend):
+    # the same track beside the bus (x 510..560: no overlap): ignored, nothing to explain
+    p = frame([], [trk(1, "halted", box=(510, 320, 50, 60)), trk(2, box=BUS)], [],
+              [hist("missing_detections(trk_1)", 9)])
+    assert ev("hides_behind(trk_1,trk_2)") not in solve(backend, p).events
+    # covered, but already re-explained at 9 (hides_behind sets clipped false, not_visible): the
+    # track is not_visible, so hides_behind is not possible and nothing is explained again
+    p = frame([], [trk(1, "halted", box=(460, 320, 50, 60)), trk(2, box=BUS)], [],
+              [hist("missing_detections(trk_1)", 8), hist("hides_behind(trk_1,trk_2)", 9)])
+    h = solve(backend, p)
+    assert "ignore_trk(trk_1)" in h.actions and ev("hides_behind(trk_1,trk_2)") not in h.events
+
+
+@pytest.mark.parametrize("x,conf,resumed", [(480, 45, True), (480, 40, False), (470, 45, False), (470, 51, True)])
+def test_a_track_anticipated_to_unhide_resumes_with_new_track_confidence(backend, x, conf, resumed):
+    # trk_1 hid behind the bus trk_2 at 5; its predicted box (x, 320, 50, 60) against the bus
+    # (x 200..500): x=480 leaves 20 of 50 px behind it, 2 * 1200 = 2400 <= 3000: at least half
+    # is out, anticipated_unhide(trk_1); x=470: 30 px behind, 2 * 1800 = 3600 > 3000: not yet.
+    # det_1 (conf 45 > conf_thresh_new_track 40, <= conf_thresh_resume 50) where trk_1 is predicted
+    # (IoU 0.8): anticipated, it resumes trk_1 (unhides_from_behind); otherwise it starts a track.
+    # conf 51 resumes in either case (conf_thresh_resume).  The bus keeps its own detection det_2.
+    p = frame([det(1, box=(x, 320, 50, 60), conf=conf), det(2, box=BUS)],
+              [trk(1, "halted", box=(x, 320, 50, 60)), trk(2, box=BUS)],
+              [("trk_1", "det_1", 80000), ("trk_2", "det_2", 100000)],
+              [hist("hides_behind(trk_1,trk_2)", 5)])
+    h = solve(backend, p)
+    assert "assign(trk_2,det_2)" in h.actions
+    if resumed:
+        assert "resume(trk_1,det_1)" in h.actions and ev("unhides_from_behind(trk_1,trk_2)") in h.events
+    elif conf > 40:
+        assert {"start(det_1)", "ignore_trk(trk_1)"} <= set(h.actions)
+    else:  # conf 40 can neither resume nor start
+        assert {"ignore_det(det_1)", "ignore_trk(trk_1)"} <= set(h.actions)
+
+
+def test_the_checker_names_a_missing_re_explanation_and_an_unanticipated_weak_resume():
+    p = frame([], [trk(1, "halted", box=(460, 320, 50, 60)), trk(2, box=BUS)], [],
+              [hist("missing_detections(trk_1)", 9)])
+    bare = Hypothesis(10, ("ignore_trk(trk_1)", "halt(trk_2)"), (ev("missing_detections(trk_2)"),), (), True)
+    assert [v.rule for v in check_answer(p, bare).violations] == ["explain_ignore"]
+    # a weak (conf 45) resume while trk_1 is still mostly behind the bus (x=470, see above)
+    p = frame([det(1, box=(470, 320, 50, 60), conf=45)], [trk(1, "halted", box=(470, 320, 50, 60)), trk(2, box=BUS)],
+              [("trk_1", "det_1", 80000)], [hist("hides_behind(trk_1,trk_2)", 5)])
+    weak = Hypothesis(10, ("resume(trk_1,det_1)", "halt(trk_2)"),
+                      (ev("unhides_from_behind(trk_1,trk_2)"), ev("missing_detections(trk_2)")), (), True)
+    assert [v.rule for v in check_answer(p, weak).violations] == ["resume_constraints"]
