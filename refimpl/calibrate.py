@@ -108,12 +108,21 @@ def check_tunable(benchmark: str, data_root: str) -> None:
                 f"kitti-{'car' if seqs[0].object_class == 'car' else 'ped'}-train")
 
 
+def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:
+    """A grid point's (name, value) pairs as model constants and tracker options (TrackerOptions)."""
+    from .tracker import TrackerOptions
+    names = set(TrackerOptions.names())
+    constants = {k: int(v) for k, v in point if k not in names}
+    return constants, TrackerOptions.from_mapping({k: v for k, v in point if k in names}, "--grid")
+
+
 def _run_point(args) -> GridPoint:
-    """One grid point: track and score the whole dataset with these constants (a Dask task)."""
-    name, data_root, constants, backend, dataset = args
+    """One grid point: track and score the whole dataset with these settings (a Dask task)."""
+    name, data_root, point, backend, dataset = args
     from .table6 import run_benchmark
-    run = run_benchmark(name, data_root, backend, dataset=dataset, constants=dict(constants))
-    return GridPoint(tuple(constants), run.per_sequence, run.overall, run.seconds)
+    constants, options = split_point(point)
+    run = run_benchmark(name, data_root, backend, dataset=dataset, constants=constants, options=options)
+    return GridPoint(tuple(point), run.per_sequence, run.overall, run.seconds)
 
 
 def leave_one_sequence_out(points: Sequence[GridPoint], use_hota: bool) -> dict:
@@ -210,18 +219,30 @@ def chosen_preset(cal: Calibration):
                  f"best by {cal.ranking} over {cal.benchmark}")
     if cal.loso:
         procedure += "; leave-one-sequence-out estimate in docs/peers.md"
-    return Preset(cal.format, cal.object_class, dict(cal.best.constants), cal.benchmark, procedure)
+    constants, options = split_point(cal.best.constants)
+    return Preset(cal.format, cal.object_class, constants, cal.benchmark, procedure, options)
 
 
-def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple[int, ...]]:
-    """DEFAULT_GRID with NAME=V1,V2,... replacing a dimension (or adding one of the known constants)."""
+def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple]:
+    """DEFAULT_GRID with NAME=V1,V2,... replacing a dimension (or adding one of the known constants
+    or tracker options)."""
     from .constants import default_constants
+    from .tracker import TrackerOptions
     grid = dict(DEFAULT_GRID)
     for spec in specs or ():
         name, sep, values = spec.partition("=")
         name = name.strip()
+        if sep and name in TrackerOptions.names():
+            vals = tuple(v.strip() for v in values.split(",") if v.strip())
+            for v in vals:
+                TrackerOptions.from_mapping({name: v}, "--grid")  # ValueError naming the choices
+            if not vals:
+                raise ValueError(f"--grid {name} has no values")
+            grid[name] = vals
+            continue
         if not sep or name not in default_constants():
-            raise ValueError(f"--grid takes NAME=V1,V2,... with NAME a model constant, got {spec!r}")
+            raise ValueError(f"--grid takes NAME=V1,V2,... with NAME a model constant or a tracker option "
+                             f"({', '.join(TrackerOptions.names())}), got {spec!r}")
         try:
             vals = tuple(int(v) for v in values.split(",") if v.strip())
         except ValueError:

@@ -22,6 +22,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from .io import DetectionSequence, GroundTruth
+from .tracker import TrackerOptions
 
 
 # ---------------------------------------------------------------------------------------
@@ -36,6 +37,7 @@ class TrackJob:
     check: bool = False
     scene: bool = False
     constants: tuple[tuple[str, int], ...] = ()
+    options: TrackerOptions = TrackerOptions()
 
 
 @dataclass(frozen=True)
@@ -74,7 +76,7 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
             on_frame()
 
     result = track_sequence(job.seq, backend=job.backend, constants=dict(job.constants) or None,
-                            time_limit=job.time_limit,
+                            time_limit=job.time_limit, **job.options.kwargs(),
                             observer=observe if (job.check or on_frame is not None) else None)
     scene = None
     if job.scene:
@@ -96,6 +98,7 @@ class BenchmarkJob:
     gt: GroundTruth
     tracker: str
     constants: tuple[tuple[str, int], ...] = ()
+    options: TrackerOptions = TrackerOptions()
 
 
 @dataclass(frozen=True)
@@ -116,7 +119,8 @@ def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
         rows, events = sort_track(job.dets), ()
     else:
         from .tracker import track_sequence
-        result = track_sequence(job.dets, backend=job.tracker, constants=dict(job.constants) or None)
+        result = track_sequence(job.dets, backend=job.tracker, constants=dict(job.constants) or None,
+                                **job.options.kwargs())
         rows, events = result.rows, result.events
     seconds = time.perf_counter() - start  # tracking only: scoring is not the tracker's time
     metrics = evaluate_sequence(job.gt, rows)
@@ -125,12 +129,13 @@ def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
 
 @dataclass(frozen=True)
 class RunRequest:
-    """One (dataset, tracker, constants) whose every sequence is a task."""
+    """One (dataset, tracker, constants, tracker options) whose every sequence is a task."""
 
     dataset: str
     sequences: Sequence[tuple[str, DetectionSequence, GroundTruth]]
     tracker: str
     constants: tuple[tuple[str, int], ...] = ()
+    options: TrackerOptions = TrackerOptions()
 
 
 @dataclass(frozen=True)
@@ -149,7 +154,7 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
     """Every sequence of every request as one task; per-request scores combined in input order."""
     from .evaluate import combine
     from .scaleout import run_tasks
-    jobs = [BenchmarkJob(r.dataset, name, dets, gt, r.tracker, r.constants)
+    jobs = [BenchmarkJob(r.dataset, name, dets, gt, r.tracker, r.constants, r.options)
             for r in requests for name, dets, gt in r.sequences]
     outs = run_tasks(benchmark_job, jobs, plan, label=label, quiet=quiet,
                      describe=lambda j: f"{j.dataset}/{j.tracker}/{j.name}")

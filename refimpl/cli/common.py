@@ -69,6 +69,17 @@ def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> 
         raise UserError(f"--const: {exc}") from None
 
 
+def _tracker_options(fmt: str, cls: str | None, args: argparse.Namespace):
+    """The preset's tracker options of (format, class) unless --no-preset, then --written-box
+    (refimpl.presets.options_for; refimpl.tracker.TrackerOptions)."""
+    from ..presets import options_for
+    overrides = {"written_box": args.written_box} if getattr(args, "written_box", None) else {}
+    try:
+        return options_for(fmt, cls or "pedestrian", overrides, use_preset=not args.no_preset)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
 def _plan(args: argparse.Namespace):
     """Where the tasks of a many-sequence command run (refimpl.scaleout)."""
     from ..scaleout import Plan

@@ -12,6 +12,7 @@ from .demo import cmd_demo
 from .scenes import cmd_explain, cmd_plot, cmd_query
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
+from ..tracker import WrittenBox
 
 
 def _class_name(text: str) -> str:
@@ -19,6 +20,12 @@ def _class_name(text: str) -> str:
     if key not in CLASSES:
         raise argparse.ArgumentTypeError(f"unknown class {text!r} (choose Car, Pedestrian or Cyclist)")
     return CLASSES[key]
+
+
+def _add_written_box(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--written-box", choices=[w.value for w in WrittenBox], default=None,
+                   help="abduction: the box written for an observed frame, the detection's or the Kalman-filtered "
+                        "one (default: the preset's; filtered without one or with --no-preset)")
 
 
 def _add_scaleout(p: argparse.ArgumentParser) -> None:
@@ -92,7 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (cpsat or clingo backend)")
     t.add_argument("--no-preset", action="store_true",
-                   help="run with model/constants.lp's defaults instead of the calibrated preset (model/presets.json)")
+                   help="run with model/constants.lp's defaults and the tracker's default options instead of the "
+                        "calibrated preset (model/presets.json)")
+    _add_written_box(t)
     _add_scaleout(t)
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_track)
@@ -123,7 +132,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
     b.add_argument("--no-preset", action="store_true",
-                   help="abduction with model/constants.lp's defaults instead of the calibrated preset")
+                   help="abduction with model/constants.lp's defaults and the tracker's default options instead "
+                        "of the calibrated preset")
+    _add_written_box(b)
     _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
 
