@@ -83,9 +83,21 @@ class TrackerOptions:
 
     written_box: WrittenBox = DEFAULT_WRITTEN_BOX
     """Which box an observed frame writes (WrittenBox)."""
+    velocity_noise: float = 1.0
+    """The factor on SORT's process noise of the Kalman filter's velocities (refimpl.motion.
+    process_noise); 1 is SORT's filter."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "written_box", WrittenBox.parse(self.written_box))
+        v = self.velocity_noise
+        if isinstance(v, str):  # from the command line or a --grid value
+            try:
+                v = float(v)
+            except ValueError:
+                pass
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < float(v) < float("inf")):
+            raise ValueError(f"velocity_noise must be a positive number, got {v!r}")
+        object.__setattr__(self, "velocity_noise", float(v))
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, object], where: str = "tracker options") -> "TrackerOptions":
@@ -103,18 +115,18 @@ class TrackerOptions:
     def names() -> tuple[str, ...]:
         return tuple(TrackerOptions.__dataclass_fields__)
 
-    def as_dict(self) -> dict[str, str]:
+    def as_dict(self) -> dict[str, object]:
         """{name: value} of every option, values as written in model/presets.json."""
-        return {"written_box": self.written_box.value}
+        return {"written_box": self.written_box.value, "velocity_noise": self.velocity_noise}
 
-    def changed(self) -> dict[str, str]:
+    def changed(self) -> dict[str, object]:
         """The options that differ from the defaults (what a preset changes)."""
         default = TrackerOptions().as_dict()
         return {k: v for k, v in self.as_dict().items() if default[k] != v}
 
     def kwargs(self) -> dict[str, object]:
         """Keyword arguments of track_sequence / AbductionTracker."""
-        return {"written_box": self.written_box}
+        return {"written_box": self.written_box, "velocity_noise": self.velocity_noise}
 
 
 class ResultSink:
@@ -189,8 +201,9 @@ class AbductionTracker:
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False,
                  sink: ResultSink | None = None, keep_records: bool = True,
-                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX):
-        """written_box: which box an observed frame writes (WrittenBox; the module docstring).
+                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0):
+        """written_box: which box an observed frame writes (WrittenBox; the module docstring);
+        velocity_noise: the factor on the Kalman filter's velocity process noise (TrackerOptions).
 
         hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
         frozen (BoxKalman.predict(hold=True)); reupdate_on_resume: a resume re-runs the filter along
@@ -205,6 +218,7 @@ class AbductionTracker:
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
         self.written_box = WrittenBox.parse(written_box)
+        self.velocity_noise = TrackerOptions(velocity_noise=velocity_noise).velocity_noise  # checked
         self.hold_hidden = hold_hidden
         self.reupdate_on_resume = reupdate_on_resume
         self.constants = tuple((constants or {}).items())
@@ -268,7 +282,7 @@ class AbductionTracker:
         try:
             return trk.kalman.predict(hold)
         except InvalidPrediction:
-            trk.kalman = BoxKalman(trk.observed[max(trk.observed)])
+            trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise)
             return trk.kalman.predict()
 
     # -- steps 2-3 and the update ------------------------------------------------------------
@@ -338,7 +352,7 @@ class AbductionTracker:
         for j in sorted(index[d] for d in hyp.starts):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
-            kalman = BoxKalman(boxes[j])
+            kalman = BoxKalman(boxes[j], self.velocity_noise)
             trk = _Track(trk_id, types[j], kalman)
             trk.observed[frame] = self._written(kalman, boxes[j])
             self._confirm(trk, frame)
@@ -435,7 +449,8 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                    compact_history: bool = True, hold_hidden: bool = False,
                    reupdate_on_resume: bool = False, sink: ResultSink | None = None,
                    keep_records: bool = True,
-                   written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX) -> TrackingResult:
+                   written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX,
+                   velocity_noise: float = 1.0) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
 
@@ -451,7 +466,7 @@ def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | N
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
                                hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records,
-                               written_box=written_box)
+                               written_box=written_box, velocity_noise=velocity_noise)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()

@@ -102,7 +102,7 @@ def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"iou_thresh": 20000}, "kitti-car-train", "test",
                         TrackerOptions(WrittenBox.DETECTION)), path)
-    assert json.loads(path.read_text())["kitti/car"]["tracker"] == {"written_box": "detection"}
+    assert json.loads(path.read_text())["kitti/car"]["tracker"] == {"written_box": "detection", "velocity_noise": 1.0}
     assert load_presets(path)["kitti/car"].tracker.written_box is WrittenBox.DETECTION
     assert options_for("kitti", "car", path=path).written_box is WrittenBox.DETECTION
     assert options_for("kitti", "car", path=path, use_preset=False) == TrackerOptions()
@@ -150,3 +150,20 @@ def test_calibration_grid_takes_written_box_as_an_axis():
     assert constants == {"iou_thresh": 20000} and options.written_box is WrittenBox.DETECTION
     with pytest.raises(ValueError, match="written_box"):
         parse_grid(["written_box=filtered,raw"])
+
+
+def test_velocity_noise_scales_the_velocity_block_of_the_process_noise():
+    from refimpl.motion import BoxKalman
+    from refimpl.solvers import get_solver
+    from refimpl.tracker import AbductionTracker
+    # SORT's Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001); x10 on the velocities du, dv, ds only
+    np.testing.assert_allclose(np.diag(BoxKalman(BOXES[0], 10).kf.Q), [1, 1, 1, 1, 0.1, 0.1, 0.001])
+    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1000, "img_height": 600}, velocity_noise=10)
+    fr = _three_frames().frames[0]
+    tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types)
+    (trk,) = tracker.tracks.values()
+    np.testing.assert_allclose(np.diag(trk.kalman.kf.Q), [1, 1, 1, 1, 0.1, 0.1, 0.001])
+    assert TrackerOptions.from_mapping({"velocity_noise": "10"}).velocity_noise == 10.0  # --grid values
+    for bad in (0, -1, "x", float("inf"), True):
+        with pytest.raises(ValueError, match="velocity_noise"):
+            TrackerOptions(velocity_noise=bad)

@@ -23,8 +23,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         return _benchmark_peers(args)
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
-    if args.backend == "baseline" and (args.const or args.written_box):
-        raise UserError(f"--const and --written-box need an abduction backend ({', '.join(BACKENDS)})")
+    if args.backend == "baseline" and (args.const or args.written_box or args.velocity_noise):
+        raise UserError(f"--const, --written-box and --velocity-noise need an abduction backend "
+                        f"({', '.join(BACKENDS)})")
     plan = _plan(args)
     requests = []
     for name in args.names:

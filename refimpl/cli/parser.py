@@ -22,10 +22,24 @@ def _class_name(text: str) -> str:
     return CLASSES[key]
 
 
-def _add_written_box(p: argparse.ArgumentParser) -> None:
+def _add_tracker_options(p: argparse.ArgumentParser) -> None:
+    """The tracker options a preset carries (refimpl.tracker.TrackerOptions), overridable here."""
     p.add_argument("--written-box", choices=[w.value for w in WrittenBox], default=None,
                    help="abduction: the box written for an observed frame, the detection's or the Kalman-filtered "
                         "one (default: the preset's; filtered without one or with --no-preset)")
+    p.add_argument("--velocity-noise", type=_positive_number, default=None, metavar="X",
+                   help="abduction: the factor on the Kalman filter's velocity process noise (default: the "
+                        "preset's; 1, SORT's filter, without one or with --no-preset)")
+
+
+def _positive_number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (0 < value < float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
 
 
 def _add_scaleout(p: argparse.ArgumentParser) -> None:
@@ -101,7 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--no-preset", action="store_true",
                    help="run with model/constants.lp's defaults and the tracker's default options instead of the "
                         "calibrated preset (model/presets.json)")
-    _add_written_box(t)
+    _add_tracker_options(t)
     _add_scaleout(t)
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_track)
@@ -134,7 +148,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--no-preset", action="store_true",
                    help="abduction with model/constants.lp's defaults and the tracker's default options instead "
                         "of the calibrated preset")
-    _add_written_box(b)
+    _add_tracker_options(b)
     _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
 

@@ -74,8 +74,9 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
                         "it needs --format kitti")
     if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
-                                       or args.img_size or args.written_box):
-        raise UserError("--check, --time-limit, --scene, --const, --img-size and --written-box need an abduction backend "
+                                       or args.img_size or args.written_box or args.velocity_noise):
+        raise UserError("--check, --time-limit, --scene, --const, --img-size, --written-box and --velocity-noise need an "
+                        "abduction backend "
                         f"({', '.join(BACKENDS)}); the baseline abduces no events")
     outs = _track_outputs(args)
     outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
