@@ -2,7 +2,7 @@
 
 ``refimpl calibrate --benchmark kitti-car-train`` tracks every sequence of the benchmark with the
 abduction tracker (cpsat) once per point of a small grid over the thresholds of
-model/constants.lp and the tracker option ``written_box`` (``DEFAULT_GRID``), scores each point with refimpl.evaluate and ranks the
+model/constants.lp and the tracker options (``DEFAULT_GRID``), scores each point with refimpl.evaluate and ranks the
 points by HOTA, then IDF1, then MOTA (over the benchmark's summed counts).  The best point is the
 preset for the benchmark's (format, class); ``--write-presets`` stores it in model/presets.json.
 
@@ -29,20 +29,21 @@ from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 DEFAULT_GRID: dict[str, tuple] = {
-    "conf_thresh_new_track": (60, 80, 90),
-    "conf_thresh_assign": (0, 40, 60),
+    "conf_thresh_new_track": (80, 90),
+    "conf_thresh_assign": (40, 60),
     "iou_thresh": (20000, 30000),
     "conf_thresh_resume": (50,),
     "iou_thresh_resume": (10000,),
     "written_box": ("filtered", "detection"),
+    "velocity_noise": ("1", "10"),
 }
-"""The search space (confidences 0..100, IoU x 100000; ``written_box`` is a tracker option,
-refimpl.tracker.TrackerOptions): 36 points.  The first presets came from a 12-point grid (new
-track 40/60/80, assign 0/40); on the train splits the best points sat at its upper edge, and
-90 / 60 were better still on KITTI Pedestrian train (docs/peers.md), hence these values.  The
-resume thresholds are held at their defaults: a wider grid (``--grid conf_thresh_resume=50,70
---grid iou_thresh_resume=10000,20000``) is one option away but four times as long on the shared
-2-core machine the tables come from."""
+"""The search space (confidences 0..100, IoU x 100000; ``written_box`` and ``velocity_noise`` are
+tracker options, refimpl.tracker.TrackerOptions): 32 points.  The thresholds are where the earlier,
+wider grids put the best points on all three tuning sets (new track 40/60/80/90 and assign 0/40/60
+were searched there: the best sat at new track >= 80, assign >= 40; on MOT15 assign 0 and 40 tied
+exactly), docs/peers.md.  The resume thresholds are held at their defaults: a wider grid (``--grid
+conf_thresh_resume=50,70 --grid iou_thresh_resume=10000,20000``) is one option away but four times
+as long on the shared 2-core machine the tables come from."""
 
 CALIBRATE_BEGIN = "<!-- calibrate:{name}:begin -->"
 CALIBRATE_END = "<!-- calibrate:{name}:end -->"
