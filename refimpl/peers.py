@@ -224,7 +224,7 @@ def comparison_table(c: Comparison) -> str:
     consts = ", ".join(f"{k}={v}" for k, v in sorted(c.constants.items())) or "none"
     opts = "".join(f"; tracker option {k}={v}" for k, v in sorted(c.options.items()))
     notes.insert(0, f"- refimpl abduction: model/constants.lp with {consts}{opts} (the preset of this format "
-                    f"and class, refimpl.presets, and any --const / --written-box); \"no preset\": "
+                    f"and class, refimpl.presets, and any --const / --written-box / --velocity-noise); \"no preset\": "
                     f"model/constants.lp and the tracker's default options (--no-preset)")
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 

@@ -167,3 +167,12 @@ def test_velocity_noise_scales_the_velocity_block_of_the_process_noise():
     for bad in (0, -1, "x", float("inf"), True):
         with pytest.raises(ValueError, match="velocity_noise"):
             TrackerOptions(velocity_noise=bad)
+
+
+def test_peer_table_names_the_tracker_options_the_abduction_row_ran_with():
+    from refimpl.peers import Comparison, TrackerScore, comparison_table
+    o = {"hota": 0.5, "deta": 0.5, "assa": 0.5, "mota": 0.5, "idf1": 0.5, "idsw": 1, "frag": 2, "fp": 3, "fn": 4}
+    c = Comparison("x", "X", (TrackerScore("refimpl abduction (cpsat)", o, {}, 10, 1.0),), {"iou_thresh": 20000},
+                   TrackerOptions(WrittenBox.DETECTION, 10).changed())
+    text = comparison_table(c)
+    assert "iou_thresh=20000; tracker option velocity_noise=10.0; tracker option written_box=detection" in text
