@@ -75,9 +75,8 @@ def cmd_track(args: argparse.Namespace) -> int:
                         "it needs --format kitti")
     if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
                                        or args.img_size or args.written_box or args.velocity_noise):
-        raise UserError("--check, --time-limit, --scene, --const, --img-size, --written-box and --velocity-noise need an "
-                        "abduction backend "
-                        f"({', '.join(BACKENDS)}); the baseline abduces no events")
+        raise UserError("--check, --time-limit, --scene, --const, --img-size, --written-box and --velocity-noise "
+                        f"need an abduction backend ({', '.join(BACKENDS)}); the baseline abduces no events")
     outs = _track_outputs(args)
     outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
     outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
