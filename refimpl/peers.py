@@ -29,6 +29,8 @@ from typing import Mapping
 
 import numpy as np
 
+from .solvers import BASELINE, DEFAULT_BACKEND
+
 PEERS = {"sort": "SORTTracker", "bytetrack": "ByteTrackTracker", "ocsort": "OCSORTTracker"}
 """Peer name (as on the command line) -> class of the ``trackers`` package."""
 
@@ -155,7 +157,7 @@ class Comparison:
     """The tracker options it ran with that differ from the defaults (preset + --written-box)."""
 
 
-def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = "cpsat",
+def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAULT_BACKEND,
             constants: Mapping[str, int] | None = None, dataset=None, step=None, options=None) -> Comparison:
     """Every tracker on the same detections of a dataset, scored by the same evaluator."""
     from .evaluate import evaluate_many
@@ -169,7 +171,7 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = "cpsat
     scores = []
     from .tracker import TrackerOptions
     options = options or TrackerOptions()
-    runs = [("baseline", "refimpl baseline (SORT)", None, None),
+    runs = [(BASELINE, "refimpl baseline (SORT)", None, None),
             (backend, f"refimpl abduction ({backend})", dict(constants or {}), options)]
     if constants or options.changed():  # what the preset changes: model/constants.lp and default options
         runs.append((backend, f"refimpl abduction ({backend}), no preset", {}, TrackerOptions()))

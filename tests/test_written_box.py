@@ -120,9 +120,11 @@ def test_cli_written_box_detection_writes_detection_boxes(tmp_path):
     dets = tmp_path / "det.txt"
     dets.write_text("".join(f"{f},-1,{x},{y},{w},{h},0.9,-1,-1,-1\n" for f, (x, y, w, h) in enumerate(BOXES, 1)))
     out_d, out_f = tmp_path / "d.txt", tmp_path / "f.txt"
-    common = ["track", "--dets", str(dets), "--backend", "cpsat", "--img-size", "1000,600", "--quiet"]
+    # --no-preset: model/constants.lp and the default options (the mot preset's thresholds aside);
+    # --written-box applies on top of it
+    common = ["track", "--dets", str(dets), "--backend", "cpsat", "--img-size", "1000,600", "--quiet", "--no-preset"]
     assert main(common + ["--out", str(out_d), "--written-box", "detection"]) == 0
-    assert main(common + ["--out", str(out_f), "--no-preset"]) == 0
+    assert main(common + ["--out", str(out_f)]) == 0
     d = np.loadtxt(out_d, delimiter=",").reshape(-1, 10)
     f = np.loadtxt(out_f, delimiter=",").reshape(-1, 10)
     np.testing.assert_allclose(d[:, 2:6], np.array(BOXES), atol=1e-3)  # MOT files keep 3 decimals

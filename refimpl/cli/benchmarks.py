@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from ..progress import Progress
-from ..solvers import BACKENDS
+from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
 from .common import EXIT_OK, UserError, _abduction_constants, _plan, _tracker_options
 
 
@@ -23,13 +23,13 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         return _benchmark_peers(args)
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
-    if args.backend == "baseline" and (args.const or args.written_box or args.velocity_noise):
+    if args.backend == BASELINE and (args.const or args.written_box or args.velocity_noise):
         raise UserError(f"--const, --written-box and --velocity-noise need an abduction backend "
                         f"({', '.join(BACKENDS)})")
     plan = _plan(args)
     requests = []
     for name in args.names:
-        constants = () if args.backend == "baseline" else \
+        constants = () if args.backend == BASELINE else \
             tuple(_abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset).items())
         options = _tracker_options(*dataset_kind(name, args.data), args)
         requests.append(RunRequest(name, load_dataset(name, args.data), args.backend, constants, options))
@@ -56,7 +56,7 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     unknown = [p for p in peers if p not in PEERS]
     if unknown:
         raise UserError(f"--peers takes a comma-separated list out of {','.join(PEERS)}, got {args.peers!r}")
-    backend = "cpsat" if args.backend == "baseline" else args.backend
+    backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
     comparisons, report = [], {}
     for name in args.names:
         dataset = load_dataset(name, args.data)
@@ -126,7 +126,7 @@ def cmd_table6(args: argparse.Namespace) -> int:
     requests = []
     for name in datasets:
         dataset = load_dataset(name, args.data)
-        requests += [RunRequest(name, dataset, "baseline"), RunRequest(name, dataset, args.backend)]
+        requests += [RunRequest(name, dataset, BASELINE), RunRequest(name, dataset, args.backend)]
     summaries = run_requests(requests, plan, label="table6", quiet=args.quiet)
     runs = [BenchmarkRun(r.dataset, r.tracker, s.per_sequence, s.overall, s.events, s.frames, s.seconds)
             for r, s in zip(requests, summaries)]
@@ -192,7 +192,6 @@ def cmd_detectors(args: argparse.Namespace) -> int:
     from .. import benchmarks as bm
     from .. import detector_sweep as sw
     from .. import detectors as dt
-    from ..solvers import BACKENDS
     if args.backend not in BACKENDS:
         raise UserError(f"--backend takes one of {', '.join(BACKENDS)}, got {args.backend!r}")
     try:
