@@ -47,7 +47,7 @@ class Tracker:
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
     written_box: the box returned (and written) for an observed frame: "filtered" (the Kalman state
         after the update, the default) or "detection" (the detection's own box; what the KITTI
-        presets of ``refimpl track`` choose, docs/peers.md).  The API applies no preset.
+        Car preset of ``refimpl track`` chooses, docs/peers.md).  The API applies no preset.
     velocity_noise: the factor on the Kalman filter's velocity process noise (1: SORT's filter;
         refimpl.tracker.TrackerOptions).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).

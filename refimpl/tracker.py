@@ -12,8 +12,8 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
   once the track is confirmed by SORT's online rule: hit_streak >= min_hits consecutive
   observations, or the first min_hits frames; WHICH box is the tracker option ``written_box``
   (WrittenBox): the Kalman state after the update (FILTERED, as SORT writes it, the default) or
-  the detection's own box (DETECTION, as ByteTrack and OC-SORT write it; the KITTI presets choose
-  it, docs/peers.md);
+  the detection's own box (DETECTION, as ByteTrack and OC-SORT write it; the KITTI Car preset
+  chooses it, docs/peers.md);
 - a resumed track must be re-confirmed the same way, unless the gap was short (<= bridge_gap
   frames) and the resuming detection confident (>= bridge_conf): then it stays confirmed and its
   hidden frames are filled by linear interpolation between the boxes around the gap (the paper's
