@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import time
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
@@ -93,13 +93,13 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
 
 @dataclass(frozen=True)
 class BenchmarkJob:
-    dataset: str
+    """One sequence of a RunRequest: tracked as the request says, then scored."""
+
     name: str
     dets: DetectionSequence
     gt: GroundTruth
-    tracker: str
-    constants: tuple[tuple[str, int], ...] = ()
-    options: TrackerOptions = TrackerOptions()
+    request: RunRequest
+    """Its request without the sequences (what a worker needs to know, nothing more)."""
 
 
 @dataclass(frozen=True)
@@ -115,13 +115,14 @@ def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
     """Track one sequence with job.tracker and score it against its ground truth."""
     from .evaluate import evaluate_sequence
     start = time.perf_counter()
-    if job.tracker == BASELINE:
+    how = job.request
+    if how.tracker == BASELINE:
         from .baseline import track_sequence as sort_track
         rows, events = sort_track(job.dets), ()
     else:
         from .tracker import track_sequence
-        result = track_sequence(job.dets, backend=job.tracker, constants=dict(job.constants) or None,
-                                **job.options.kwargs())
+        result = track_sequence(job.dets, backend=how.tracker, constants=dict(how.constants) or None,
+                                **how.options.kwargs())
         rows, events = result.rows, result.events
     seconds = time.perf_counter() - start  # tracking only: scoring is not the tracker's time
     metrics = evaluate_sequence(job.gt, rows)
@@ -155,10 +156,10 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
     """Every sequence of every request as one task; per-request scores combined in input order."""
     from .evaluate import combine
     from .scaleout import run_tasks
-    jobs = [BenchmarkJob(r.dataset, name, dets, gt, r.tracker, r.constants, r.options)
+    jobs = [BenchmarkJob(name, dets, gt, replace(r, sequences=()))
             for r in requests for name, dets, gt in r.sequences]
     outs = run_tasks(benchmark_job, jobs, plan, label=label, quiet=quiet,
-                     describe=lambda j: f"{j.dataset}/{j.tracker}/{j.name}")
+                     describe=lambda j: f"{j.request.dataset}/{j.request.tracker}/{j.name}")
     summaries, k = [], 0
     for i, r in enumerate(requests):
         mine = outs[k:k + len(r.sequences)]
