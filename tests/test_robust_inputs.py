@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 import shutil
 from pathlib import Path
 
@@ -274,3 +275,41 @@ def test_double_dash_values_of_other_options_end_in_one_usage_error(capsys, argv
     with pytest.raises(SystemExit) as exc:
         cli.main(argv)
     assert exc.value.code == 2 and "got '--'" in capsys.readouterr().err
+
+
+# -- limits and large inputs (issue 17, "Limits and interrupts", "Memory") --------------------------
+
+def test_an_error_in_a_large_detection_file_is_reported_before_the_rest_is_read(tmp_path):
+    # line 2 is bad, and 60,000 lines later (past the reader's first 50,000-line chunk) the file
+    # stops being UTF-8.  A reader that took in the whole file first would fail on the encoding;
+    # one that checks chunk by chunk reports line 2 and never reaches the end.
+    f = tmp_path / "det.txt"
+    good = "1,-1,10,10,20,40,0.9,-1,-1,-1\n"
+    with open(f, "wb") as fh:
+        fh.write((good + "1,-1,ten,10,20,40,0.9,-1,-1,-1\n" + good * 60_000).encode())
+        fh.write(b"\xff\xfe garbage\n")
+    with pytest.raises(InputFormatError, match=r"det\.txt:2: "):
+        read_mot_detections(f)
+
+
+def test_clingos_time_limit_covers_grounding():
+    # The issue's case: a 10 s limit took 60 s, all of it grounding, which cannot be stopped
+    # inside a process.  clingo's worker process is killed once it overruns the limit by GRACE
+    # (1 s), and the obvious answer (every track halted by missing_detections) is returned,
+    # flagged.  A 150-track frame at overlap 0.8 takes several seconds to ground (about 10 s on
+    # the 2-core test machine); with a 0.05 s limit the call must end within 0.05 + 1 + 1 s.
+    pytest.importorskip("clingo")
+    from refimpl.solvers.clingo_backend import ClingoSolver
+    from refimpl.solvers.clingo_worker import GRACE
+    from refimpl.solvers.fallback import obvious_hypothesis
+
+    solver = ClingoSolver(decompose=False, inline_solves=0)  # every solve in the worker
+    solver._worker.solve_one(synthetic_frame(5, 0.2, 0), None)  # the child is up
+    solver.solve(synthetic_frame(5, 0.2, 0), time_limit=0)  # the parent's lazy imports are done
+    child = solver._worker._proc
+    p = synthetic_frame(150, 0.8, 0)
+    started = time.perf_counter()
+    h = solver.solve(p, time_limit=0.05)
+    assert time.perf_counter() - started < 0.05 + GRACE + 1.0
+    assert not h.optimal and h.answer == obvious_hypothesis(p, "clingo").answer
+    assert child.poll() is not None  # the grounding child was killed
