@@ -313,3 +313,26 @@ def test_clingos_time_limit_covers_grounding():
     assert time.perf_counter() - started < 0.05 + GRACE + 1.0
     assert not h.optimal and h.answer == obvious_hypothesis(p, "clingo").answer
     assert child.poll() is not None  # the grounding child was killed
+
+
+def test_out_of_time_ends_in_a_flagged_answer_or_one_line(tmp_path, capsys):
+    # The audit: `solve --time-limit 0` with CP-SAT ended in a traceback, and the fast path ignored
+    # the limit (71/71 TUD-Campus frames "optimal" at 1e-6 s).  1e-9 s is less than any solve
+    # takes, so every backend answers with the obvious answer (all detections ignored, all active
+    # tracks halted by missing_detections), says so, and the checker confirms it.
+    for backend in BACKENDS:
+        assert cli.main(["solve", str(BUS), "--backend", backend, "--time-limit", "1e-9", "--check"]) == 0
+        out = capsys.readouterr().out
+        assert "NOT proven optimal" in out and "every rule holds, cost vector confirmed" in out
+    # no admissible fallback: a clipped active track cannot be halted by missing_detections
+    f = tmp_path / "clipped.lp"
+    f.write_text("#const curr_time=5.\ndet(det_0, car, 90).\nbox2d(det_0, 50, 50, 20, 20).\ntrk(trk_1, car).\n"
+                 "trk_state(trk_1, active).\nbox2d(trk_1, 50, 50, 20, 20).\niou(trk_1,det_0,100000).\n"
+                 "occurs_at(missing_detections(trk_1),3).\n")
+    for backend in BACKENDS:
+        assert cli.main(["solve", str(f), "--backend", backend, "--time-limit", "1e-9"]) == 2
+        assert "no answer at t=5 within the time limit" in _err(capsys)
+    # the fast path counts against the limit too: every TUD-Campus frame is flagged
+    assert cli.main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--backend", "cpsat", "--time-limit", "1e-6",
+                     "--out", str(tmp_path / "r.txt")]) == 0
+    assert "71 of 71 frames not proven optimal" in capsys.readouterr().err
