@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
-from .solvers import BACKENDS, get_solver
+from .solvers import BACKENDS, DEFAULT_BACKEND, get_solver
 from .spec import HistoryEvent
 from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker,
                       TrackingResult)
@@ -39,7 +39,7 @@ def confidences_from_scores(scores: ArrayLike) -> np.ndarray:
 class Tracker:
     """Online tracking by abduction, one ``update`` per frame.
 
-    backend: an abduction backend of refimpl.solvers.BACKENDS ('cpsat' or 'clingo').
+    backend: an abduction backend of refimpl.solvers.BACKENDS (default DEFAULT_BACKEND).
     constants: model constant overrides (names of model/constants.lp), e.g. {"iou_thresh": 20000}.
     img_size: (width, height) of the images in pixels; sets img_width / img_height (the
         field-of-view border).  Without it the border is not tested, as for a det.txt
@@ -50,7 +50,7 @@ class Tracker:
     name, fps: carried into ``scene()``.
     """
 
-    def __init__(self, backend: str = "cpsat", *, constants: Mapping[str, int] | None = None,
+    def __init__(self, backend: str = DEFAULT_BACKEND, *, constants: Mapping[str, int] | None = None,
                  img_size: tuple[int, int] | None = None, min_hits: int = DEFAULT_MIN_HITS,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  time_limit: float | None = None, object_type: str = "pedestrian", first_frame: int = 1,

@@ -35,14 +35,14 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-from .solvers import BACKENDS as SCALE_BACKENDS, get_solver
+from .datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS
+from .solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BACKEND, REFERENCE_BACKEND, TRACKERS, get_solver
 
-THROUGHPUT_TRACKERS = ("baseline",) + SCALE_BACKENDS
+THROUGHPUT_TRACKERS = TRACKERS
 DEFAULT_SIZES = (5, 10, 20, 50, 100, 200)
 DEFAULT_OVERLAPS = (0.2, 0.5, 0.8)
 DEFAULT_SEEDS = 10
 DEFAULT_TIME_LIMIT = 20.0
-THROUGHPUT_BENCHMARKS = ("mot15", "kitti-car")
 
 PAPER_MS_PER_FRAME = {5: 23.33, 10: 31.36, 20: 62.08, 50: 511.83, 100: 3996.38}
 """The paper's Fig. "Scalability" (clingo, synthetic frames; overlap share not stated)."""
@@ -150,7 +150,7 @@ def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] 
                 for b in order:
                     runs.append(_run_one(solvers[b], b, problem, n, ov, seed, time_limit))
                 bar.step(f"n={n} overlap={ov} seed={seed}")
-    stats = getattr(solvers.get("cpsat"), "stats", {})
+    stats = next((s.stats for s in solvers.values() if getattr(s, "fast_path", False)), {})
     return ScaleResult(runs, list(sizes), list(overlaps), seeds, list(backends), time_limit, machine_note(),
                        dict(stats), time.perf_counter() - started)
 
@@ -203,7 +203,7 @@ def summarise_scale(result: ScaleResult) -> list[ScaleRow]:
                           "optimal": sum(r.optimal for r in mine) / len(mine), "frames": len(mine),
                           "errors": sum(r.error is not None for r in mine)}
             compared = agree = same = 0
-            ratios: dict[str, list[float]] = {b: [] for b in result.backends if b != "clingo"}
+            ratios: dict[str, list[float]] = {b: [] for b in result.backends if b != REFERENCE_BACKEND}
             for seed in range(result.seeds):
                 frame = {r.backend: r for r in runs if r.seed == seed}
                 proven = [r for r in frame.values() if r.optimal and r.cost is not None]
@@ -211,10 +211,10 @@ def summarise_scale(result: ScaleResult) -> list[ScaleRow]:
                     compared += 1
                     agree += len({json.dumps(r.cost) for r in proven}) == 1
                     same += len({r.answer_hash for r in proven}) == 1
-                if "clingo" in frame:
+                if REFERENCE_BACKEND in frame:
                     for b in ratios:
                         if b in frame and frame[b].ms > 0:
-                            ratios[b].append(frame["clingo"].ms / frame[b].ms)
+                            ratios[b].append(frame[REFERENCE_BACKEND].ms / frame[b].ms)
             rows.append(ScaleRow(n, ov, per, compared, agree, same,
                                  {b: statistics.median(v) for b, v in ratios.items() if v}))
     return rows
@@ -231,8 +231,8 @@ def scale_table(result: ScaleResult) -> str:
     head = ["tracks", "overlap"]
     for b in bs:
         head += [f"{b} median ms", f"{b} median CPU ms", f"{b} max ms", f"{b} optimal"]
-    if "clingo" in bs:
-        head += [f"clingo / {b} (median)" for b in bs if b != "clingo"]
+    if REFERENCE_BACKEND in bs:
+        head += [f"{REFERENCE_BACKEND} / {b} (median)" for b in bs if b != REFERENCE_BACKEND]
     head += ["cost vectors agree", "paper (clingo) ms"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for row in rows:
@@ -247,8 +247,8 @@ def scale_table(result: ScaleResult) -> str:
                 opt = f"**{opt}**"
             cpu = "-" if s.get("cpu_median") is None else _ms(s["cpu_median"])
             cells += [_ms(s["median"]), cpu, _ms(s["max"]), opt]
-        if "clingo" in bs:
-            cells += [f"{row.ratio[b]:.1f}x" if b in row.ratio else "-" for b in bs if b != "clingo"]
+        if REFERENCE_BACKEND in bs:
+            cells += [f"{row.ratio[b]:.1f}x" if b in row.ratio else "-" for b in bs if b != REFERENCE_BACKEND]
         cells.append(f"{row.agree}/{row.compared}" + ("" if row.same_answer == row.compared else
                                                        f" (answers {row.same_answer}/{row.compared})"))
         cells.append(_ms(PAPER_MS_PER_FRAME[row.n]) if row.n in PAPER_MS_PER_FRAME else "-")
@@ -288,7 +288,7 @@ def plot_scale(result: ScaleResult, path: str | os.PathLike) -> None:
     import matplotlib.pyplot as plt
 
     rows = summarise_scale(result)
-    colours = {"cpsat": "tab:blue", "cpsat-full": "tab:green", "clingo": "tab:red"}
+    colours = COLOURS
     styles = {0.2: ":", 0.5: "--", 0.8: "-"}
     fig, ax = plt.subplots(figsize=(8.5, 5.5), dpi=110)
     for b in result.backends:
@@ -353,7 +353,7 @@ class ThroughputResult:
 
 
 def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = THROUGHPUT_BENCHMARKS,
-                     trackers: Sequence[str] = ("baseline", "cpsat", "clingo"),
+                     trackers: Sequence[str] = (BASELINE, DEFAULT_BACKEND, REFERENCE_BACKEND),
                      progress: ProgressFactory = _NoProgress) -> ThroughputResult:
     """Frames per second of the whole tracking loop per tracker and sequence (files read beforehand;
     every sequence is tracked by every tracker in turn, in an order rotated from sequence to sequence)."""
@@ -375,15 +375,15 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
     for k, (bench, name, seq) in enumerate(plan):
         order = list(trackers[k % len(trackers):]) + list(trackers[:k % len(trackers)])
         for tr in order:
-            solver = None if tr == "baseline" else get_solver(tr)
+            solver = None if tr == BASELINE else get_solver(tr)
             t0 = time.perf_counter()
-            if tr == "baseline":
+            if tr == BASELINE:
                 sort_sequence(seq)
                 not_optimal = 0
             else:
                 not_optimal = track_sequence(seq, solver=solver).not_optimal_frames
             secs = time.perf_counter() - t0
-            fast = getattr(solver, "stats", {}).get("fast") if tr == "cpsat" else None
+            fast = solver.stats.get("fast") if getattr(solver, "fast_path", False) else None
             runs.append(SequenceRun(bench, name, tr, len(seq.frames), secs, not_optimal, fast))
             bar.step(f"{tr} {bench} {name}")
     return ThroughputResult(runs, list(benchmarks), list(trackers), machine_note(), time.perf_counter() - started)
@@ -416,11 +416,11 @@ def throughput_table(result: ThroughputResult) -> str:
 
 
 def throughput_report(result: ThroughputResult, command: str) -> str:
-    fast = [r for r in result.runs if r.tracker == "cpsat" and r.fast_frames is not None]
+    fast = [r for r in result.runs if r.fast_frames is not None]
     note = ""
     if fast:
         f, t = sum(r.fast_frames or 0 for r in fast), sum(r.frames for r in fast)
-        note = f"cpsat answered {f} of {t} frames by the fast exact path and {t - f} by the full CP-SAT model.\n"
+        note = f"{fast[0].tracker} answered {f} of {t} frames by the fast exact path and {t - f} by the full CP-SAT model.\n"
     return (f"Command: `{command}`  \n"
             f"Run took {result.seconds / 60:.1f} min. Machine: {result.machine}.\n{note}\n"
             + throughput_table(result) + "\n\n"
@@ -537,7 +537,7 @@ def run_bench_scale(*, sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[
                     seeds: int = DEFAULT_SEEDS, backends: Sequence[str] = SCALE_BACKENDS,
                     time_limit: float = DEFAULT_TIME_LIMIT, out: str | None = "docs/benchmarks.md",
                     plot: str | None = None, json_path: str | None = None, from_json: str | None = None,
-                    throughput: bool = False, trackers: Sequence[str] = ("baseline", "cpsat", "clingo"),
+                    throughput: bool = False, trackers: Sequence[str] = (BASELINE, DEFAULT_BACKEND, REFERENCE_BACKEND),
                     data: str = "../shared/data", command: str = "refimpl bench-scale",
                     progress: ProgressFactory = _NoProgress) -> str:
     """Run (or, with from_json, reload) a benchmark, write its section of ``out`` (markdown; None:

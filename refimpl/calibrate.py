@@ -28,6 +28,8 @@ import math
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
+from .solvers import DEFAULT_BACKEND
+
 DEFAULT_GRID: dict[str, tuple[int, ...]] = {
     "conf_thresh_new_track": (60, 80, 90),
     "conf_thresh_assign": (0, 40, 60),
@@ -100,7 +102,7 @@ def check_tunable(benchmark: str, data_root: str) -> None:
     """Refuse a KITTI benchmark holding a sequence of the val split (it is reported, never tuned on)."""
     from . import io
     seqs = io.benchmark_sequences(benchmark, data_root) if benchmark in io.BENCHMARKS else []
-    if seqs and seqs[0].format == "kitti":
+    if seqs and seqs[0].format == io.KITTI:  # KITTI has a held-out val split
         held_out = sorted(set(s.name for s in seqs) & set(io.kitti_val_sequences(data_root)))
         if held_out:
             raise CalibrationRefused(
@@ -131,7 +133,7 @@ def leave_one_sequence_out(points: Sequence[GridPoint], use_hota: bool) -> dict:
 
 
 def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] = DEFAULT_GRID,
-              backend: str = "cpsat", plan=None, quiet: bool = True,
+              backend: str = DEFAULT_BACKEND, plan=None, quiet: bool = True,
               loso: bool | None = None) -> Calibration:
     """Run the grid on a benchmark and rank it; see the module docstring.  The grid points run as
     tasks on ``plan`` (refimpl.scaleout.Plan: serial by default, or a Dask cluster), each with
@@ -153,7 +155,8 @@ def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] 
     ranked = tuple(sorted(range(len(points)), key=lambda i: (rank_key(points[i].overall, use_hota), -i),
                           reverse=True))
     if loso is None:
-        loso = fmt == "mot"
+        from .io import KITTI
+        loso = fmt != KITTI  # no held-out split: leave one sequence out
     loso_result = leave_one_sequence_out(points, use_hota) if loso and len(points[0].per_sequence) > 1 else None
     return Calibration(benchmark, fmt, cls, {k: tuple(v) for k, v in grid.items()}, tuple(points), ranked,
                        ranking, loso_result)

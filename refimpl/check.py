@@ -27,16 +27,9 @@ _EXPLAINED_ACTIONS = frozenset(_EXPLAINED_BY.values())
 
 
 @dataclass(frozen=True)
-class Violation:
-    rule: str
-    detail: str
-
-    def __str__(self) -> str:
-        return f"[{self.rule}] {self.detail}"
-
-
-@dataclass(frozen=True)
 class CheckReport:
+    """What the checker found: every broken rule (none: the answer is admissible) and the true cost."""
+
     violations: tuple[Violation, ...]
     cost: Cost
     """The cost vector recomputed from the answer (clingo's convention)."""
@@ -44,6 +37,16 @@ class CheckReport:
     @property
     def ok(self) -> bool:
         return not self.violations
+
+
+@dataclass(frozen=True)
+class Violation:
+    rule: str
+    """The rule of the model the answer breaks (the names docs/model.md uses)."""
+    detail: str
+
+    def __str__(self) -> str:
+        return f"[{self.rule}] {self.detail}"
 
 
 def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:

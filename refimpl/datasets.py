@@ -22,21 +22,32 @@ class Dataset:
     title: str
     simulated: bool = False
     """Detections simulated from ground truth (refimpl.simulate), never public ones."""
+    table6: bool = False
+    """A row of the paper's Table 6 on our data (refimpl table6)."""
+    throughput: bool = False
+    """Timed by ``refimpl bench-scale --throughput`` and evaluated by default where a command needs one
+    MOTChallenge and one KITTI benchmark (anticipation, real detectors)."""
+    detectors: tuple[tuple[str, str | None, str], ...] = ()
+    """Real detectors side by side (refimpl detectors): (key, file name beside the dataset's detection
+    file or None for that file itself, label)."""
 
 
 _ROWS = (
-    Dataset("mot15", "MOT15 train, 11 sequences (SORT's Faster R-CNN detections)"),
+    Dataset("mot15", "MOT15 train, 11 sequences (SORT's Faster R-CNN detections)", table6=True, throughput=True,
+            detectors=(("acf", "det.txt", "ACF (official MOT15 public detections)"),
+                       ("frcnn", "det_sort_frcnn.txt", "Faster R-CNN (SORT's detections)"))),
     Dataset("mot15-sort6", "MOT15 train, SORT's six sequences (SORT's Faster R-CNN detections)"),
-    Dataset("kitti-car", "KITTI tracking train, Car, 21 sequences (PointRCNN detections)"),
-    Dataset("kitti-ped", "KITTI tracking train, Pedestrian, 21 sequences (PointRCNN detections)"),
+    Dataset("kitti-car", "KITTI tracking train, Car, 21 sequences (PointRCNN detections)", table6=True,
+            throughput=True, detectors=(("pointrcnn", None, "PointRCNN (AB3DMOT's detections)"),)),
+    Dataset("kitti-ped", "KITTI tracking train, Pedestrian, 21 sequences (PointRCNN detections)", table6=True),
     Dataset("kitti-car-val", "KITTI tracking train, Car, the 11 val-split sequences (PointRCNN detections)"),
     Dataset("kitti-ped-val", "KITTI tracking train, Pedestrian, the 11 val-split sequences (PointRCNN detections)"),
     Dataset("kitti-car-train",
             "KITTI tracking train, Car, the 10 sequences outside the val split (PointRCNN detections)"),
     Dataset("kitti-ped-train",
             "KITTI tracking train, Pedestrian, the 10 sequences outside the val split (PointRCNN detections)"),
-    Dataset("mot17-sim", "MOT17 train, 7 sequences (SIMULATED detections, seed 0)", simulated=True),
-    Dataset("mot20-01-sim", "MOT20-01 (SIMULATED detections, seed 0)", simulated=True),
+    Dataset("mot17-sim", "MOT17 train, 7 sequences (SIMULATED detections, seed 0)", simulated=True, table6=True),
+    Dataset("mot20-01-sim", "MOT20-01 (SIMULATED detections, seed 0)", simulated=True, table6=True),
 )
 
 CATALOGUE: dict[str, Dataset] = {d.name: d for d in _ROWS}
@@ -45,8 +56,11 @@ CATALOGUE: dict[str, Dataset] = {d.name: d for d in _ROWS}
 DATASETS = tuple(CATALOGUE)
 SIMULATED = tuple(d.name for d in _ROWS if d.simulated)
 TITLES = {d.name: d.title for d in _ROWS}
-TABLE6_DATASETS = ("mot15", "kitti-car", "kitti-ped", "mot17-sim", "mot20-01-sim")
+TABLE6_DATASETS = tuple(d.name for d in _ROWS if d.table6)
 """The datasets of the paper's Table 6 on our data (refimpl table6)."""
+THROUGHPUT_DATASETS = tuple(d.name for d in _ROWS if d.throughput)
+REAL_DETECTORS: dict[str, tuple[tuple[str, str | None, str], ...]] = {d.name: d.detectors for d in _ROWS if d.detectors}
+"""dataset -> its real detectors side by side (Dataset.detectors)."""
 SIMULATED_SUFFIX = "-sim"
 
 
@@ -69,6 +83,6 @@ def load_dataset(name: str, data_root: str, seed: int = 0):
 def dataset_kind(name: str, data_root: str) -> tuple[str, str]:
     """(format, object class) of a dataset: what selects its preset (refimpl.presets)."""
     if dataset(name).simulated:
-        return "mot", "pedestrian"
+        return io.MOT, "pedestrian"
     first = io.benchmark_sequences(name, data_root)[0]
     return first.format, first.object_class

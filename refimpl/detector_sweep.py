@@ -29,6 +29,7 @@ import numpy as np
 from . import io
 from .detectors import (DetectionQuality, ProgressStep, fmt_pct, fmt_ratio, detection_quality, first_frames,
                         track_and_evaluate)
+from .solvers import BASELINE, DEFAULT_BACKEND
 
 
 
@@ -93,7 +94,7 @@ def detector_params(dataset: str, p_max: float, fp_per_frame: float, noise: floa
     return DetectorParams(p_max=p_max, fp_per_frame=fp_per_frame, centre_sigma=noise, size_sigma=noise, **extra)
 
 
-def sweep(dataset: str, data_root: str | os.PathLike, backend: str = "cpsat",
+def sweep(dataset: str, data_root: str | os.PathLike, backend: str = DEFAULT_BACKEND,
           p_max: Sequence[float] = DEFAULT_P_MAX, fp_per_frame: Sequence[float] = DEFAULT_FP_PER_FRAME,
           noise: Sequence[float] = DEFAULT_NOISE, seed: int = 0, sequences: Sequence[str] | None = None,
           max_frames: int | None = None, step: ProgressStep | None = None) -> list[SweepPoint]:
@@ -113,7 +114,7 @@ def sweep(dataset: str, data_root: str | os.PathLike, backend: str = "cpsat",
                     dets, g = first_frames(dets, gt, max_frames)
                     quality = quality + detection_quality(g, dets)
                     triples.append((name, dets, g))
-                base = track_and_evaluate(triples, "baseline")
+                base = track_and_evaluate(triples, BASELINE)
                 abd = track_and_evaluate(triples, backend)
                 points.append(SweepPoint(dataset, pm, fp, nz, quality, base.overall, abd.overall))
                 if step:

@@ -42,16 +42,10 @@ import numpy as np
 
 from . import io
 from .evaluate import _check_results, _frame_slices, _match, _preprocess, evaluate_many
+from .datasets import REAL_DETECTORS  # noqa: F401  (benchmark -> (key, file beside its detections or None, label))
+from .solvers import BASELINE, DEFAULT_BACKEND
 
 IOU_THRESHOLD = 0.5
-
-REAL_DETECTORS: dict[str, tuple[tuple[str, str | None, str], ...]] = {
-    "mot15": (("acf", "det.txt", "ACF (official MOT15 public detections)"),
-              ("frcnn", "det_sort_frcnn.txt", "Faster R-CNN (SORT's detections)")),
-    "kitti-car": (("pointrcnn", None, "PointRCNN (AB3DMOT's detections)"),),
-}
-"""benchmark -> (detector key, file name beside the benchmark's detection file or None for that
-file itself, label).  Benchmarks are those of refimpl.io.benchmark_sequences."""
 
 ProgressStep = Callable[[str], None]
 
@@ -195,10 +189,13 @@ def first_frames(dets: io.DetectionSequence, gt: io.GroundTruth, n: int | None
 
 @dataclass(frozen=True)
 class DetectorResult:
+    """One real detector on one benchmark: its detections' quality and every tracker run on them."""
+
     benchmark: str
     detector: str
     label: str
     sequences: tuple[str, ...]
+    """The sequences every detector of the benchmark covers (scored on exactly these)."""
     frames: int
     quality: DetectionQuality
     runs: tuple[TrackerRun, ...]
@@ -246,7 +243,7 @@ def ungated(dets: io.DetectionSequence) -> io.DetectionSequence:
         dataclasses.replace(f, confidences=np.full(len(f), 100, dtype=np.int64)) for f in dets.frames))
 
 
-def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str = "cpsat",
+def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str = DEFAULT_BACKEND,
                       sequences: Sequence[str] | None = None, max_frames: int | None = None,
                       step: ProgressStep | None = None, with_ungated: bool = False) -> list[DetectorResult]:
     """Every registered detector of a benchmark on the common sequences: quality + both trackers.
@@ -268,9 +265,9 @@ def compare_detectors(benchmark: str, data_root: str | os.PathLike, backend: str
                 lo, hi = min(lo, float(scores.min())), max(hi, float(scores.max()))
             quality = quality + detection_quality(gt, dets)
             triples.append((name, dets, gt))
-        for t in ("baseline", backend):  # imports and solver set-up must not count against the first timing
+        for t in (BASELINE, backend):  # imports and solver set-up must not count against the first timing
             warm_up(triples, t)
-        runs = tuple(track_and_evaluate(triples, t, step) for t in ("baseline", backend))
+        runs = tuple(track_and_evaluate(triples, t, step) for t in (BASELINE, backend))
         frames = sum(len(d.frames) for _, d, _ in triples)
         out.append(DetectorResult(benchmark, key, label, tuple(names), frames, quality, runs, (lo, hi)))
         if with_ungated:
@@ -306,7 +303,7 @@ def detectors_table(results: Sequence[DetectorResult]) -> str:
                 o = run.overall
                 det = ([f"{r.detector}", str(q.num_dets), fmt_ratio(q.recall), fmt_ratio(q.precision), fmt_pct(q.startable)]
                        if k == 0 else ["", "", "", "", ""])
-                tracker = "baseline (SORT)" if run.tracker == "baseline" else f"abduction ({run.tracker})"
+                tracker = "baseline (SORT)" if run.tracker == BASELINE else f"abduction ({run.tracker})"
                 cells = det + [tracker, fmt_pct(o.get("hota")), fmt_pct(o["mota"]), fmt_pct(o["motp"]), fmt_pct(o["idf1"]),
                                str(o["fp"]), str(o["fn"]), str(o["idsw"]), f"{run.fps:.0f}"]
                 lines.append("| " + " | ".join(cells) + " |")
@@ -370,7 +367,7 @@ def real_report(results: Sequence[DetectorResult], command: str, seconds: float)
             "(files read beforehand, evaluation excluded). HOTA: '-' where the evaluator does not provide it.\n")
 
 
-def run_detectors(*, data: str = "../shared/data", backend: str = "cpsat", do_sweep: bool = False,
+def run_detectors(*, data: str = "../shared/data", backend: str = DEFAULT_BACKEND, do_sweep: bool = False,
                   benchmarks: Sequence[str] = tuple(REAL_DETECTORS), sequences: Sequence[str] | None = None,
                   max_frames: int | None = None, sweep_datasets: Sequence[str] | None = None,
                   p_max: Sequence[float] | None = None, fp_per_frame: Sequence[float] | None = None,

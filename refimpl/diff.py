@@ -16,11 +16,11 @@ from typing import Sequence
 
 from .check import check_answer
 from .hypothesis import Hypothesis
-from .solvers import Solver, get_solver
+from .solvers import ORACLE_PAIR, Solver, get_solver
 from .spec import FrameProblem
 from .tracker import track_sequence
 
-DEFAULT_BACKENDS = ("cpsat-full", "clingo")
+DEFAULT_BACKENDS = ORACLE_PAIR
 DEFAULT_TIME_LIMIT = 20.0
 
 

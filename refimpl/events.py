@@ -65,25 +65,6 @@ OTHERS = "*"
 Effect = tuple[str, tuple[Union[int, str], ...], str]
 """(fluent, argument positions of the event or OTHERS, value): one causesValue rule."""
 
-_EFFECTS: Mapping[str, tuple[Effect, ...]] = {
-    # Appendix A: causesValue(hides_behind(T1,T2), visibility(T1), not_visible) and
-    # causesValue(hides_behind(T1,T2), hidden_by(T1,T2), true).
-    "hides_behind": (("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true")),
-    # refimpl decision (docs/model-spec.md): the inverse of hides_behind.
-    "unhides_from_behind": (("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false")),
-    # Appendix A: causesValue(missing_detections(T), clipped(T), true).
-    "missing_detections": (("clipped", (0,), "true"),),
-    # refimpl decision (docs/model-spec.md): recover resets everything halting may have set.
-    "recover": (("clipped", (0,), "false"), ("visibility", (0,), "fully_visible"),
-                ("hidden_by", (0, OTHERS), "false")),
-    # refimpl decision (docs/model-spec.md), after the paper's in_fov fluent.
-    "enters_fov": (("in_fov", (0,), "true"),),
-    "leaves_fov": (("in_fov", (0,), "false"),),
-    # refimpl decision (docs/model-spec.md): the track ends, nothing to record.
-    "lost": (),
-    "noise": (),
-}
-
 FluentKey = tuple[str, ...]
 FluentLike = Union[Term, str, tuple]
 
@@ -406,20 +387,24 @@ class EventType:
     """2 for a pair of tracks (Trk1, Trk2); 1 for one track (or, for ``start``, one detection)."""
     explains: str
     """The action it explains (explain_* rules): halt, resume, start or end."""
-    effects: tuple[Effect, ...]
-    """causesValue rules: (fluent, argument positions or OTHERS, value)."""
     poss: Callable[..., bool]
     """Its precondition: poss(state, constants, *arguments as TrackPrediction (or the det id for a
     start), tracks=the frame's current tracks by id) -- some preconditions look at other tracks."""
+    effects: tuple[Effect, ...]
+    """causesValue rules: (fluent, argument positions or OTHERS, value)."""
     phrase: str
     """How a sentence says it happened to a track, followed by the second track for a pair event
     ('went out of sight behind', 'came out from behind', 'was given up as lost', ...)."""
-    closing: str
-    """How a sentence says a halt ended with it ('reappeared', 'was detected again', ...); for a
-    halting event, how the scene calls the halt ('hidden' or 'missing')."""
     marker: str
     colour: str
     """Its marker and colour in plots."""
+    closing: str = ""
+    """How a sentence says a halt ended with it ('reappeared', 'was detected again', ...); for a
+    halting event, how the scene calls the halt ('hidden' or 'missing').  Empty: the phrase."""
+
+    def __post_init__(self) -> None:
+        if not self.closing:
+            object.__setattr__(self, "closing", self.phrase)
 
     @property
     def cost_constant(self) -> str:
@@ -428,22 +413,32 @@ class EventType:
 
 
 EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
-    EventType("hides_behind", 2, "halt", _EFFECTS["hides_behind"], poss_hides_behind,
-              "went out of sight behind", "hidden", "v", "#d62728"),
-    EventType("missing_detections", 1, "halt", _EFFECTS["missing_detections"], poss_missing_detections,
-              "was missed by the detector", "missing", "x", "#e377c2"),
-    EventType("unhides_from_behind", 2, "resume", _EFFECTS["unhides_from_behind"], poss_unhides_from_behind,
-              "came out from behind", "reappeared", "^", "#9467bd"),
-    EventType("recover", 1, "resume", _EFFECTS["recover"], poss_recover,
-              "was detected again", "was detected again", "+", "#17becf"),
-    EventType("enters_fov", 1, "start", _EFFECTS["enters_fov"], poss_enters_fov,
-              "entered the field of view", "entered the field of view", ">", "#2ca02c"),
-    EventType("leaves_fov", 1, "end", _EFFECTS["leaves_fov"], poss_leaves_fov,
-              "left the field of view", "left the field of view", "<", "#8c564b"),
-    EventType("lost", 1, "end", _EFFECTS["lost"], poss_lost,
-              "was given up as lost", "was given up as lost", "s", "#000000"),
-    EventType("noise", 1, "end", _EFFECTS["noise"], poss_noise,
-              "was discarded as noise", "was discarded as noise", "D", "#bcbd22"),
+    # Appendix A: causesValue(hides_behind(T1,T2), visibility(T1), not_visible) and
+    # causesValue(hides_behind(T1,T2), hidden_by(T1,T2), true).
+    EventType("hides_behind", 2, "halt", poss_hides_behind,
+              effects=(("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true")),
+              phrase="went out of sight behind", closing="hidden", marker="v", colour="#d62728"),
+    # Appendix A: causesValue(missing_detections(T), clipped(T), true).
+    EventType("missing_detections", 1, "halt", poss_missing_detections, effects=(("clipped", (0,), "true"),),
+              phrase="was missed by the detector", closing="missing", marker="x", colour="#e377c2"),
+    # refimpl decision (docs/model-spec.md): the inverse of hides_behind.
+    EventType("unhides_from_behind", 2, "resume", poss_unhides_from_behind,
+              effects=(("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false")),
+              phrase="came out from behind", closing="reappeared", marker="^", colour="#9467bd"),
+    # refimpl decision (docs/model-spec.md): recover resets everything halting may have set.
+    EventType("recover", 1, "resume", poss_recover,
+              effects=(("clipped", (0,), "false"), ("visibility", (0,), "fully_visible"),
+                       ("hidden_by", (0, OTHERS), "false")),
+              phrase="was detected again", marker="+", colour="#17becf"),
+    # refimpl decision (docs/model-spec.md), after the paper's in_fov fluent.
+    EventType("enters_fov", 1, "start", poss_enters_fov, effects=(("in_fov", (0,), "true"),),
+              phrase="entered the field of view", marker=">", colour="#2ca02c"),
+    EventType("leaves_fov", 1, "end", poss_leaves_fov, effects=(("in_fov", (0,), "false"),),
+              phrase="left the field of view", marker="<", colour="#8c564b"),
+    # refimpl decision (docs/model-spec.md): the track ends, nothing to record.
+    EventType("lost", 1, "end", poss_lost, effects=(), phrase="was given up as lost", marker="s", colour="#000000"),
+    EventType("noise", 1, "end", poss_noise, effects=(), phrase="was discarded as noise", marker="D",
+              colour="#bcbd22"),
 )}
 """event name -> EventType, in the order of the paper's Table "Events"."""
 

@@ -51,58 +51,34 @@ class FolderEvaluation:
     unscored: tuple[str, ...]
 
 
-def _kitti_label_dir(gt_root: Path) -> Path:
-    sub = gt_root / "label_02"
-    return sub if sub.is_dir() else gt_root
-
-
-def _gt_candidates(gt_root: Path, name: str, data_format: str) -> list[Path]:
-    if data_format == "mot":
-        return [gt_root / name / "gt" / "gt.txt"]
-    return [_kitti_label_dir(gt_root) / f"{name}.txt"]
-
-
-def _gt_sequences(gt_root: Path, data_format: str) -> list[str]:
-    """Names of the sequences that have ground truth under gt_root."""
-    if data_format == "mot":
-        return sorted(p.name for p in gt_root.iterdir() if (p / "gt" / "gt.txt").is_file())
-    return sorted(p.stem for p in _kitti_label_dir(gt_root).glob("*.txt") if not p.name.startswith("."))
-
-
 def pair_folder(results_dir: str | Path, gt_root: str | Path, data_format: str) -> tuple[list[SequenceFiles], tuple[str, ...]]:
     """The (results, ground truth) file pairs of a results folder, and the gt sequences left unscored."""
     results_dir, gt_root = Path(results_dir), Path(gt_root)
-    if data_format not in ("mot", "kitti"):
-        raise ValueError(f"unknown format {data_format!r} (mot or kitti)")
+    fmt = io.get_format(data_format)
     if not results_dir.is_dir():
         raise io.InputFormatError("not a folder of results files", results_dir)
     if not gt_root.is_dir():
         raise io.InputFormatError("with a results folder, --gt must be the ground-truth root folder "
-                                  + ("(holding <SEQ>/gt/gt.txt)" if data_format == "mot"
-                                     else "(holding label_02/<SEQ>.txt or <SEQ>.txt)"), gt_root)
+                                  f"(holding {fmt.gt_layout})", gt_root)
     files = sorted(p for p in results_dir.glob("*.txt") if p.is_file() and not p.name.startswith("."))
     if not files:
         raise io.InputFormatError("no results files (<SEQ>.txt) in this folder", results_dir)
     pairs = []
     for f in files:
-        candidates = _gt_candidates(gt_root, f.stem, data_format)
+        candidates = fmt.gt_candidates(gt_root, f.stem)
         found = next((c for c in candidates if c.is_file()), None)
         if found is None:
             raise io.InputFormatError(f"no ground truth for sequence {f.stem!r} (looked for "
                                       f"{', '.join(str(c) for c in candidates)})", f)
         pairs.append(SequenceFiles(f.stem, f, found))
     scored = {p.name for p in pairs}
-    unscored = tuple(n for n in _gt_sequences(gt_root, data_format) if n not in scored)
+    unscored = tuple(n for n in fmt.gt_names(gt_root) if n not in scored)
     return pairs, unscored
 
 
 def read_ground_truth(path: str | Path, data_format: str, object_class: str | None) -> io.GroundTruth:
     """Ground truth of one sequence: MOTChallenge gt.txt (seqinfo.ini beside gt/ if any) or KITTI label_02."""
-    if data_format == "mot":
-        return io.read_mot_ground_truth(path)
-    if object_class is None:
-        raise ValueError("KITTI ground truth needs the object class")
-    return io.read_kitti_ground_truth(path, object_class)
+    return io.get_format(data_format).read_ground_truth(path, object_class=object_class)
 
 
 def evaluate_folder(results_dir: str | Path, gt_root: str | Path, data_format: str,

@@ -31,7 +31,7 @@ import numpy as np
 from .evaluate import evaluate_sequence
 from .geometry import iou_matrix
 from .occlusion import Scenario, build_suite
-from .solvers import BACKENDS
+from .solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
 
 TOLERANCE = 5
 MOTION_OPTIONS = {"hold": "hold_hidden", "oru": "reupdate_on_resume"}
@@ -62,16 +62,16 @@ class ScenarioResult:
 
     @property
     def passed(self) -> bool:
-        return self.one_identity and (self.variant == "baseline" or self.on_time)
+        return self.one_identity and (self.variant == BASELINE or self.on_time)
 
 
 def parse_variant(variant: str) -> tuple[str, dict]:
     """'cpsat+hold+oru' -> ('cpsat', {'hold_hidden': True, 'reupdate_on_resume': True}); ValueError if unknown."""
     head, *opts = variant.split("+")
-    if head == "baseline" and not opts:
+    if head == BASELINE and not opts:
         return head, {}
     if head not in BACKENDS:
-        raise ValueError(f"unknown tracker {head!r} (baseline or one of {', '.join(BACKENDS)})")
+        raise ValueError(f"unknown tracker {head!r} ({BASELINE} or one of {', '.join(BACKENDS)})")
     bad = [o for o in opts if o not in MOTION_OPTIONS and o != "persist"]
     if bad:
         raise ValueError(f"unknown option {bad[0]!r} (options: {', '.join(MOTION_OPTIONS)}, persist)")
@@ -111,7 +111,7 @@ def score(scenario: Scenario, variant: str, rows: np.ndarray, events=()) -> Scen
     one = len(ids) == 1 and bool(before) and any(f >= t.reappear_frame for f, _ in matches)
     hide = unhide = None
     ended = "-"
-    if variant != "baseline" and before:
+    if variant != BASELINE and before:
         trk = f"trk_{before[-1]}"
         mine = [e for e in events if e.event.args and e.event.args[0].name == trk]
         hide = _nearest([e.time for e in mine if e.event.name == "hides_behind"], t.hide_frame)
@@ -127,7 +127,7 @@ def score(scenario: Scenario, variant: str, rows: np.ndarray, events=()) -> Scen
 
 def run_variant(scenario: Scenario, variant: str) -> ScenarioResult:
     head, options = parse_variant(variant)
-    if head == "baseline":
+    if head == BASELINE:
         from .baseline import track_sequence as sort_track
         return score(scenario, variant, sort_track(scenario.detections))
     from .tracker import track_sequence
@@ -135,7 +135,7 @@ def run_variant(scenario: Scenario, variant: str) -> ScenarioResult:
     return score(scenario, variant, result.rows, result.events)
 
 
-def run_suite(variants=("baseline", "cpsat"), seed: int = 0, step=None) -> list[ScenarioResult]:
+def run_suite(variants=(BASELINE, DEFAULT_BACKEND), seed: int = 0, step=None) -> list[ScenarioResult]:
     for v in variants:
         parse_variant(v)  # fail before any work
     out = []

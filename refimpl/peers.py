@@ -29,6 +29,8 @@ from typing import Mapping
 
 import numpy as np
 
+from .solvers import BASELINE, DEFAULT_BACKEND
+
 PEERS = {"sort": "SORTTracker", "bytetrack": "ByteTrackTracker", "ocsort": "OCSORTTracker"}
 """Peer name (as on the command line) -> class of the ``trackers`` package."""
 
@@ -153,7 +155,7 @@ class Comparison:
     """The constants the abduction tracker ran with beyond model/constants.lp (preset + --const)."""
 
 
-def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = "cpsat",
+def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAULT_BACKEND,
             constants: Mapping[str, int] | None = None, dataset=None, step=None) -> Comparison:
     """Every tracker on the same detections of a dataset, scored by the same evaluator."""
     from .evaluate import evaluate_many
@@ -165,7 +167,7 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = "cpsat
     dataset = dataset if dataset is not None else load_dataset(name, data_root)
     frames = sum(len(d.frames) for _, d, _ in dataset)
     scores = []
-    runs = [("baseline", "refimpl baseline (SORT)", None),
+    runs = [(BASELINE, "refimpl baseline (SORT)", None),
             (backend, f"refimpl abduction ({backend})", dict(constants or {}))]
     if constants:  # what the preset changes: the same tracker with model/constants.lp alone
         runs.append((backend, f"refimpl abduction ({backend}), constants.lp defaults", {}))

@@ -23,17 +23,6 @@ SPLITS = ("all", "tune", "val")
 VAL_SEQMAP = Path("KITTI") / "tracking" / "training" / "evaluate_tracking.seqmap.val"
 
 
-@dataclass(frozen=True)
-class SweepResult:
-    benchmark: str
-    split: str
-    backend: str
-    names: tuple[str, ...]
-    settings: tuple[tuple[int, ...], ...]
-    runs: tuple[RunSummary, ...]
-    sequences: tuple[str, ...]
-
-
 def grid_settings(grid: Sequence[tuple[str, Sequence[int]]]) -> tuple[tuple[str, ...], tuple[tuple[int, ...], ...]]:
     """Constant names and every combination of their values, in grid order; names are checked."""
     from .constants import default_constants
@@ -65,7 +54,7 @@ def split_dataset(benchmark: str, dataset, data_root: str | Path, split: str):
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}")
     kitti = benchmark in io.BENCHMARKS and all(
-        s.format == "kitti" for s in io.benchmark_sequences(benchmark, data_root))
+        s.format == io.KITTI for s in io.benchmark_sequences(benchmark, data_root))
     if not kitti:
         raise ValueError(f"--split {split} is defined for the KITTI benchmarks only (its seqmap.val)")
     val = set(val_sequences(data_root))
@@ -74,13 +63,26 @@ def split_dataset(benchmark: str, dataset, data_root: str | Path, split: str):
 
 @dataclass(frozen=True)
 class SweepPlan:
+    """What a sweep will run: checked, with its data read, before any task starts."""
+
     benchmark: str
     split: str
     backend: str
     names: tuple[str, ...]
+    """The swept model constants, in --grid order."""
     settings: tuple[tuple[int, ...], ...]
+    """Every combination of their values (one per row of the table), in grid order."""
     requests: tuple[RunRequest, ...]
+    """One tracking run of the split per setting."""
     sequences: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """A sweep plan and, in the order of its settings, what every setting scored over the split."""
+
+    plan: SweepPlan
+    runs: tuple[RunSummary, ...]
 
 
 def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tuple[str, Sequence[int]]],
@@ -97,8 +99,7 @@ def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tupl
 def run_sweep(sweep: SweepPlan, plan, quiet: bool = False) -> SweepResult:
     """Every setting x sequence as a task on the plan's workers (refimpl.scaleout)."""
     runs = run_requests(sweep.requests, plan, label="sweep", quiet=quiet)
-    return SweepResult(sweep.benchmark, sweep.split, sweep.backend, sweep.names, sweep.settings, tuple(runs),
-                       sweep.sequences)
+    return SweepResult(sweep, tuple(runs))
 
 
 def _pct(v) -> str:
@@ -109,13 +110,14 @@ def format_sweep(result: SweepResult) -> str:
     """A markdown table, one row per setting: the constants, then HOTA (when the evaluation
     provides it), MOTA, IDF1, IDs, FP, FN over all sequences of the split."""
     hota = all("hota" in r.overall for r in result.runs)
-    head = [*result.names, *(["HOTA"] if hota else []), "MOTA", "IDF1", "IDs", "FP", "FN"]
-    lines = [f"Sweep: {result.benchmark} ({result.split}, {len(result.sequences)} sequences), {result.backend}; "
-             f"{len(result.settings)} settings x {len(result.sequences)} sequences = "
-             f"{len(result.settings) * len(result.sequences)} tasks\n",
+    p = result.plan
+    head = [*p.names, *(["HOTA"] if hota else []), "MOTA", "IDF1", "IDs", "FP", "FN"]
+    lines = [f"Sweep: {p.benchmark} ({p.split}, {len(p.sequences)} sequences), {p.backend}; "
+             f"{len(p.settings)} settings x {len(p.sequences)} sequences = "
+             f"{len(p.settings) * len(p.sequences)} tasks\n",
              "| " + " | ".join(head) + " |",
              "|" + "---:|" * len(head)]
-    for values, run in zip(result.settings, result.runs):
+    for values, run in zip(p.settings, result.runs):
         o = run.overall
         cells = [*(str(v) for v in values), *([_pct(o["hota"])] if hota else []), _pct(o["mota"]), _pct(o["idf1"]),
                  str(o["idsw"]), str(o["fp"]), str(o["fn"])]
@@ -124,7 +126,7 @@ def format_sweep(result: SweepResult) -> str:
 
 
 def sweep_json(result: SweepResult) -> dict:
-    return {"benchmark": result.benchmark, "split": result.split, "backend": result.backend,
-            "sequences": list(result.sequences),
-            "settings": [{"constants": dict(zip(result.names, values)), "overall": run.overall}
-                         for values, run in zip(result.settings, result.runs)]}
+    p = result.plan
+    return {"benchmark": p.benchmark, "split": p.split, "backend": p.backend, "sequences": list(p.sequences),
+            "settings": [{"constants": dict(zip(p.names, values)), "overall": run.overall}
+                         for values, run in zip(p.settings, result.runs)]}

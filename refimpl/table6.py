@@ -16,6 +16,7 @@ import numpy as np
 
 from .datasets import TABLE6_DATASETS, TITLES, load_dataset
 from .evaluate import evaluate_many
+from .solvers import BASELINE, DEFAULT_BACKEND
 
 
 @dataclass(frozen=True)
@@ -32,7 +33,7 @@ class BenchmarkRun:
 def run_tracker(seq, tracker: str, constants=None):
     """Results rows and events of one sequence with 'baseline' (SORT) or an abduction backend
     (with these model constants on top of model/constants.lp)."""
-    if tracker == "baseline":
+    if tracker == BASELINE:
         from .baseline import track_sequence
         return track_sequence(seq), ()
     from .tracker import track_sequence
@@ -95,14 +96,14 @@ def format_table6(runs: list[tuple[BenchmarkRun, BenchmarkRun]]) -> str:
     return "\n".join(out)
 
 
-def run_table6(data_root: str, tracker: str = "cpsat", datasets=TABLE6_DATASETS,
+def run_table6(data_root: str, tracker: str = DEFAULT_BACKEND, datasets=TABLE6_DATASETS,
                step_factory: Callable[[str, int], Callable[[str], None]] | None = None):
     """(baseline, abduction) runs for every dataset of Table 6, on the same detections."""
     runs = []
     for name in datasets:
         dataset = load_dataset(name, data_root)
         pair = []
-        for t in ("baseline", tracker):
+        for t in (BASELINE, tracker):
             step = step_factory(f"{name}/{t}", len(dataset)) if step_factory else None
             pair.append(run_benchmark(name, data_root, t, step, dataset=dataset))
         runs.append(tuple(pair))

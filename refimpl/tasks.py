@@ -22,6 +22,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from .io import DetectionSequence, GroundTruth
+from .solvers import BASELINE
 
 
 # ---------------------------------------------------------------------------------------
@@ -54,7 +55,7 @@ class TrackOutput:
 
 def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> TrackOutput:
     """Track one sequence with the baseline or an abduction backend (optionally checking each answer)."""
-    if job.backend == "baseline":
+    if job.backend == BASELINE:
         from .baseline import track_sequence as sort_track
         return TrackOutput(job.seq.name, sort_track(job.seq), (), len(job.seq.frames))
     from .tracker import track_sequence
@@ -111,7 +112,7 @@ def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
     """Track one sequence with job.tracker and score it against its ground truth."""
     from .evaluate import evaluate_sequence
     start = time.perf_counter()
-    if job.tracker == "baseline":
+    if job.tracker == BASELINE:
         from .baseline import track_sequence as sort_track
         rows, events = sort_track(job.dets), ()
     else:

@@ -33,7 +33,7 @@ from .events import explaining
 from .hypothesis import Hypothesis
 from .motion import BoxKalman, InvalidPrediction
 from .ranges import check_ranges
-from .solvers import Solver, get_solver
+from .solvers import DEFAULT_BACKEND, Solver, get_solver
 from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 
 DEFAULT_MIN_HITS = 3
@@ -352,7 +352,7 @@ class AbductionTracker:
                               self.not_optimal, self.solve_ms)
 
 
-def track_sequence(seq, backend: str = "cpsat", constants: Mapping[str, int] | None = None,
+def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, int] | None = None,
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,

@@ -97,7 +97,6 @@ def check_well_formed(problem: FrameProblem, h: Hypothesis) -> None:
 # 1-3. The paper's frames
 # =============================================================================================
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_bus_t235_car_hides_behind_bus(backend):
     problem = read_problem(str(EXAMPLES / "bus_t235.lp"))
     h = solve(backend, problem)
@@ -124,7 +123,6 @@ def test_bus_t235_car_hides_behind_bus(backend):
     assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, (5 << 7) + 6 + 2))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_bus_t268_car_unhides_from_behind_bus(backend):
     problem = read_problem(str(EXAMPLES / "bus_t268.lp"))
     h = solve(backend, problem)
@@ -141,7 +139,6 @@ def test_bus_t268_car_unhides_from_behind_bus(backend):
     assert h.cost == ((10, -471435), (5, -76713), (3, 0), (2, 1), (1, 1), (0, plain_level0(problem, h.actions, h.events)))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_kitti_0020_t79(backend):
     problem = read_problem(str(EXAMPLES / "kitti_0020_t79.lp"))
     h = solve(backend, problem)
@@ -199,7 +196,6 @@ def test_bus_t268_file_is_canonical_and_its_ious_are_computed():
 
 # --- assignment_constraints --------------------------------------------------------------------
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("iou,assigned", [(29000, False), (30000, False), (30001, True)])
 def test_assign_needs_iou_above_threshold(backend, iou, assigned):
     # assigning would raise @10 by iou+1, but iou must be > iou_thresh = 30000
@@ -214,7 +210,6 @@ def test_assign_needs_iou_above_threshold(backend, iou, assigned):
             "halt(trk_1)", ev("missing_detections(trk_1)"), "start(det_1)", ev("enters_fov(det_1)")]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_assign_needs_an_iou_fact(backend):
     # without iou/3 the pair has likelihood 0; assigning would still gain the @10 count
     p = frame([det(1)], [trk(1)])
@@ -224,7 +219,6 @@ def test_assign_needs_an_iou_fact(backend):
         "halt(trk_1)", ev("missing_detections(trk_1)"), "start(det_1)", ev("enters_fov(det_1)")]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_halted_track_is_not_assigned(backend):
     # trk_1 halted (clipped at 9); det_1 has conf 20: no resume (<= 30), no start (<= 40);
     # assigning would gain @10 and save two ignores, but assign needs an active track
@@ -236,7 +230,6 @@ def test_halted_track_is_not_assigned(backend):
     assert h.cost == ((10, 0), (5, 0), (3, 20), (2, 0), (1, 0), (0, 0))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_assign_needs_matching_types(backend):
     p = frame([det(1, typ="person")], [trk(1, typ="car")], [("trk_1", "det_1", 90000)])
     h = solve(backend, p)
@@ -244,7 +237,6 @@ def test_assign_needs_matching_types(backend):
         "halt(trk_1)", ev("missing_detections(trk_1)"), "start(det_1)", ev("enters_fov(det_1)")]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_match_type_fact_allows_other_types_one_way(backend):
     p = frame([det(1, typ="truck")], [trk(1, typ="car")], [("trk_1", "det_1", 90000)],
               match_types=[("car", "truck")])
@@ -255,7 +247,6 @@ def test_match_type_fact_allows_other_types_one_way(backend):
     assert "assign(trk_1,det_1)" not in solve(backend, p).actions
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_assign_needs_confidence_above_threshold(backend):
     # conf 0 is not > conf_thresh_assign = 0
     p = frame([det(1, conf=0)], [trk(1)], [("trk_1", "det_1", 90000)])
@@ -273,7 +264,6 @@ def _halted_clipped(det_conf=90, iou=50000, det_typ="car"):
                  [hist("missing_detections(trk_1)", 9)])
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
     p = _halted_clipped()
     h = solve(backend, p)
@@ -284,7 +274,6 @@ def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
     assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, 17))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("offset,resumed", [(0, False), (1, True)])
 def test_resume_needs_confidence_above_threshold(backend, offset, resumed):
     # conf_thresh_resume (50) > conf_thresh_new_track (40): at conf 50 the detection starts a new
@@ -298,7 +287,6 @@ def test_resume_needs_confidence_above_threshold(backend, offset, resumed):
         assert {"start(det_1)", "ignore_trk(trk_1)"} <= set(h.actions)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("iou,resumed", [(10000, False), (10001, True)])
 def test_resume_needs_iou_above_threshold(backend, iou, resumed):
     h = solve(backend, _halted_clipped(iou=iou))
@@ -308,13 +296,11 @@ def test_resume_needs_iou_above_threshold(backend, iou, resumed):
         assert h.answer == tuple(sorted(["start(det_1)", ev("enters_fov(det_1)"), "ignore_trk(trk_1)"]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_resume_needs_matching_types(backend):
     h = solve(backend, _halted_clipped(det_typ="person"))
     assert h.answer == tuple(sorted(["start(det_1)", ev("enters_fov(det_1)"), "ignore_trk(trk_1)"]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_resume_needs_a_halted_track(backend):
     # trk_1 is active but clipped by a (hand-written) history, so it cannot be halted
     # (missing_detections needs clipped = false; nothing overlaps it for hides_behind).
@@ -327,7 +313,6 @@ def test_resume_needs_a_halted_track(backend):
 
 # --- start_constraints ---------------------------------------------------------------------------
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("conf,started", [(40, False), (41, True)])
 def test_start_needs_confidence_above_threshold(backend, conf, started):
     p = frame([det(1, conf=conf)])
@@ -341,7 +326,6 @@ def test_start_needs_confidence_above_threshold(backend, conf, started):
         assert h.cost == ((10, 0), (5, 0), (3, 10), (2, 0), (1, 0), (0, 0))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("box,started", [((300, 300, 10, 10), False), ((300, 300, 101, 1), True),
                                          ((300, 300, 1, 100), False)])
 def test_start_needs_area_above_size_threshold(backend, box, started):
@@ -353,7 +337,6 @@ def test_start_needs_area_above_size_threshold(backend, box, started):
 
 # --- end_constraints, ignore_trk_constraints, halt_constraints -------------------------------------
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_active_track_is_neither_ended_nor_ignored(backend):
     # trk_1 is active, clipped by history (cannot be halted: missing_detections needs
     # clipped = false), near the left border (leaves_fov could explain an end) and has no
@@ -364,7 +347,6 @@ def test_active_track_is_neither_ended_nor_ignored(backend):
         solve(backend, p)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_halted_track_is_not_halted_again(backend):
     # halt + missing_detections (0@2, 2@1) would beat end + leaves_fov (5@2, 1@1)
     p = frame([], [trk(1, "halted", box=(5, 300, 50, 50))])
@@ -374,7 +356,6 @@ def test_halted_track_is_not_halted_again(backend):
     assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 3))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_unexplainable_end_does_not_happen_so_the_track_is_ignored(backend):
     # halted, not near a border, never started or halted in the history: no leaves_fov, lost or
     # noise can explain an end (5@2), so the track is ignored (10@3)
@@ -392,7 +373,6 @@ def _occlusion(front_box, history=(), constants=()):
                  [("trk_2", "det_2", 90000)], history, constants)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_halt_is_explained_by_hides_behind_an_overlapping_top_track(backend):
     # trk_2 (110,110,60,60) covers 40*40 = 1600 > 10% of trk_1's 2500 px^2, bottom 170 >= 150
     p = _occlusion((110, 110, 60, 60))
@@ -405,7 +385,6 @@ def test_halt_is_explained_by_hides_behind_an_overlapping_top_track(backend):
     assert h.cost == ((10, -90001), (5, 0), (3, 0), (2, 0), (1, 1), (0, 32 + 6))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("front_box", [
     (200, 200, 60, 60),   # no overlap
     (110, 60, 60, 60),    # overlaps, but its bottom edge 120 is above trk_1's 150: it is behind
@@ -417,7 +396,6 @@ def test_hides_behind_needs_overlapping_top(backend, front_box):
                                      ev("missing_detections(trk_1)")]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_hides_behind_needs_a_visible_occluder(backend):
     # trk_2 hid behind a track that no longer exists (history may name departed tracks): it is
     # not_visible, so trk_1 cannot hide behind it
@@ -427,7 +405,6 @@ def test_hides_behind_needs_a_visible_occluder(backend):
                                      ev("missing_detections(trk_1)")]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_missing_detections_needs_an_unclipped_track(backend):
     # with cost_hides_behind = 5, missing_detections (2) would be the cheaper explanation...
     p = _occlusion((110, 110, 60, 60), constants=[("cost_hides_behind", 5)])
@@ -440,7 +417,6 @@ def test_missing_detections_needs_an_unclipped_track(backend):
                                      ev("hides_behind(trk_1,trk_2)")]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_hides_behind_prefers_the_occluder_covering_most(backend):
     # trk_2 and trk_3 both overlap-top trk_1; trk_3 covers more of it (tie-break r = 0)
     p = frame([det(2, box=(110, 110, 60, 60)), det(3, box=(90, 95, 70, 70))],
@@ -460,7 +436,6 @@ def _hidden(history, extra_tracks=()):
                                 ("trk_3", "det_3", 90000)], history)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_resume_after_hiding_is_explained_by_unhides_from_behind_the_occluder(backend):
     h = solve(backend, _hidden([hist("hides_behind(trk_1,trk_2)", 5)]))
     assert "resume(trk_1,det_1)" in h.actions
@@ -468,7 +443,6 @@ def test_resume_after_hiding_is_explained_by_unhides_from_behind_the_occluder(ba
     assert h.events == (ev("unhides_from_behind(trk_1,trk_2)"),)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_unhides_needs_hidden_by(backend):
     # trk_1 was clipped, never hidden: the resume is explained by recover
     h = solve(backend, _hidden([hist("missing_detections(trk_1)", 8)]))
@@ -476,7 +450,6 @@ def test_unhides_needs_hidden_by(backend):
     assert h.events == (ev("recover(trk_1)"),)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_unhides_needs_a_visible_occluder(backend):
     # trk_1 hid behind trk_2, then trk_2 hid behind trk_3: trk_2 is not_visible
     h = solve(backend, _hidden([hist("hides_behind(trk_1,trk_2)", 5), hist("hides_behind(trk_2,trk_3)", 6)]))
@@ -484,7 +457,6 @@ def test_unhides_needs_a_visible_occluder(backend):
     assert h.events == (ev("recover(trk_1)"),)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_unhides_and_recover_reset_the_fluents(backend):
     # hidden at 3, unhidden at 5, clipped at 7: hidden_by is false again, so only recover
     h = solve(backend, _hidden([hist("hides_behind(trk_1,trk_2)", 3), hist("unhides_from_behind(trk_1,trk_2)", 5),
@@ -500,7 +472,6 @@ def test_unhides_and_recover_reset_the_fluents(backend):
     assert set(h.events) == {ev("enters_fov(det_1)")}
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_recover_needs_a_clipped_or_hidden_track(backend):
     # a halted track with no history is neither clipped nor not_visible: the resume (1@2)
     # cannot be explained, so det_1 starts (5@2) and trk_1 is ignored (10@3)
@@ -515,7 +486,6 @@ def _ended(box=MID, history=(), constants=(), time=10):
     return frame([], [trk(1, "halted", box=box)], [], history, constants, time)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("box,constants,leaves", [
     ((300, 300, 50, 50), (), False),
     ((10, 300, 50, 50), (), True),        # x <= border_margin
@@ -534,7 +504,6 @@ def test_leaves_fov_needs_near_border(backend, box, constants, leaves):
         assert h.answer == ("ignore_trk(trk_1)",)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_leaves_fov_needs_in_fov(backend):
     near = (5, 300, 50, 50)
     h = solve(backend, _ended(near, [hist("leaves_fov(trk_1)", 4)]))
@@ -545,7 +514,6 @@ def test_leaves_fov_needs_in_fov(backend):
     assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("event,halted,lost", [
     ("missing_detections(trk_1)", 37, True),   # 40 - 37 = 3 >= lost_after_missing = 3
     ("missing_detections(trk_1)", 38, False),
@@ -566,7 +534,6 @@ def test_lost_needs_enough_time_since_halting(backend, event, halted, lost):
         assert h.answer == ("assign(trk_2,det_2)", "ignore_trk(trk_1)")
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("halted,lost", [(-20, True), (-19, False)])
 def test_history_naming_a_departed_track_and_before_mintime_still_applies(backend, halted, lost):
     # trk_1 hid behind trk_5, which no longer exists: visibility(trk_1) is still not_visible
@@ -579,7 +546,6 @@ def test_history_naming_a_departed_track_and_before_mintime_still_applies(backen
         assert h.answer == ("ignore_trk(trk_1)",)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_lost_counts_from_the_latest_halt(backend):
     # halted at 2, recovered at 3, halted again at 8: 10 - 8 = 2 < 3
     h = solve(backend, _ended(history=[hist("missing_detections(trk_1)", 2), hist("recover(trk_1)", 3),
@@ -587,7 +553,6 @@ def test_lost_counts_from_the_latest_halt(backend):
     assert h.answer == ("ignore_trk(trk_1)",)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("started,noise", [(7, True), (6, False)])
 def test_noise_only_for_young_tracks(backend, started, noise):
     # started at `started`, clipped at 9 (too recent for lost)
@@ -601,7 +566,6 @@ def test_noise_only_for_young_tracks(backend, started, noise):
         assert h.answer == ("ignore_trk(trk_1)",)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_end_takes_the_cheapest_explanation(backend):
     # leaves_fov (1), noise (2) and lost (3) are all possible
     history = [hist("enters_fov(trk_1)", 8), hist("missing_detections(trk_1)", 8)]
@@ -614,7 +578,6 @@ def test_end_takes_the_cheapest_explanation(backend):
 
 # --- explain_start -------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_every_start_is_explained_by_enters_fov(backend):
     p = frame([det(i, box=(100 * i, 300, 50, 50)) for i in range(1, 4)])
     h = solve(backend, p)
@@ -626,7 +589,6 @@ def test_every_start_is_explained_by_enters_fov(backend):
 
 # --- optimisation ----------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_iou_of_one_counts_likelihood_and_assignment_separately(backend):
     # @10 = -(sum of IoU + number of assignments), the two terms never merged
     p = frame([det(1)], [trk(1)], [("trk_1", "det_1", 100000)])
@@ -636,7 +598,6 @@ def test_iou_of_one_counts_likelihood_and_assignment_separately(backend):
     assert solve(backend, p).cost[0] == (10, -2)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_more_assignments_beat_a_higher_likelihood_sum_only_by_the_count(backend):
     # two tracks, two detections: the diagonal (0.5 + 0.5 + 2) beats a single 0.99 + 1
     p = frame([det(1), det(2)], [trk(1), trk(2)],
@@ -646,7 +607,6 @@ def test_more_assignments_beat_a_higher_likelihood_sum_only_by_the_count(backend
     assert h.cost[0] == (10, -100002)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_empty_frame_reports_all_levels(backend):
     h = solve(backend, frame())
     assert h.answer == ()
@@ -669,7 +629,6 @@ iou(trk_1,det_1,25000).
 """
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_const_in_the_fact_text_overrides_the_default(backend):
     default = solve(backend, FrameProblem.from_facts(_OVERRIDE_FACTS))
     assert "assign(trk_1,det_1)" not in default.actions  # 25000 <= 30000
@@ -703,7 +662,6 @@ def _crowded(n: int = 40, seed: int = 7) -> FrameProblem:
     return frame(dets, tracks, ious, history)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_time_limit_returns_best_so_far_or_a_proven_answer(backend):
     p = _crowded()
     # no time at all: the best answer found in no time (e.g. CP-SAT's), or, when none was
@@ -726,7 +684,6 @@ def test_time_limit_returns_best_so_far_or_a_proven_answer(backend):
     check_well_formed(small, full)
 
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 def test_unsatisfiable_problem_raises(backend):
     # an active track clipped by the history, with no detection and nothing to hide behind:
     # it cannot be assigned, halted (missing_detections needs clipped = false), ended or ignored
@@ -738,7 +695,6 @@ def test_unsatisfiable_problem_raises(backend):
 
 # --- level5_resume_likelihood: evidence-based resume ------------------------------------------
 
-@pytest.mark.parametrize("backend", ["clingo", "cpsat"])
 @pytest.mark.parametrize("exact", [0, 1])
 def test_resume_prefers_the_likelier_detection(backend, exact):
     # trk_1 halted at 9 (clipped). Two detections could resume it: det_<exact> lies exactly on its

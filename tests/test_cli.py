@@ -23,10 +23,7 @@ def test_every_command_has_help(command, capsys):
     assert "usage: refimpl " + command in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("backend", ["cpsat", "clingo"])
 def test_solve_json_has_the_documented_fields(backend, capsys):
-    if backend == "clingo":
-        pytest.importorskip("clingo")
     assert main(["solve", str(REPO / "data/examples/bus_t235.lp"), "--backend", backend, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert set(out) == {"time", "backend", "optimal", "actions", "events", "cost", "solve_ms"}
@@ -66,8 +63,6 @@ def test_malformed_fact_names_file_and_line(tmp_path, capsys):
 
 @pytest.mark.parametrize("backend", ["baseline", "cpsat", "clingo"])
 def test_the_same_run_twice_gives_byte_identical_files(backend, tmp_path):
-    if backend == "clingo":
-        pytest.importorskip("clingo")
     outputs = []
     for run in ("a", "b"):
         argv = ["track", "--dets", str(DEMO_DETS), "--backend", backend, "--out", str(tmp_path / f"{run}.txt")]
@@ -93,10 +88,7 @@ def test_solve_check_confirms_the_answer(capsys):
     assert "check:   every rule holds, cost vector confirmed" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("backend", ["cpsat", "clingo"])
 def test_track_check_verifies_every_frame_and_writes_the_scene(backend, tmp_path, capsys):
-    if backend == "clingo":
-        pytest.importorskip("clingo")
     argv = ["track", "--dets", str(DEMO_DETS), "--backend", backend, "--check", "--time-limit", "30",
             "--out", str(tmp_path / "r.txt"), "--scene", str(tmp_path / "s.json")]
     assert main(argv) == 0

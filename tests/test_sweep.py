@@ -70,14 +70,16 @@ def test_sweep_on_the_demo_sequence():
 def test_table_has_no_hota_column_without_hota():
     from refimpl.sweep import SweepResult
     o = {"mota": 0.6, "idf1": 0.5, "idsw": 3, "fp": 4, "fn": 5}
-    result = SweepResult("b", "all", "cpsat", ("iou_thresh",), ((30000,),), (RunSummary(0, {}, o),), ("s",))
+    plan = SweepPlan("b", "all", "cpsat", ("iou_thresh",), ((30000,),), (), ("s",))
+    result = SweepResult(plan, (RunSummary(0, {}, o),))
     assert format_sweep(result).splitlines()[2] == "| iou_thresh | MOTA | IDF1 | IDs | FP | FN |"
 
 
 def test_table_shows_hota_when_the_evaluation_has_it():
     from refimpl.sweep import SweepResult
     o = {"hota": 0.5234, "mota": 0.6, "idf1": math.nan, "idsw": 3, "fp": 4, "fn": 5}
-    result = SweepResult("b", "all", "cpsat", ("iou_thresh",), ((30000,),), (RunSummary(0, {}, o),), ("s",))
+    plan = SweepPlan("b", "all", "cpsat", ("iou_thresh",), ((30000,),), (), ("s",))
+    result = SweepResult(plan, (RunSummary(0, {}, o),))
     lines = format_sweep(result).splitlines()
     assert lines[2] == "| iou_thresh | HOTA | MOTA | IDF1 | IDs | FP | FN |"
     assert lines[4] == "| 30000 | 52.3 | 60.0 | - | 3 | 4 | 5 |"

@@ -30,10 +30,7 @@ def test_obvious_hypothesis_is_refused_where_it_breaks_a_rule(examples):
     assert obvious_hypothesis(parse_facts(text), "cpsat") is None
 
 
-@pytest.mark.parametrize("backend", ["cpsat", "clingo"])
 def test_tracking_with_a_tiny_time_limit_runs_on_and_counts_unproven_frames(shared_data, backend):
-    if backend == "clingo":
-        pytest.importorskip("clingo")
     seq = io.load_detections(next(s for s in io.benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus"))
     checked = []
 

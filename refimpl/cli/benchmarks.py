@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from ..progress import Progress
-from ..solvers import BACKENDS
+from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
 from .common import EXIT_OK, UserError, _abduction_constants, _plan
 
 
@@ -23,12 +23,12 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         return _benchmark_peers(args)
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
-    if args.backend == "baseline" and args.const:
+    if args.backend == BASELINE and args.const:
         raise UserError(f"--const needs an abduction backend ({', '.join(BACKENDS)})")
     plan = _plan(args)
     requests = []
     for name in args.names:
-        constants = () if args.backend == "baseline" else \
+        constants = () if args.backend == BASELINE else \
             tuple(_abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset).items())
         requests.append(RunRequest(name, load_dataset(name, args.data), args.backend, constants))
     runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
@@ -54,7 +54,7 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     unknown = [p for p in peers if p not in PEERS]
     if unknown:
         raise UserError(f"--peers takes a comma-separated list out of {','.join(PEERS)}, got {args.peers!r}")
-    backend = "cpsat" if args.backend == "baseline" else args.backend
+    backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
     comparisons, report = [], {}
     for name in args.names:
         dataset = load_dataset(name, args.data)
@@ -121,7 +121,7 @@ def cmd_table6(args: argparse.Namespace) -> int:
     requests = []
     for name in datasets:
         dataset = load_dataset(name, args.data)
-        requests += [RunRequest(name, dataset, "baseline"), RunRequest(name, dataset, args.backend)]
+        requests += [RunRequest(name, dataset, BASELINE), RunRequest(name, dataset, args.backend)]
     summaries = run_requests(requests, plan, label="table6", quiet=args.quiet)
     runs = [BenchmarkRun(r.dataset, r.tracker, s.per_sequence, s.overall, s.events, s.frames, s.seconds)
             for r, s in zip(requests, summaries)]
@@ -187,7 +187,6 @@ def cmd_detectors(args: argparse.Namespace) -> int:
     from .. import benchmarks as bm
     from .. import detector_sweep as sw
     from .. import detectors as dt
-    from ..solvers import BACKENDS
     if args.backend not in BACKENDS:
         raise UserError(f"--backend takes one of {', '.join(BACKENDS)}, got {args.backend!r}")
     try:

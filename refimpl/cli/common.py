@@ -6,11 +6,10 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..solvers import BACKENDS  # the registry: every abduction backend
+from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND, TRACKERS  # noqa: F401  (the registry)
 from ..datasets import DATASETS as BENCHMARKS  # noqa: F401  (the one dataset catalogue)
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
-TRACKERS = ("baseline",) + BACKENDS
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 
@@ -52,11 +51,11 @@ def _parse_img_size(text: str) -> tuple[int, int]:
 def _load_sequence(args: argparse.Namespace, path: str | None = None):
     from .. import io
     path = args.dets if path is None else path
-    if args.format == "mot":
-        return io.read_mot_detections(path, scores_rule=getattr(args, "scores", "auto"))
-    if args.cls is None:
-        raise UserError("--format kitti needs --class Car|Pedestrian|Cyclist")
-    return io.read_kitti_detections(path, args.cls)
+    fmt = io.get_format(args.format)
+    if fmt.needs_class and args.cls is None:
+        raise UserError(f"--format {fmt.name} needs --class Car|Pedestrian|Cyclist")
+    return fmt.read_detections(path, object_class=args.cls if fmt.needs_class else None,
+                               scores_rule=getattr(args, "scores", "auto"))
 
 
 def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> dict[str, int]:

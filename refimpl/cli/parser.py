@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-from ..solvers import BACKENDS
 from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
                          cmd_occlusion_suite, cmd_sweep, cmd_table6)
-from .common import BENCHMARKS, CLASSES, TRACKERS, _parse_const, _parse_img_size, _time_limit
+from ..datasets import REAL_DETECTORS
+from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
+                     TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
 from .scenes import cmd_explain, cmd_plot, cmd_query
 from .solving import cmd_diff, cmd_solve
@@ -42,7 +43,7 @@ def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..io import RESULT_FORMATS
+    from ..io import FORMAT_NAMES, MOT, RESULT_FORMATS
     p = argparse.ArgumentParser(
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
@@ -52,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("solve", help="abduce the best hypothesis for one frame problem (fact file)")
     s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
-    s.add_argument("--backend", choices=BACKENDS, default="cpsat")
+    s.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
@@ -64,9 +65,9 @@ def build_parser() -> argparse.ArgumentParser:
     t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
     t.add_argument("--dets", required=True, nargs="+", metavar="PATH",
                    help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir)")
-    t.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    t.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
-    t.add_argument("--backend", choices=TRACKERS, default="baseline")
+    t.add_argument("--backend", choices=TRACKERS, default=BASELINE)
     t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti; "
                                  "- for standard output)")
     t.add_argument("--scores", choices=("auto", "probability", "raw"), default="auto",
@@ -74,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default auto: decided by the file, see refimpl/io/detections.py)")
     t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
                    "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
-    t.add_argument("--out-format", choices=RESULT_FORMATS, default="mot",
+    t.add_argument("--out-format", choices=RESULT_FORMATS, default=MOT,
                    help="results as MOTChallenge lines (default; KITTI frames stay 0-based) or in the KITTI "
                         "tracking format TrackEval's KITTI loader reads (needs --format kitti)")
     t.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
@@ -90,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--check", action="store_true",
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
-                   "for query / explain / plot (cpsat or clingo backend)")
+                   "for query / explain / plot (an abduction backend)")
     t.add_argument("--no-preset", action="store_true",
                    help="run with model/constants.lp's defaults instead of the calibrated preset (model/presets.json)")
     _add_scaleout(t)
@@ -103,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "for --format kitti also the KITTI tracking format)")
     e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
                    "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
-    e.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    e.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
     e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
                                   "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
@@ -113,12 +114,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
                    help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate)")
     b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    b.add_argument("--backend", choices=TRACKERS, default="baseline")
+    b.add_argument("--backend", choices=TRACKERS, default=BASELINE)
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     b.add_argument("--peers", metavar="LIST",
                    help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
-                        "baseline, abduction (--backend, cpsat if baseline) and every peer in one table per dataset")
+                        f"baseline, abduction (--backend, {DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
     b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
@@ -134,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "kitti-car-train, kitti-ped-train, mot15 (leave-one-sequence-out)")
     cb.add_argument("--grid", action="append", metavar="NAME=V1,V2,...",
                     help="replace (or add) one dimension of the search space (repeatable)")
-    cb.add_argument("--backend", choices=[t for t in TRACKERS if t != "baseline"], default="cpsat")
+    cb.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     cb.add_argument("--loso", action="store_true", help="also leave-one-sequence-out (default for MOT benchmarks)")
     cb.add_argument("--top", type=int, default=None, help="print only the best N points")
     cb.add_argument("--write-presets", action="store_true", help="store the best point as the preset (model/presets.json)")
@@ -146,7 +147,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
     t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    t6.add_argument("--backend", choices=BACKENDS, default="cpsat")
+    t6.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     t6.add_argument("--datasets", help="comma-separated subset of mot15,kitti-car,kitti-ped,mot17-sim,mot20-01-sim")
     t6.add_argument("--out", help="also write the markdown table to this file")
     t6.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -156,13 +157,13 @@ def build_parser() -> argparse.ArgumentParser:
     x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
                                      "exit 1 on any cost disagreement")
     x.add_argument("--dets", nargs="+", metavar="PATH", help="detections of one or more sequences")
-    x.add_argument("--format", choices=("mot", "kitti"), default="mot")
+    x.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     x.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI")
     x.add_argument("--benchmark", choices=BENCHMARKS, help="diff every sequence of a benchmark instead")
     x.add_argument("--data", default="../shared/data", help="benchmark data root (with --benchmark)")
-    x.add_argument("--backends", default="cpsat-full,clingo",
+    x.add_argument("--backends", default=",".join(ORACLE_PAIR),
                    help=f"FIRST,SECOND[,THIRD] out of {','.join(BACKENDS)}: track with the first, re-solve every "
-                        "frame with the others (default cpsat-full,clingo)")
+                        f"frame with the others (default {','.join(ORACLE_PAIR)})")
     x.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                    help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
                         "is reported as such")
@@ -179,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--split", choices=("all", "tune", "val"), default="all",
                     help="KITTI: tune = the 10 training sequences outside evaluate_tracking.seqmap.val, "
                          "val = the 11 in it (default all)")
-    sw.add_argument("--backend", choices=BACKENDS, default="cpsat")
+    sw.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     sw.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     sw.add_argument("--json", help="also write every setting's overall scores as JSON")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -187,8 +188,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.set_defaults(func=cmd_sweep)
 
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
-    d.add_argument("--backends", default="baseline,cpsat",
-                   help="comma-separated trackers to run: baseline, cpsat, clingo (default baseline,cpsat)")
+    d.add_argument("--backends", default=f"{BASELINE},{DEFAULT_BACKEND}",
+                   help=f"comma-separated trackers to run out of {','.join(TRACKERS)} (default {BASELINE},{DEFAULT_BACKEND})")
     d.set_defaults(func=cmd_demo)
 
     sc = sub.add_parser("bench-scale", help="time the backends on synthetic frames (or, with --throughput, "
@@ -197,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--overlaps", default="0.2,0.5,0.8", help="overlap shares (default 0.2,0.5,0.8)")
     sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
     sc.add_argument("--backends", default=",".join(BACKENDS),
-                    help=f"solvers to time (default {','.join(BACKENDS)}; cpsat-full = CP-SAT without the fast path)")
+                    help=f"solvers to time (default {','.join(BACKENDS)})")
     sc.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                     help="per-frame time limit of every backend (default 20)")
     sc.add_argument("--out", default="docs/benchmarks.md",
@@ -207,8 +208,8 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--from-json", metavar="PATH", help="redraw tables and plot from saved JSON, solving nothing")
     sc.add_argument("--throughput", action="store_true",
                     help="instead: frames/s of the tracking loop per tracker on MOT15 and KITTI Car")
-    sc.add_argument("--trackers", default="baseline,cpsat,clingo",
-                    help="trackers for --throughput (default baseline,cpsat,clingo; also cpsat-full)")
+    sc.add_argument("--trackers", default=f"{BASELINE},{DEFAULT_BACKEND},{REFERENCE_BACKEND}",
+                    help=f"trackers for --throughput out of {','.join(TRACKERS)} (default {BASELINE},{DEFAULT_BACKEND},{REFERENCE_BACKEND})")
     sc.add_argument("--data", default="../shared/data", help="benchmark data root for --throughput")
     sc.add_argument("--quiet", action="store_true", help="no progress bar")
     sc.set_defaults(func=cmd_bench_scale)
@@ -216,8 +217,9 @@ def build_parser() -> argparse.ArgumentParser:
     dt = sub.add_parser("detectors", help="which detector, and how much abduction helps it: real detectors side "
                                           "by side, or (--sweep) a simulated detector-quality grid")
     dt.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    dt.add_argument("--backend", default="cpsat", help="abduction backend (default cpsat)")
-    dt.add_argument("--benchmarks", default="mot15,kitti-car", help="real-detector benchmarks (default mot15,kitti-car)")
+    dt.add_argument("--backend", default=DEFAULT_BACKEND, help=f"abduction backend (default {DEFAULT_BACKEND})")
+    dt.add_argument("--benchmarks", default=",".join(REAL_DETECTORS),
+                    help=f"real-detector benchmarks (default {','.join(REAL_DETECTORS)})")
     dt.add_argument("--sequences", help="comma-separated subset of sequences (one benchmark or sweep dataset)")
     dt.add_argument("--max-frames", type=int, help="only the first N frames of every sequence")
     dt.add_argument("--ungated", action="store_true",
@@ -244,9 +246,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     bo = sub.add_parser("bench-occlusion", help="baseline vs abduction on the long-occlusion suite: identity kept, "
                                                 "hide/unhide events on time (writes docs/occlusion.md)")
-    bo.add_argument("--trackers", default="baseline,cpsat",
+    bo.add_argument("--trackers", default=f"{BASELINE},{DEFAULT_BACKEND}",
                     help="comma-separated variants: baseline, a backend, backend+hold, backend+oru, "
-                         "backend+hold+oru (default baseline,cpsat)")
+                         f"backend+hold+oru (default {BASELINE},{DEFAULT_BACKEND})")
     bo.add_argument("--seed", type=int, default=0, help="suite seed (default 0)")
     bo.add_argument("--out", default="docs/occlusion.md",
                     help="markdown file whose generated section is replaced (default docs/occlusion.md; - for none)")

@@ -9,7 +9,7 @@ import warnings
 from pathlib import Path
 
 from ..progress import Progress
-from ..solvers import BACKENDS
+from ..solvers import BACKENDS, BASELINE
 from .common import CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _plan
 
 
@@ -35,15 +35,14 @@ def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
 
 def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
     """The files `track` reads: the detections and the sequence files found beside them."""
+    from .. import io
     inputs: dict[str, str | None] = {}
     for k, path in enumerate(args.dets):
         dets = Path(path)
         label = "--dets" if len(args.dets) == 1 else f"--dets #{k + 1}"
         inputs[label] = path
-        if args.format == "mot":
-            inputs[f"{label} seqinfo.ini"] = str(dets.parent.parent / "seqinfo.ini")
-        else:
-            inputs[f"{label} label_02"] = str(dets.parent.parent.parent / "label_02" / dets.name)
+        side, side_path = io.get_format(args.format).side_file(dets)
+        inputs[f"{label} {side}"] = str(side_path)
     return inputs
 
 
@@ -70,10 +69,11 @@ def cmd_track(args: argparse.Namespace) -> int:
     from ..outputs import STDOUT, OutputSet, check_outputs
     from ..scaleout import run_tasks
     from ..tasks import TrackJob, track_job
-    if args.out_format == "kitti" and args.format != "kitti":
-        raise UserError("--out-format kitti writes KITTI tracking results (0-based frames, a KITTI class): "
-                        "it needs --format kitti")
-    if args.backend == "baseline" and (args.check or args.time_limit is not None or args.scene or args.const
+    out_fmt, in_fmt = io.get_format(args.out_format), io.get_format(args.format)
+    if out_fmt.needs_class and out_fmt is not in_fmt:
+        raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
+                        f"frames, a class): it needs --format {out_fmt.name}")
+    if args.backend == BASELINE and (args.check or args.time_limit is not None or args.scene or args.const
                                        or args.img_size):
         raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
                         f"({', '.join(BACKENDS)}); the baseline abduces no events")
@@ -83,12 +83,12 @@ def cmd_track(args: argparse.Namespace) -> int:
     check_outputs(outputs, _track_inputs(args))  # before any work: never an input, never each other
     plan = _plan(args)
     constants = tuple(_abduction_constants(args.format, args.cls, _track_constants(args), args.no_preset).items()) \
-        if args.backend != "baseline" else ()
+        if args.backend != BASELINE else ()
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
     for seq, path in zip(seqs, args.dets):
-        if args.format == "mot" and seq.image_size is None and "img_width" not in dict(constants):
+        if seq.image_size is None and "img_width" not in dict(constants):
             warnings.warn(f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
                           "is unknown, so the right and bottom field-of-view borders are not tested "
                           "(enters_fov, leaves_fov, clipped)")
@@ -129,7 +129,7 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[st
         sink = ResultWriter(outs.open(out_path), outs.open(args.events) if args.events else None,
                             outs.open(args.events_json) if args.events_json else None, seq.first_frame,
                             results_formatter(args.out_format, seq.first_frame, args.cls))
-        if args.backend == "baseline":
+        if args.backend == BASELINE:
             from ..baseline import stream_sequence
             for rows in stream_sequence(seq):
                 sink.rows(rows)
@@ -182,8 +182,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from ..folder_eval import evaluate_folder, metrics_json, read_ground_truth
     from ..outputs import check_outputs
     check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
-    if args.format == "kitti" and args.cls is None:
-        raise UserError("--format kitti needs --class Car|Pedestrian")
+    if io.get_format(args.format).needs_class and args.cls is None:
+        raise UserError(f"--format {args.format} needs --class Car|Pedestrian")
     if Path(args.results).is_dir():
         run = evaluate_folder(args.results, args.gt, args.format, args.cls)
         per_seq, overall = run.per_sequence, run.overall

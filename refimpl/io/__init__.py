@@ -8,7 +8,9 @@ One concern per module (each imports only the ones listed before it):
 * :mod:`.ground_truth` - GroundTruth, the MOTChallenge and KITTI ground-truth readers;
 * :mod:`.detections`   - DetectionFrame / DetectionSequence, the detection readers, the confidence rule;
 * :mod:`.event_logs`   - event log lines and files;
-* :mod:`.results`      - results readers and writers (MOTChallenge, KITTI), RESULT_FORMATS, ResultWriter;
+* :mod:`.results`      - results readers and writers (MOTChallenge, KITTI), ResultWriter;
+* :mod:`.formats`      - the format registry (FORMATS, MOT, KITTI, get_format): each format's readers,
+  writers, frame numbering, ground-truth layout and side files in one row;
 * :mod:`.catalogue`    - the dataset catalogue (BENCHMARKS, benchmark_sequences, the KITTI splits),
   load_detections / load_ground_truth and the bundled demo.
 
@@ -103,9 +105,10 @@ from .ground_truth import GroundTruth, read_kitti_ground_truth, read_mot_ground_
 from .detections import (KITTI_FPS, KITTI_IMAGE_SIZE, SCORE_RULES, DetectionFrame, DetectionSequence,
                          read_kitti_detections, read_mot_detections)
 from .event_logs import event_json_line, event_line, write_event_log, write_event_log_json
-from .results import (RESULT_FORMATS, ResultWriter, format_kitti_results, format_mot_results, read_kitti_results,
-                      read_mot_results, read_results, results_formatter, write_kitti_results, write_mot_results,
-                      write_results, write_text_atomic)
+from .results import (ResultWriter, format_kitti_results, format_mot_results, read_kitti_results,
+                      read_mot_results, write_kitti_results, write_mot_results, write_text_atomic)
+from .formats import (FORMAT_NAMES, FORMATS, KITTI, MOT, RESULT_FORMATS, DataFormat, get_format, read_results,
+                      results_formatter, write_results)
 from .catalogue import (BENCHMARKS, KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_SORT6, MOT15_TRAIN, BenchmarkSequence,
                         benchmark_sequences, demo_sequence_paths, kitti_val_sequences, load_detections,
                         load_ground_truth)
@@ -121,6 +124,7 @@ __all__ = [
     "RESULT_FORMATS", "ResultWriter", "format_kitti_results", "format_mot_results", "read_kitti_results",
     "read_mot_results", "read_results", "results_formatter", "write_kitti_results", "write_mot_results",
     "write_results", "write_text_atomic",
+    "FORMAT_NAMES", "FORMATS", "KITTI", "MOT", "DataFormat", "get_format",
     "BENCHMARKS", "KITTI_TRAIN", "KITTI_VAL_SEQMAP", "MOT15_SORT6", "MOT15_TRAIN", "BenchmarkSequence",
     "benchmark_sequences", "demo_sequence_paths", "kitti_val_sequences", "load_detections", "load_ground_truth",
 ]

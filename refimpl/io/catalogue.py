@@ -8,9 +8,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
-from .detections import DetectionSequence, read_kitti_detections, read_mot_detections
+from .detections import DetectionSequence
 from .errors import InputFormatError
-from .ground_truth import GroundTruth, _kitti_label_num_frames, read_kitti_ground_truth, read_mot_ground_truth
+from .formats import KITTI, MOT, get_format
+from .ground_truth import GroundTruth
 from .lines import _read_lines
 
 
@@ -45,7 +46,7 @@ def _mot15(root: Path, names: Sequence[str]) -> list[BenchmarkSequence]:
         seq = root / "MOT15" / "train" / name
         out.append(BenchmarkSequence(
             name=name, dets_path=seq / "det" / "det_sort_frcnn.txt", gt_path=seq / "gt" / "gt.txt",
-            format="mot", object_class="pedestrian", seqinfo_path=seq / "seqinfo.ini"))
+            format=MOT, object_class="pedestrian", seqinfo_path=seq / "seqinfo.ini"))
     return out
 
 
@@ -76,7 +77,7 @@ def _kitti(root: Path, object_class: str, split: str = "all") -> list[BenchmarkS
         names = tuple(n for n in KITTI_TRAIN if (n in val) == (split == "val"))
     return [BenchmarkSequence(
         name=name, dets_path=det_dir / f"{name}.txt", gt_path=base / "label_02" / f"{name}.txt",
-        format="kitti", object_class=object_class, seqinfo_path=None) for name in names]
+        format=KITTI, object_class=object_class, seqinfo_path=None) for name in names]
 
 
 def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
@@ -114,22 +115,16 @@ def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[Benchma
 
 
 def load_detections(seq: BenchmarkSequence) -> DetectionSequence:
-    """Read a benchmark sequence's detections (KITTI frame count from its label file)."""
-    if seq.format == "mot":
-        return read_mot_detections(seq.dets_path, seqinfo=seq.seqinfo_path, object_type=seq.object_class)
-    if seq.format == "kitti":
-        n = _kitti_label_num_frames(Path(seq.gt_path))
-        return read_kitti_detections(seq.dets_path, seq.object_class, num_frames=n)
-    raise ValueError(f"unknown format {seq.format!r} (mot or kitti)")
+    """Read a benchmark sequence's detections (a KITTI sequence's frame count from its label file)."""
+    fmt = get_format(seq.format)
+    n = fmt.frames_from_gt(Path(seq.gt_path)) if fmt.frames_from_gt is not None else None
+    return fmt.read_detections(seq.dets_path, object_class=seq.object_class, seqinfo=seq.seqinfo_path, num_frames=n)
 
 
 def load_ground_truth(seq: BenchmarkSequence) -> GroundTruth:
     """Read a benchmark sequence's ground truth."""
-    if seq.format == "mot":
-        return read_mot_ground_truth(seq.gt_path, seqinfo=seq.seqinfo_path)
-    if seq.format == "kitti":
-        return read_kitti_ground_truth(seq.gt_path, seq.object_class)
-    raise ValueError(f"unknown format {seq.format!r} (mot or kitti)")
+    return get_format(seq.format).read_ground_truth(seq.gt_path, object_class=seq.object_class,
+                                                     seqinfo=seq.seqinfo_path)
 
 
 def _demo_in(base: Path) -> BenchmarkSequence | None:
@@ -137,7 +132,7 @@ def _demo_in(base: Path) -> BenchmarkSequence | None:
     paths = (seq / "det" / "det.txt", seq / "gt" / "gt.txt", seq / "seqinfo.ini")
     if all(p.is_file() for p in paths):
         return BenchmarkSequence(name="TUD-Campus", dets_path=paths[0], gt_path=paths[1],
-                                 format="mot", object_class="pedestrian", seqinfo_path=paths[2])
+                                 format=MOT, object_class="pedestrian", seqinfo_path=paths[2])
     return None
 
 

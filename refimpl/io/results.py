@@ -1,5 +1,5 @@
-"""Results files: MOTChallenge and KITTI tracking results read and written (atomically), the
-format registry ``RESULT_FORMATS``, and the streaming ``ResultWriter``."""
+"""Results files: MOTChallenge and KITTI tracking results read and written (atomically), and the
+streaming ``ResultWriter``; which format is which lives in :mod:`.formats`."""
 
 from __future__ import annotations
 
@@ -174,61 +174,6 @@ def read_kitti_results(path: str | os.PathLike, object_class: str, allow_empty: 
     _check_positive_size(path, linenos, boxes)
     _check_unique(path, linenos, frames, ids)
     return np.column_stack([frames.astype(float), ids.astype(float), boxes])
-
-
-RESULT_FORMATS = ("mot", "kitti")
-"""Results file formats ``write_results`` writes (``--out-format``)."""
-
-
-def results_formatter(out_format: str, first_frame: int = 1, object_class: str | None = None):
-    """A function formatting (n, 6) rows as ``out_format`` lines (for streaming writers)."""
-    if out_format == "mot":
-        return lambda rows: format_mot_results(rows, first_frame)
-    if out_format == "kitti":
-        if object_class is None:
-            raise ValueError("KITTI tracking results need the object class")
-        return lambda rows: format_kitti_results(rows, object_class)
-    raise ValueError(f"unknown results format {out_format!r} (known: {', '.join(RESULT_FORMATS)})")
-
-
-def write_results(path: str | os.PathLike, rows, out_format: str, first_frame: int = 1,
-                  object_class: str | None = None) -> None:
-    """Write results rows as MOTChallenge (``mot``) or KITTI tracking (``kitti``, needs the class) lines."""
-    if out_format == "mot":
-        write_mot_results(path, rows, first_frame=first_frame)
-    elif out_format == "kitti":
-        if object_class is None:
-            raise ValueError("KITTI tracking results need the object class")
-        write_kitti_results(path, rows, object_class)
-    else:
-        raise ValueError(f"unknown results format {out_format!r} (known: {', '.join(RESULT_FORMATS)})")
-
-
-def read_results(path: str | os.PathLike, data_format: str, object_class: str | None = None,
-                 allow_empty: bool = False) -> np.ndarray:
-    """The results of one sequence as (n, 6) ``frame, id, x, y, w, h`` for evaluation on ``data_format``.
-
-    ``mot``: a MOTChallenge results file (1-based frames).  ``kitti``: 0-based frames, either in
-    the KITTI tracking format (``write_kitti_results``, rows of ``object_class``) or as
-    MOTChallenge lines (what ``refimpl track --format kitti`` writes by default), told apart by
-    the separator of the first line (comma: MOTChallenge).
-    """
-    path = Path(path)
-    if data_format == "mot":
-        return read_mot_results(path, allow_empty=allow_empty, first_frame=1)
-    if data_format != "kitti":
-        raise ValueError(f"unknown format {data_format!r} (mot or kitti)")
-    try:
-        first = _read_lines(path)[0][1]
-    except InputFormatError as exc:
-        if allow_empty and exc.reason.startswith("empty file"):
-            return np.zeros((0, 6))
-        raise
-    if "," in first:
-        return read_mot_results(path, allow_empty=allow_empty, first_frame=0)
-    if object_class is None:
-        raise ValueError("KITTI tracking results need the object class")
-    return read_kitti_results(path, object_class, allow_empty=allow_empty)
 
 
 class ResultWriter:

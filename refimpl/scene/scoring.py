@@ -11,6 +11,8 @@ import sys
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
+from ..datasets import THROUGHPUT_DATASETS
+from ..solvers import DEFAULT_BACKEND
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate
 from .episodes import hiding_episodes
 from .files import load_scene, save_scene
@@ -154,7 +156,7 @@ def _benchmark_scenes(name: str, data_root: str, cache: str | None, progress: bo
             out.append(load_scene(path))
         else:
             dets = io.load_detections(s)
-            scene = scene_from_result(dets, track_sequence(dets, backend="cpsat"))
+            scene = scene_from_result(dets, track_sequence(dets, backend=DEFAULT_BACKEND))
             if path:
                 os.makedirs(cache, exist_ok=True)
                 save_scene(path, scene)
@@ -172,7 +174,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                                             "(tracked with the cpsat backend).")
     p.add_argument("command", choices=("anticipation-eval",))
     p.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    p.add_argument("--benchmarks", default="mot15,kitti-car", help="comma-separated (default mot15,kitti-car)")
+    p.add_argument("--benchmarks", default=",".join(THROUGHPUT_DATASETS),
+                   help=f"comma-separated (default {','.join(THROUGHPUT_DATASETS)})")
     p.add_argument("--cache", help="folder to keep / reuse the tracked scenes (NAME-SEQ.scene.json)")
     p.add_argument("--json", help="also write the summaries as JSON")
     p.add_argument("--quiet", action="store_true")

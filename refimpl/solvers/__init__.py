@@ -37,24 +37,58 @@ from __future__ import annotations
 
 import importlib
 import math
-from typing import Protocol
+from dataclasses import dataclass
+from typing import Mapping, Protocol
 
 from ..hypothesis import Hypothesis
 from ..spec import FrameProblem
 
-_REGISTRY: dict[str, tuple[str, str, dict, str]] = {
-    "cpsat": ("refimpl.solvers.cpsat", "CpSatSolver", {},
-              "exact fast path, the full CP-SAT model where it declines"),
-    "cpsat-full": ("refimpl.solvers.cpsat", "CpSatSolver", {"fast_path": False},
-                   "the full CP-SAT model on every frame"),
-    "clingo": ("refimpl.solvers.clingo_backend", "ClingoSolver", {},
-               "the ASP program model/*.lp with clingo"),
-}
+CPSAT, CPSAT_FULL, CLINGO = "cpsat", "cpsat-full", "clingo"
+"""The backend names; the only place they are spelled (the classes read their own from here)."""
+
+
+@dataclass(frozen=True)
+class BackendEntry:
+    """One row of the registry: where the solver class lives, its options and how it is shown."""
+
+    name: str
+    module: str
+    cls: str
+    options: Mapping[str, object]
+    description: str
+    colour: str
+    """Its colour in benchmark plots."""
+    library: str
+    """The Python module it needs (``SolverUnavailable`` without it)."""
+
+
+_REGISTRY: dict[str, BackendEntry] = {e.name: e for e in (
+    BackendEntry(CPSAT, "refimpl.solvers.cpsat", "CpSatSolver", {},
+                 "exact fast path, the full CP-SAT model where it declines", "tab:blue", "ortools"),
+    BackendEntry(CPSAT_FULL, "refimpl.solvers.cpsat", "CpSatSolver", {"fast_path": False},
+                 "the full CP-SAT model on every frame", "tab:green", "ortools"),
+    BackendEntry(CLINGO, "refimpl.solvers.clingo_backend", "ClingoSolver", {},
+                 "the ASP program model/*.lp with clingo", "tab:red", "clingo"),
+)}
 
 BACKENDS: tuple[str, ...] = tuple(_REGISTRY)
 """Every backend name, in the order the CLI lists them."""
 
-DESCRIPTIONS: dict[str, str] = {name: entry[3] for name, entry in _REGISTRY.items()}
+DESCRIPTIONS: dict[str, str] = {name: entry.description for name, entry in _REGISTRY.items()}
+COLOURS: dict[str, str] = {name: entry.colour for name, entry in _REGISTRY.items()}
+LIBRARIES: dict[str, str] = {name: entry.library for name, entry in _REGISTRY.items()}
+
+DEFAULT_BACKEND = CPSAT
+"""The backend a tracker runs with unless told otherwise."""
+ORACLE_PAIR: tuple[str, str] = (CPSAT_FULL, CLINGO)
+"""The two encodings ``refimpl diff`` compares by default: the CP-SAT model on every frame and the ASP program."""
+REFERENCE_BACKEND = CLINGO
+"""The paper's own encoding: benchmarks give every other backend's speed as a ratio to it."""
+
+BASELINE = "baseline"
+"""The paper's baseline tracker (SORT, refimpl.baseline): a tracker without a solver."""
+TRACKERS: tuple[str, ...] = (BASELINE,) + BACKENDS
+"""What a tracking command's ``--backend`` accepts: the baseline, or abduction with a backend."""
 
 
 class SolverUnavailable(RuntimeError):
@@ -91,5 +125,5 @@ def get_solver(name: str, **options) -> Solver:
     """A backend by name (one of BACKENDS); ``options`` go to its constructor."""
     if name not in _REGISTRY:
         raise ValueError(f"unknown backend {name!r} (choose from {', '.join(BACKENDS)})")
-    module, cls, preset, _ = _REGISTRY[name]
-    return getattr(importlib.import_module(module), cls)(**{**preset, **options})
+    entry = _REGISTRY[name]
+    return getattr(importlib.import_module(entry.module), entry.cls)(**{**entry.options, **options})

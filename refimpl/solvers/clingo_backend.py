@@ -27,7 +27,7 @@ from typing import Sequence
 from ..constants import model_dir, resolve_constants
 from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..spec import FrameProblem
-from . import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
+from . import CLINGO, NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
 from .common import event_term, tiebreak_facts, tiebreak_level
 from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
@@ -94,7 +94,7 @@ class ClingoSolver:
     replaced every ``recycle`` solves, see refimpl.solvers.clingo_worker; False: always in this
     process, whose memory then grows with every symbol clingo sees)."""
 
-    name = "clingo"
+    name = CLINGO
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = 16, isolate: bool = True,

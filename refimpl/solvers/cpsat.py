@@ -37,7 +37,7 @@ from ..constants import resolve_constants
 from ..events import EventState
 from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..spec import FrameProblem
-from . import NoAdmissibleHypothesis, SolveTimeout, check_time_limit  # noqa: F401
+from . import CPSAT, CPSAT_FULL, NoAdmissibleHypothesis, SolveTimeout, check_time_limit  # noqa: F401
 from .common import tiebreak_level
 from .cpsat_model import (  # noqa: F401  (re-exported: refimpl.solvers.cpsat is the public name)
     _EVENT_AT,
@@ -105,7 +105,7 @@ class CpSatSolver:
         self.fast_path = fast_path
         self.decompose = decompose
         self.part_nodes = int(part_nodes)
-        self.name = "cpsat" if fast_path else "cpsat-full"
+        self.name = CPSAT if fast_path else CPSAT_FULL
         self.stats: Counter[str] = Counter()
         self._state_cache: dict[tuple[str, tuple], EventState] = {}
 
