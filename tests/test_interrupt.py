@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from refimpl.cli.common import TRACKERS
+from refimpl.solvers import TRACKERS
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "tools"))

@@ -43,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from long_sequence import write_sequence  # noqa: E402
-from refimpl.cli.common import TRACKERS  # noqa: E402
+from refimpl.solvers import TRACKERS  # noqa: E402
 
 WORKER_MODULE = "refimpl.solvers.clingo_worker"
 
