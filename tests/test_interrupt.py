@@ -30,7 +30,7 @@ def long_dets(tmp_path_factory) -> Path:
     return write_sequence(tmp_path_factory.mktemp("seq") / "LONG", 4000, 20, seed=0)
 
 
-def _interrupt(dets: Path, out_dir: Path, backend: str) -> tuple[int, float, str]:
+def _interrupt(dets: Path, out_dir: Path, backend: str, sig: int = signal.SIGINT) -> tuple[int, float, str]:
     out_dir.mkdir()
     argv = [sys.executable, "-m", "refimpl", "track", "--dets", str(dets), "--backend", backend,
             "--out", str(out_dir / "res.txt"), "--events", str(out_dir / "ev.lp"),
@@ -45,7 +45,7 @@ def _interrupt(dets: Path, out_dir: Path, backend: str) -> tuple[int, float, str
     time.sleep(0.5)  # well inside the tracking loop
     assert proc.poll() is None
     sent = time.monotonic()
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     _, err = proc.communicate(timeout=30)
     return proc.returncode, time.monotonic() - sent, err
 
@@ -59,3 +59,13 @@ def test_sigint_ends_track_at_once_with_130_and_no_output(long_dets, tmp_path, b
     assert secs < 2.0, secs
     assert [line for line in err.splitlines() if not line.startswith("refimpl: warning")] == ["refimpl: interrupted"]
     assert os.listdir(tmp_path / "out") == []  # no results, no event log, no temporary file
+
+
+def test_sigterm_ends_track_like_sigint_with_143(long_dets, tmp_path):
+    # `kill PID` (SIGTERM) used to end the process at once by default, leaving the staged
+    # temporary files (.res.txt.XXXX.tmp) behind in the output folder
+    code, secs, err = _interrupt(long_dets, tmp_path / "out", "baseline", signal.SIGTERM)
+    assert code == 143
+    assert secs < 2.0, secs
+    assert [line for line in err.splitlines() if not line.startswith("refimpl: warning")] == ["refimpl: terminated"]
+    assert os.listdir(tmp_path / "out") == []
