@@ -15,7 +15,7 @@ problem with one line naming the value, before any backend sees it.  What the mo
 * ``img_width - border_margin`` (and height) and ``curr_time - T`` for every history time ``T``
   (model/events.lp, lost and noise): each operand within +-2^30 (``TIME_LIMIT``), and the
   difference itself checked, since 2^30 - (-2^30) is one beyond the range (found by
-  tools/fuzz_agreement.py: clingo wrapped it and abduced an impossible ``lost``/``noise``);
+  tools/fuzz_agreement.py: clingo wrapped it, abduced an impossible ``noise`` and missed a ``lost``);
 * ``hide_overlap`` >= 0: it is a percentage, and below 0 ``100 * I > hide_overlap * W * H``
   holds for tracks that do not overlap at all, so any track could hide behind any other and the
   canonical tie-break (refimpl/solvers/common.py, which ranks only overlapping or
