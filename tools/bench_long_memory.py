@@ -15,14 +15,17 @@ RSS of the LARGEST SINGLE process among the command and the children it waited f
 wait4 rusage); it is not a sum.  The clingo backend solves in a worker child process
 (refimpl/solvers/clingo_worker.py), replaced every so many solves, which runs beside the main
 process.  So this tool also watches the process tree itself: every --interval seconds it reads
-VmHWM (the kernel's exact peak RSS of that process so far) and VmRSS of every descendant from
+VmHWM (the kernel's exact peak RSS of that process so far) of every descendant, and its Pss (see below), from
 /proc.  It reports
 * `main peak`: VmHWM of the `refimpl track` process (its last reading, taken while it lived);
 * `worker peak`: the largest VmHWM of any clingo worker (and how many workers ran);
 * `bound`: main peak + worker peak.  At most one worker lives at a time, so this bounds the
   memory of the whole command from above, whatever the sampling missed;
-* `tree peak`: the largest sum of VmRSS over the tree in one sample (a lower bound of the true
-  simultaneous peak).
+* `tree PSS peak`: the largest sum over the tree, in one sample, of each process's proportional
+  set size (Pss of /proc/PID/smaps_rollup: its private pages plus its share of the pages it
+  shares).  A sum of RSS would count shared pages once per process: while a new worker is being
+  started, its forked copy (before exec) shares every page of the main process and so shows the
+  main process's RSS a second time without using any more memory.
 The 1 GB criterion is checked on `max(time -v, bound)`; the tool exits 1 when a tracker exceeds
 --limit-mib or does not exit 0.
 """
@@ -60,6 +63,18 @@ def _status(pid: int) -> dict[str, int]:
     except (FileNotFoundError, ProcessLookupError, PermissionError):
         return {}
     return out
+
+
+def _pss(pid: int) -> int:
+    """Proportional set size (kB) of a live process; 0 when it is gone or unreadable."""
+    try:
+        with open(f"/proc/{pid}/smaps_rollup", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("Pss:"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    return 0
 
 
 def _descendants(root: int) -> dict[int, str]:
@@ -113,7 +128,7 @@ def measure(tracker: str, det: Path, out_dir: Path, interval: float) -> dict:
             st = _status(pid)
             if not st:
                 continue
-            total += st.get("VmRSS", 0)
+            total += _pss(pid)
             if WORKER_MODULE in cmdline:
                 workers.add(pid)
                 worker_hwm = max(worker_hwm, st.get("VmHWM", 0))
@@ -172,7 +187,7 @@ def main() -> None:
     print(f"sequence: {det} ({a.frames} frames x {a.objects} objects, seed {a.seed}, {n_det} detections)",
           flush=True)
     print("| tracker | exit | max RSS, time -v (MiB) | main peak (MiB) | worker peak (MiB) | workers "
-          "| bound: main + worker (MiB) | tree peak, sampled (MiB) | elapsed | user CPU (s) | results |")
+          "| bound: main + worker (MiB) | tree PSS peak, sampled (MiB) | elapsed | user CPU (s) | results |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     failed = False
     for tracker in trackers:
