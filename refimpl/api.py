@@ -22,8 +22,8 @@ from numpy.typing import ArrayLike
 from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
 from .solvers import BACKENDS, DEFAULT_BACKEND, get_solver
 from .spec import HistoryEvent
-from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker,
-                      TrackingResult)
+from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, DEFAULT_WRITTEN_BOX,
+                      AbductionTracker, TrackerOptions, TrackingResult, WrittenBox)
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -45,6 +45,11 @@ class Tracker:
         field-of-view border).  Without it the border is not tested, as for a det.txt
         without seqinfo.ini.
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
+    written_box: the box returned (and written) for an observed frame: "filtered" (the Kalman state
+        after the update, the default) or "detection" (the detection's own box; what the KITTI
+        Car preset of ``refimpl track`` chooses, docs/peers.md).  The API applies no preset.
+    velocity_noise: the factor on the Kalman filter's velocity process noise (1: SORT's filter;
+        refimpl.tracker.TrackerOptions).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
     first_frame: the number of the first frame (1 as MOTChallenge, 0 as KITTI).
     name, fps: carried into ``scene()``.
@@ -54,7 +59,8 @@ class Tracker:
                  img_size: tuple[int, int] | None = None, min_hits: int = DEFAULT_MIN_HITS,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  time_limit: float | None = None, object_type: str = "pedestrian", first_frame: int = 1,
-                 name: str = "sequence", fps: float | None = None) -> None:
+                 name: str = "sequence", fps: float | None = None,
+                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         merged = self._constants(constants)
@@ -69,12 +75,13 @@ class Tracker:
                 raise ValueError(f"{label} must be a non-negative integer, got {value!r}")
         if time_limit is not None and not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
+        options = TrackerOptions(written_box, velocity_noise)  # ValueError naming what is wrong
         self.object_type = self._type(object_type, "object_type")
         self.backend = backend
         self.name, self.fps, self.image_size = name, fps, img_size
         self.first_frame = int(first_frame)
         self._tracker = AbductionTracker(get_solver(backend), merged, int(min_hits), time_limit,
-                                         int(bridge_gap), int(bridge_conf))
+                                         int(bridge_gap), int(bridge_conf), **options.kwargs())
         self._frames: list[DetectionFrame] = []
 
     # -- validation --------------------------------------------------------------------------

@@ -2,7 +2,7 @@
 
 ``refimpl calibrate --benchmark kitti-car-train`` tracks every sequence of the benchmark with the
 abduction tracker (cpsat) once per point of a small grid over the thresholds of
-model/constants.lp (``DEFAULT_GRID``), scores each point with refimpl.evaluate and ranks the
+model/constants.lp and the tracker options (``DEFAULT_GRID``), scores each point with refimpl.evaluate and ranks the
 points by HOTA, then IDF1, then MOTA (over the benchmark's summed counts).  The best point is the
 preset for the benchmark's (format, class); ``--write-presets`` stores it in model/presets.json.
 
@@ -30,19 +30,22 @@ from typing import Mapping, Sequence
 
 from .solvers import DEFAULT_BACKEND
 
-DEFAULT_GRID: dict[str, tuple[int, ...]] = {
-    "conf_thresh_new_track": (60, 80, 90),
-    "conf_thresh_assign": (0, 40, 60),
+DEFAULT_GRID: dict[str, tuple] = {
+    "conf_thresh_new_track": (80, 90),
+    "conf_thresh_assign": (40, 60),
     "iou_thresh": (20000, 30000),
     "conf_thresh_resume": (50,),
     "iou_thresh_resume": (10000,),
+    "written_box": ("filtered", "detection"),
+    "velocity_noise": ("1", "10"),
 }
-"""The search space (confidences 0..100, IoU x 100000): 18 points.  The committed presets came from
-a 12-point grid (new track 40/60/80, assign 0/40); on the train splits the best points sat at its
-upper edge, and 90 / 60 were better still on KITTI Pedestrian train (docs/peers.md), hence these
-values.  The resume thresholds are held at their defaults: a wider grid (``--grid
-conf_thresh_resume=50,70 --grid iou_thresh_resume=10000,20000``) took too long on the shared
-2-core machine the tables come from (about 2.5 min per point on KITTI Car train under load)."""
+"""The search space (confidences 0..100, IoU x 100000; ``written_box`` and ``velocity_noise`` are
+tracker options, refimpl.tracker.TrackerOptions): 32 points.  The thresholds are where the earlier,
+wider grids put the best points on all three tuning sets (new track 40/60/80/90 and assign 0/40/60
+were searched there: the best sat at new track >= 80, assign >= 40; on MOT15 assign 0 and 40 tied
+exactly), docs/peers.md.  The resume thresholds are held at their defaults: a wider grid (``--grid
+conf_thresh_resume=50,70 --grid iou_thresh_resume=10000,20000``) is one option away but four times
+as long on the shared 2-core machine the tables come from."""
 
 CALIBRATE_BEGIN = "<!-- calibrate:{name}:begin -->"
 CALIBRATE_END = "<!-- calibrate:{name}:end -->"
@@ -110,12 +113,21 @@ def check_tunable(benchmark: str, data_root: str) -> None:
                 f"kitti-{'car' if seqs[0].object_class == 'car' else 'ped'}-train")
 
 
+def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:
+    """A grid point's (name, value) pairs as model constants and tracker options (TrackerOptions)."""
+    from .tracker import TrackerOptions
+    names = set(TrackerOptions.names())
+    constants = {k: int(v) for k, v in point if k not in names}
+    return constants, TrackerOptions.from_mapping({k: v for k, v in point if k in names}, "--grid")
+
+
 def _run_point(args) -> GridPoint:
-    """One grid point: track and score the whole dataset with these constants (a Dask task)."""
-    name, data_root, constants, backend, dataset = args
+    """One grid point: track and score the whole dataset with these settings (a Dask task)."""
+    name, data_root, point, backend, dataset = args
     from .table6 import run_benchmark
-    run = run_benchmark(name, data_root, backend, dataset=dataset, constants=dict(constants))
-    return GridPoint(tuple(constants), run.per_sequence, run.overall, run.seconds)
+    constants, options = split_point(point)
+    run = run_benchmark(name, data_root, backend, dataset=dataset, constants=constants, options=options)
+    return GridPoint(tuple(point), run.per_sequence, run.overall, run.seconds)
 
 
 def leave_one_sequence_out(points: Sequence[GridPoint], use_hota: bool) -> dict:
@@ -213,18 +225,30 @@ def chosen_preset(cal: Calibration):
                  f"best by {cal.ranking} over {cal.benchmark}")
     if cal.loso:
         procedure += "; leave-one-sequence-out estimate in docs/peers.md"
-    return Preset(cal.format, cal.object_class, dict(cal.best.constants), cal.benchmark, procedure)
+    constants, options = split_point(cal.best.constants)
+    return Preset(cal.format, cal.object_class, constants, cal.benchmark, procedure, options)
 
 
-def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple[int, ...]]:
-    """DEFAULT_GRID with NAME=V1,V2,... replacing a dimension (or adding one of the known constants)."""
+def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple]:
+    """DEFAULT_GRID with NAME=V1,V2,... replacing a dimension (or adding one of the known constants
+    or tracker options)."""
     from .constants import default_constants
+    from .tracker import TrackerOptions
     grid = dict(DEFAULT_GRID)
     for spec in specs or ():
         name, sep, values = spec.partition("=")
         name = name.strip()
+        if sep and name in TrackerOptions.names():
+            vals = tuple(v.strip() for v in values.split(",") if v.strip())
+            for v in vals:
+                TrackerOptions.from_mapping({name: v}, "--grid")  # ValueError naming the choices
+            if not vals:
+                raise ValueError(f"--grid {name} has no values")
+            grid[name] = vals
+            continue
         if not sep or name not in default_constants():
-            raise ValueError(f"--grid takes NAME=V1,V2,... with NAME a model constant, got {spec!r}")
+            raise ValueError(f"--grid takes NAME=V1,V2,... with NAME a model constant or a tracker option "
+                             f"({', '.join(TrackerOptions.names())}), got {spec!r}")
         try:
             vals = tuple(int(v) for v in values.split(",") if v.strip())
         except ValueError:

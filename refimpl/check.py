@@ -44,6 +44,7 @@ class Violation:
     rule: str
     """The rule of the model the answer breaks (the names docs/model.md uses)."""
     detail: str
+    """What breaks it: the atoms (in the fact syntax) and why."""
 
     def __str__(self) -> str:
         return f"[{self.rule}] {self.detail}"

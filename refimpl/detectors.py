@@ -192,6 +192,7 @@ class DetectorResult:
     """One real detector on one benchmark: its detections' quality and every tracker run on them."""
 
     benchmark: str
+    """A dataset of refimpl.datasets with real detectors (REAL_DETECTORS)."""
     detector: str
     label: str
     sequences: tuple[str, ...]

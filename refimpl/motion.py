@@ -124,9 +124,12 @@ def measurement_noise() -> np.ndarray:
     return np.diag([MEASUREMENT_POSITION_VARIANCE] * 2 + [MEASUREMENT_SHAPE_VARIANCE] * 2)
 
 
-def process_noise() -> np.ndarray:
-    """Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001)."""
-    return np.diag([PROCESS_STATE_VARIANCE] * 4 + [PROCESS_VELOCITY_VARIANCE] * 2 + [PROCESS_AREA_VELOCITY_VARIANCE])
+def process_noise(velocity_noise: float = 1.0) -> np.ndarray:
+    """Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001), the velocity block (du, dv, ds) times
+    ``velocity_noise`` (1: SORT's values)."""
+    v = float(velocity_noise)
+    return np.diag([PROCESS_STATE_VARIANCE] * 4 + [PROCESS_VELOCITY_VARIANCE * v] * 2
+                   + [PROCESS_AREA_VELOCITY_VARIANCE * v])
 
 
 class BoxKalman:
@@ -139,13 +142,19 @@ class BoxKalman:
       time_since_update   predictions since the last update (0 right after an update or at creation)
     """
 
-    def __init__(self, box_xywh):
+    def __init__(self, box_xywh, velocity_noise: float = 1.0):
+        """velocity_noise: the factor on SORT's process noise of the velocities (process_noise):
+        larger lets the velocity follow faster changes, e.g. a car at 10 fps (refimpl decision, a
+        tracker option; 1 is SORT)."""
+        if not (np.isfinite(velocity_noise) and velocity_noise > 0):
+            raise ValueError(f"velocity_noise must be a positive finite number, got {velocity_noise!r}")
         kf = KalmanFilter(dim_x=DIM_X, dim_z=DIM_Z)
         kf.F = transition_matrix()
         kf.H = measurement_matrix()
         kf.P = initial_covariance()
         kf.R = measurement_noise()
-        kf.Q = process_noise()
+        kf.Q = process_noise(velocity_noise)
+        self.velocity_noise = float(velocity_noise)
         kf.x = np.zeros((DIM_X, 1))
         kf.x[:DIM_Z, 0] = xywh_to_z(box_xywh)
         self.kf = kf

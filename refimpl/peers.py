@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import inspect
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
@@ -153,10 +153,12 @@ class Comparison:
     scores: tuple[TrackerScore, ...]
     constants: Mapping[str, int]
     """The constants the abduction tracker ran with beyond model/constants.lp (preset + --const)."""
+    options: Mapping[str, str] = field(default_factory=dict)
+    """The tracker options it ran with that differ from the defaults (preset + --written-box)."""
 
 
 def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAULT_BACKEND,
-            constants: Mapping[str, int] | None = None, dataset=None, step=None) -> Comparison:
+            constants: Mapping[str, int] | None = None, dataset=None, step=None, options=None) -> Comparison:
     """Every tracker on the same detections of a dataset, scored by the same evaluator."""
     from .evaluate import evaluate_many
     from .datasets import TITLES, load_dataset
@@ -167,12 +169,14 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
     dataset = dataset if dataset is not None else load_dataset(name, data_root)
     frames = sum(len(d.frames) for _, d, _ in dataset)
     scores = []
-    runs = [(BASELINE, "refimpl baseline (SORT)", None),
-            (backend, f"refimpl abduction ({backend})", dict(constants or {}))]
-    if constants:  # what the preset changes: the same tracker with model/constants.lp alone
-        runs.append((backend, f"refimpl abduction ({backend}), constants.lp defaults", {}))
-    for tracker, label, consts in runs:
-        run = run_benchmark(name, data_root, tracker, step, dataset=dataset, constants=consts)
+    from .tracker import TrackerOptions
+    options = options or TrackerOptions()
+    runs = [(BASELINE, "refimpl baseline (SORT)", None, None),
+            (backend, f"refimpl abduction ({backend})", dict(constants or {}), options)]
+    if constants or options.changed():  # what the preset changes: model/constants.lp and default options
+        runs.append((backend, f"refimpl abduction ({backend}), no preset", {}, TrackerOptions()))
+    for tracker, label, consts, opts in runs:
+        run = run_benchmark(name, data_root, tracker, step, dataset=dataset, constants=consts, options=opts)
         scores.append(TrackerScore(label, run.overall, run.per_sequence, frames, run.seconds))
     for p in peers:
         triples, seconds, params = [], 0.0, {}
@@ -188,7 +192,7 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
         params = dict(params, frame_rate="/".join(f"{r:g}" for r in rates))
         scores.append(TrackerScore(f"{p} (trackers {_version()})", overall, per_seq, frames, seconds,
                                    describe_parameters(p, params)))
-    return Comparison(name, TITLES.get(name, name), tuple(scores), dict(constants or {}))
+    return Comparison(name, TITLES.get(name, name), tuple(scores), dict(constants or {}), options.changed())
 
 
 def _version() -> str:
@@ -220,8 +224,10 @@ def comparison_table(c: Comparison) -> str:
     lines += ["| " + " | ".join([s.label, *score_cells(s)]) + " |" for s in c.scores]
     notes = [f"- {s.label}: `{s.parameters}`" for s in c.scores if s.parameters]
     consts = ", ".join(f"{k}={v}" for k, v in sorted(c.constants.items())) or "none"
-    notes.insert(0, f"- refimpl abduction: model/constants.lp with {consts} (the preset of this format and "
-                    f"class, refimpl.presets, and any --const)")
+    opts = "".join(f"; tracker option {k}={v}" for k, v in sorted(c.options.items()))
+    notes.insert(0, f"- refimpl abduction: model/constants.lp with {consts}{opts} (the preset of this format "
+                    f"and class, refimpl.presets, and any --const / --written-box / --velocity-noise); \"no preset\": "
+                    f"model/constants.lp and the tracker's default options (--no-preset)")
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 
 

@@ -1,8 +1,11 @@
-"""Presets: the model constants calibrated per (input format, object class), chosen automatically.
+"""Presets: the model constants and tracker options calibrated per (input format, object class),
+chosen automatically.
 
 ``refimpl track --format kitti --class Car`` (and ``refimpl benchmark kitti-car...``) runs the
-abduction tracker with the preset of (kitti, car) on top of model/constants.lp; ``--const
-NAME=VALUE`` overrides both.  A (format, class) without a preset runs with the model's defaults.
+abduction tracker with the preset of (kitti, car): its constants on top of model/constants.lp and
+its tracker options (refimpl.tracker.TrackerOptions, e.g. which box is written); ``--const
+NAME=VALUE``, ``--written-box`` and ``--velocity-noise`` override them.  A (format, class) without a preset, or
+``--no-preset``, runs with the model's defaults and the tracker's default options.
 
 The presets live in model/presets.json, written by ``refimpl calibrate ... --write-presets``
 (refimpl.calibrate), each with where it was tuned and how, so the file says what was tuned on
@@ -18,6 +21,7 @@ from pathlib import Path
 from typing import Mapping
 
 from .constants import default_constants, model_dir
+from .tracker import TrackerOptions
 
 PRESETS_FILE = "presets.json"
 
@@ -32,6 +36,8 @@ class Preset:
     tuned_on: str
     """The benchmark (sequences) the constants were chosen on, e.g. kitti-car-train."""
     procedure: str
+    tracker: TrackerOptions = TrackerOptions()
+    """The tracker options of the preset (the "tracker" entry; defaults where it is absent)."""
 
 
 def preset_key(fmt: str, object_class: str) -> str:
@@ -51,7 +57,9 @@ def _parse(data: Mapping, source: Path) -> dict[str, Preset]:
         unknown = sorted(set(consts) - set(known))
         if unknown or not cls:
             raise ValueError(f"{source}: preset {key!r}: unknown constants {unknown} or key not FORMAT/CLASS")
-        out[key] = Preset(fmt, cls, consts, str(entry.get("tuned_on", "")), str(entry.get("procedure", "")))
+        options = TrackerOptions.from_mapping(entry.get("tracker", {}), f"{source}: preset {key!r}")
+        out[key] = Preset(fmt, cls, consts, str(entry.get("tuned_on", "")), str(entry.get("procedure", "")),
+                          options)
     return out
 
 
@@ -90,6 +98,16 @@ def constants_for(fmt: str, object_class: str, overrides: Mapping[str, int] | No
     return merged
 
 
+def options_for(fmt: str, object_class: str, overrides: Mapping[str, object] | None = None,
+                path: str | Path | None = None, use_preset: bool = True) -> TrackerOptions:
+    """The tracker options to run with: the preset's (unless ``use_preset`` is false; the
+    defaults without one), then overrides {name: value} (ValueError for an unknown name or value)."""
+    preset = preset_for(fmt, object_class, path) if use_preset else None
+    values: dict[str, object] = dict((preset.tracker if preset else TrackerOptions()).as_dict())
+    values.update(overrides or {})
+    return TrackerOptions.from_mapping(values)
+
+
 def write_preset(preset: Preset, path: str | Path | None = None) -> Path:
     """Add or replace one preset in the presets file (keys sorted; written atomically)."""
     from .io import write_text_atomic
@@ -97,7 +115,7 @@ def write_preset(preset: Preset, path: str | Path | None = None) -> Path:
     p = Path(path) if path is not None else presets_path()
     data = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
     data[preset_key(preset.format, preset.object_class)] = {
-        "constants": dict(sorted(preset.constants.items())), "tuned_on": preset.tuned_on,
-        "procedure": preset.procedure}
+        "constants": dict(sorted(preset.constants.items())), "tracker": preset.tracker.as_dict(),
+        "tuned_on": preset.tuned_on, "procedure": preset.procedure}
     write_text_atomic(p, json.dumps(dict(sorted(data.items())), indent=2) + "\n")
     return p

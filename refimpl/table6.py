@@ -30,19 +30,19 @@ class BenchmarkRun:
     seconds: float
 
 
-def run_tracker(seq, tracker: str, constants=None):
+def run_tracker(seq, tracker: str, constants=None, options=None):
     """Results rows and events of one sequence with 'baseline' (SORT) or an abduction backend
-    (with these model constants on top of model/constants.lp)."""
+    (with these model constants on top of model/constants.lp and these TrackerOptions)."""
     if tracker == BASELINE:
         from .baseline import track_sequence
         return track_sequence(seq), ()
     from .tracker import track_sequence
-    result = track_sequence(seq, backend=tracker, constants=constants)
+    result = track_sequence(seq, backend=tracker, constants=constants, **(options.kwargs() if options else {}))
     return result.rows, result.events
 
 
 def run_benchmark(name: str, data_root: str, tracker: str, step: Callable[[str], None] | None = None,
-                  dataset=None, constants=None) -> BenchmarkRun:
+                  dataset=None, constants=None, options=None) -> BenchmarkRun:
     """Track and evaluate every sequence of a dataset; ``seconds`` is the time of the tracking
     loops alone (evaluation excluded)."""
     dataset = dataset if dataset is not None else load_dataset(name, data_root)
@@ -50,7 +50,7 @@ def run_benchmark(name: str, data_root: str, tracker: str, step: Callable[[str],
     tracking = 0.0
     for seq_name, dets, gt in dataset:
         t0 = time.perf_counter()
-        rows, evs = run_tracker(dets, tracker, constants)
+        rows, evs = run_tracker(dets, tracker, constants, options)
         tracking += time.perf_counter() - t0
         events.update(e.event.name for e in evs)
         frames += len(dets.frames)

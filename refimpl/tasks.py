@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import time
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
@@ -23,6 +23,7 @@ import numpy as np
 
 from .io import DetectionSequence, GroundTruth
 from .solvers import BASELINE
+from .tracker import TrackerOptions
 
 
 # ---------------------------------------------------------------------------------------
@@ -37,6 +38,7 @@ class TrackJob:
     check: bool = False
     scene: bool = False
     constants: tuple[tuple[str, int], ...] = ()
+    options: TrackerOptions = TrackerOptions()
 
 
 @dataclass(frozen=True)
@@ -75,7 +77,7 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
             on_frame()
 
     result = track_sequence(job.seq, backend=job.backend, constants=dict(job.constants) or None,
-                            time_limit=job.time_limit,
+                            time_limit=job.time_limit, **job.options.kwargs(),
                             observer=observe if (job.check or on_frame is not None) else None)
     scene = None
     if job.scene:
@@ -91,12 +93,13 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
 
 @dataclass(frozen=True)
 class BenchmarkJob:
-    dataset: str
+    """One sequence of a RunRequest: tracked as the request says, then scored."""
+
     name: str
     dets: DetectionSequence
     gt: GroundTruth
-    tracker: str
-    constants: tuple[tuple[str, int], ...] = ()
+    request: RunRequest
+    """Its request without the sequences (what a worker needs to know, nothing more)."""
 
 
 @dataclass(frozen=True)
@@ -112,12 +115,14 @@ def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
     """Track one sequence with job.tracker and score it against its ground truth."""
     from .evaluate import evaluate_sequence
     start = time.perf_counter()
-    if job.tracker == BASELINE:
+    how = job.request
+    if how.tracker == BASELINE:
         from .baseline import track_sequence as sort_track
         rows, events = sort_track(job.dets), ()
     else:
         from .tracker import track_sequence
-        result = track_sequence(job.dets, backend=job.tracker, constants=dict(job.constants) or None)
+        result = track_sequence(job.dets, backend=how.tracker, constants=dict(how.constants) or None,
+                                **how.options.kwargs())
         rows, events = result.rows, result.events
     seconds = time.perf_counter() - start  # tracking only: scoring is not the tracker's time
     metrics = evaluate_sequence(job.gt, rows)
@@ -126,12 +131,13 @@ def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
 
 @dataclass(frozen=True)
 class RunRequest:
-    """One (dataset, tracker, constants) whose every sequence is a task."""
+    """One (dataset, tracker, constants, tracker options) whose every sequence is a task."""
 
     dataset: str
     sequences: Sequence[tuple[str, DetectionSequence, GroundTruth]]
     tracker: str
     constants: tuple[tuple[str, int], ...] = ()
+    options: TrackerOptions = TrackerOptions()
 
 
 @dataclass(frozen=True)
@@ -150,10 +156,10 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
     """Every sequence of every request as one task; per-request scores combined in input order."""
     from .evaluate import combine
     from .scaleout import run_tasks
-    jobs = [BenchmarkJob(r.dataset, name, dets, gt, r.tracker, r.constants)
+    jobs = [BenchmarkJob(name, dets, gt, replace(r, sequences=()))
             for r in requests for name, dets, gt in r.sequences]
     outs = run_tasks(benchmark_job, jobs, plan, label=label, quiet=quiet,
-                     describe=lambda j: f"{j.dataset}/{j.tracker}/{j.name}")
+                     describe=lambda j: f"{j.request.dataset}/{j.request.tracker}/{j.name}")
     summaries, k = [], 0
     for i, r in enumerate(requests):
         mine = outs[k:k + len(r.sequences)]

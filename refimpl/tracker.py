@@ -8,9 +8,12 @@ alive but unobserved, resume re-attaches a detection to the same identity, end r
 ignores drop.  Events are logged as occurs_at(E, t) with track ids.
 
 What the results file holds (refimpl decision; measurements in docs/tracking.md):
-- a track's box is written for a frame in which a detection was assigned to it or resumed it
-  (the Kalman state after the update, as SORT writes it), once the track is confirmed by SORT's
-  online rule: hit_streak >= min_hits consecutive observations, or the first min_hits frames;
+- a track's box is written for a frame in which a detection was assigned to it or resumed it,
+  once the track is confirmed by SORT's online rule: hit_streak >= min_hits consecutive
+  observations, or the first min_hits frames; WHICH box is the tracker option ``written_box``
+  (WrittenBox): the Kalman state after the update (FILTERED, as SORT writes it, the default) or
+  the detection's own box (DETECTION, as ByteTrack and OC-SORT write it; the KITTI Car preset
+  chooses it, docs/peers.md);
 - a resumed track must be re-confirmed the same way, unless the gap was short (<= bridge_gap
   frames) and the resuming detection confident (>= bridge_conf): then it stays confirmed and its
   hidden frames are filled by linear interpolation between the boxes around the gap (the paper's
@@ -24,6 +27,7 @@ defaults are this conservative.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Callable, Mapping
 
 import numpy as np
@@ -48,6 +52,81 @@ MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
+
+
+class WrittenBox(str, Enum):
+    """Which box a track writes for a frame in which it was observed (a tracker option, not a
+    rule of the model: the abduced hypothesis and the identities are the same either way)."""
+
+    FILTERED = "filtered"
+    """The Kalman state after the update with the detection (SORT's output; the default)."""
+    DETECTION = "detection"
+    """The detection's box itself (what ByteTrack and OC-SORT write)."""
+
+    @classmethod
+    def parse(cls, value: "str | WrittenBox") -> "WrittenBox":
+        """A WrittenBox from itself or its name; ValueError naming the choices otherwise."""
+        try:
+            return cls(value)
+        except ValueError:
+            raise ValueError(f"written_box must be one of {', '.join(w.value for w in cls)}, "
+                             f"got {value!r}") from None
+
+
+DEFAULT_WRITTEN_BOX = WrittenBox.FILTERED
+
+
+@dataclass(frozen=True)
+class TrackerOptions:
+    """The tracker's own choices that a preset may carry beside the model constants (none of them
+    changes a rule of the model).  The defaults are the tracker's behaviour without a preset."""
+
+    written_box: WrittenBox = DEFAULT_WRITTEN_BOX
+    """Which box an observed frame writes (WrittenBox)."""
+    velocity_noise: float = 1.0
+    """The factor on SORT's process noise of the Kalman filter's velocities (refimpl.motion.
+    process_noise); 1 is SORT's filter."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "written_box", WrittenBox.parse(self.written_box))
+        v = self.velocity_noise
+        if isinstance(v, str):  # from the command line or a --grid value
+            try:
+                v = float(v)
+            except ValueError:
+                pass
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < float(v) < float("inf")):
+            raise ValueError(f"velocity_noise must be a positive number, got {v!r}")
+        object.__setattr__(self, "velocity_noise", float(v))
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, object], where: str = "tracker options") -> "TrackerOptions":
+        """From {name: value} (a preset's "tracker" entry); ValueError naming the known options."""
+        known = cls.names()
+        unknown = sorted(set(values) - set(known))
+        if unknown:
+            raise ValueError(f"{where}: unknown tracker option(s) {', '.join(unknown)} (known: {', '.join(known)})")
+        try:
+            return cls(**{str(k): v for k, v in values.items()})
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+
+    @staticmethod
+    def names() -> tuple[str, ...]:
+        return tuple(TrackerOptions.__dataclass_fields__)
+
+    def as_dict(self) -> dict[str, object]:
+        """{name: value} of every option, values as written in model/presets.json."""
+        return {"written_box": self.written_box.value, "velocity_noise": self.velocity_noise}
+
+    def changed(self) -> dict[str, object]:
+        """The options that differ from the defaults (what a preset changes)."""
+        default = TrackerOptions().as_dict()
+        return {k: v for k, v in self.as_dict().items() if default[k] != v}
+
+    def kwargs(self) -> dict[str, object]:
+        """Keyword arguments of track_sequence / AbductionTracker."""
+        return {"written_box": self.written_box, "velocity_noise": self.velocity_noise}
 
 
 class ResultSink:
@@ -121,8 +200,12 @@ class AbductionTracker:
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False,
-                 sink: ResultSink | None = None, keep_records: bool = True):
-        """hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
+                 sink: ResultSink | None = None, keep_records: bool = True,
+                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0):
+        """written_box: which box an observed frame writes (WrittenBox; the module docstring);
+        velocity_noise: the factor on the Kalman filter's velocity process noise (TrackerOptions).
+
+        hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
         frozen (BoxKalman.predict(hold=True)); reupdate_on_resume: a resume re-runs the filter along
         the box interpolated over the gap (BoxKalman.reupdate).  Both off by default (issue 12,
         item 4; measured in docs/tracking.md).
@@ -134,6 +217,8 @@ class AbductionTracker:
         observed box of a live one), so its memory does not grow with the sequence; then
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
+        self.written_box = WrittenBox.parse(written_box)
+        self.velocity_noise = TrackerOptions(velocity_noise=velocity_noise).velocity_noise  # checked
         self.hold_hidden = hold_hidden
         self.reupdate_on_resume = reupdate_on_resume
         self.constants = tuple((constants or {}).items())
@@ -197,7 +282,7 @@ class AbductionTracker:
         try:
             return trk.kalman.predict(hold)
         except InvalidPrediction:
-            trk.kalman = BoxKalman(trk.observed[max(trk.observed)])
+            trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise)
             return trk.kalman.predict()
 
     # -- steps 2-3 and the update ------------------------------------------------------------
@@ -267,9 +352,9 @@ class AbductionTracker:
         for j in sorted(index[d] for d in hyp.starts):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
-            kalman = BoxKalman(boxes[j])
+            kalman = BoxKalman(boxes[j], self.velocity_noise)
             trk = _Track(trk_id, types[j], kalman)
-            trk.observed[frame] = np.asarray(kalman.box, dtype=float)
+            trk.observed[frame] = self._written(kalman, boxes[j])
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
@@ -305,8 +390,13 @@ class AbductionTracker:
         else:
             trk.kalman.update(box)
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
-        trk.observed[frame] = np.asarray(trk.kalman.box, dtype=float)
+        trk.observed[frame] = self._written(trk.kalman, box)
         self._confirm(trk, frame)
+
+    def _written(self, kalman: BoxKalman, box: np.ndarray) -> np.ndarray:
+        """The box an observed frame writes: the filter's state after the update, or the detection."""
+        chosen = box if self.written_box is WrittenBox.DETECTION else kalman.box
+        return np.array(chosen, dtype=float).reshape(4)
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
@@ -358,7 +448,9 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
                    compact_history: bool = True, hold_hidden: bool = False,
                    reupdate_on_resume: bool = False, sink: ResultSink | None = None,
-                   keep_records: bool = True) -> TrackingResult:
+                   keep_records: bool = True,
+                   written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX,
+                   velocity_noise: float = 1.0) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
 
@@ -373,7 +465,8 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
-                               hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records)
+                               hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records,
+                               written_box=written_box, velocity_noise=velocity_noise)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()

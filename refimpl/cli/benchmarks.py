@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..progress import Progress
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
-from .common import EXIT_OK, UserError, _abduction_constants, _plan
+from .common import EXIT_OK, UserError, _abduction_constants, _plan, _tracker_options
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
@@ -23,14 +23,16 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         return _benchmark_peers(args)
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
-    if args.backend == BASELINE and args.const:
-        raise UserError(f"--const needs an abduction backend ({', '.join(BACKENDS)})")
+    if args.backend == BASELINE and (args.const or args.written_box or args.velocity_noise):
+        raise UserError(f"--const, --written-box and --velocity-noise need an abduction backend "
+                        f"({', '.join(BACKENDS)})")
     plan = _plan(args)
     requests = []
     for name in args.names:
         constants = () if args.backend == BASELINE else \
             tuple(_abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset).items())
-        requests.append(RunRequest(name, load_dataset(name, args.data), args.backend, constants))
+        options = _tracker_options(*dataset_kind(name, args.data), args)
+        requests.append(RunRequest(name, load_dataset(name, args.data), args.backend, constants, options))
     runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
     report = {}
     for name, run in zip(args.names, runs):
@@ -59,15 +61,18 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     for name in args.names:
         dataset = load_dataset(name, args.data)
         constants = _abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset)
-        progress = Progress(len(dataset) * (2 + bool(constants) + len(peers)), f"{name}/peers",
-                            enabled=not args.quiet)
-        c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step)
+        options = _tracker_options(*dataset_kind(name, args.data), args)
+        progress = Progress(len(dataset) * (2 + bool(constants or options.changed()) + len(peers)),
+                            f"{name}/peers", enabled=not args.quiet)
+        c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step,
+                    options=options)
         comparisons.append(c)
         print(f"## {c.title}\n")
         print(comparison_table(c))
         report[name] = {s.label: {"overall": s.overall, "per_sequence": s.per_sequence, "frames": s.frames,
                                   "seconds": s.seconds, "parameters": s.parameters} for s in c.scores}
         report[name]["constants"] = c.constants
+        report[name]["tracker_options"] = dict(c.options)
     if args.out:
         write_section(args.out, PEERS_BEGIN, PEERS_END,
                       comparison_report(comparisons, format_command(sys.argv[1:]), machine_note()))

@@ -68,6 +68,18 @@ def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> 
         raise UserError(f"--const: {exc}") from None
 
 
+def _tracker_options(fmt: str, cls: str | None, args: argparse.Namespace):
+    """The preset's tracker options of (format, class) unless --no-preset, then --written-box and
+    --velocity-noise (refimpl.presets.options_for; refimpl.tracker.TrackerOptions)."""
+    from ..presets import options_for
+    overrides = {name: getattr(args, name) for name in ("written_box", "velocity_noise")
+                 if getattr(args, name, None) is not None}
+    try:
+        return options_for(fmt, cls or "pedestrian", overrides, use_preset=not args.no_preset)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
 def _plan(args: argparse.Namespace):
     """Where the tasks of a many-sequence command run (refimpl.scaleout)."""
     from ..scaleout import Plan

@@ -13,6 +13,7 @@ from .demo import cmd_demo
 from .scenes import cmd_explain, cmd_plot, cmd_query
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
+from ..tracker import WrittenBox
 
 
 def _class_name(text: str) -> str:
@@ -20,6 +21,26 @@ def _class_name(text: str) -> str:
     if key not in CLASSES:
         raise argparse.ArgumentTypeError(f"unknown class {text!r} (choose Car, Pedestrian or Cyclist)")
     return CLASSES[key]
+
+
+def _add_tracker_options(p: argparse.ArgumentParser) -> None:
+    """The tracker options a preset carries (refimpl.tracker.TrackerOptions), overridable here."""
+    p.add_argument("--written-box", choices=[w.value for w in WrittenBox], default=None,
+                   help="abduction: the box written for an observed frame, the detection's or the Kalman-filtered "
+                        "one (default: the preset's; filtered without one or with --no-preset)")
+    p.add_argument("--velocity-noise", type=_positive_number, default=None, metavar="X",
+                   help="abduction: the factor on the Kalman filter's velocity process noise (default: the "
+                        "preset's; 1, SORT's filter, without one or with --no-preset)")
+
+
+def _positive_number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
+    if not (0 < value < float("inf")):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
 
 
 def _add_scaleout(p: argparse.ArgumentParser) -> None:
@@ -93,7 +114,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (an abduction backend)")
     t.add_argument("--no-preset", action="store_true",
-                   help="run with model/constants.lp's defaults instead of the calibrated preset (model/presets.json)")
+                   help="run with model/constants.lp's defaults and the tracker's default options instead of the "
+                        "calibrated preset (model/presets.json)")
+    _add_tracker_options(t)
     _add_scaleout(t)
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_track)
@@ -124,7 +147,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
     b.add_argument("--no-preset", action="store_true",
-                   help="abduction with model/constants.lp's defaults instead of the calibrated preset")
+                   help="abduction with model/constants.lp's defaults and the tracker's default options instead "
+                        "of the calibrated preset")
+    _add_tracker_options(b)
     _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
 

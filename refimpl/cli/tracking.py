@@ -10,7 +10,7 @@ from pathlib import Path
 
 from ..progress import Progress
 from ..solvers import BACKENDS, BASELINE
-from .common import CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _plan
+from .common import CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _plan, _tracker_options
 
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
@@ -74,9 +74,9 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
                         f"frames, a class): it needs --format {out_fmt.name}")
     if args.backend == BASELINE and (args.check or args.time_limit is not None or args.scene or args.const
-                                       or args.img_size):
-        raise UserError("--check, --time-limit, --scene, --const and --img-size need an abduction backend "
-                        f"({', '.join(BACKENDS)}); the baseline abduces no events")
+                                       or args.img_size or args.written_box or args.velocity_noise):
+        raise UserError("--check, --time-limit, --scene, --const, --img-size, --written-box and --velocity-noise "
+                        f"need an abduction backend ({', '.join(BACKENDS)}); the baseline abduces no events")
     outs = _track_outputs(args)
     outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
     outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
@@ -84,6 +84,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     plan = _plan(args)
     constants = tuple(_abduction_constants(args.format, args.cls, _track_constants(args), args.no_preset).items()) \
         if args.backend != BASELINE else ()
+    options = _tracker_options(args.format, args.cls, args)
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
@@ -94,9 +95,9 @@ def cmd_track(args: argparse.Namespace) -> int:
                           "(enters_fov, leaves_fov, clipped)")
     summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
     if len(seqs) == 1 and not plan.distributed:
-        _track_streaming(seqs[0], args, outs[0], dict(constants), summary)
+        _track_streaming(seqs[0], args, outs[0], dict(constants), summary, options)
         return EXIT_OK
-    jobs = [TrackJob(seq, args.backend, args.time_limit, args.check, False, constants) for seq in seqs]
+    jobs = [TrackJob(seq, args.backend, args.time_limit, args.check, False, constants, options) for seq in seqs]
     results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name)
     failed = 0
     with OutputSet() as files:  # every results file lands together, after the last sequence
@@ -120,7 +121,8 @@ def cmd_track(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[str, int], summary) -> None:
+def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[str, int], summary,
+                     options) -> None:
     """One sequence in this process: results and event logs streamed to staged files as frames are
     decided (bounded memory, docs/robustness.md), committed together at the end."""
     from ..io import ResultWriter, results_formatter
@@ -136,11 +138,12 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[st
         else:
             bar = Progress(len(seq.frames), seq.name, enabled=not args.quiet, unit="frame")
             with bar:
-                _track_abduction(seq, args, sink, outs, constants, bar.step, summary)
+                _track_abduction(seq, args, sink, outs, constants, bar.step, summary, options)
     print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
 
 
-def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int], on_frame, summary) -> None:
+def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int], on_frame, summary,
+                     options) -> None:
     """Algorithm 1 with the chosen backend, streaming to ``sink``, optionally checking every frame's answer."""
     from ..tracker import track_sequence
     checked = violations = 0
@@ -159,7 +162,7 @@ def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
     result = track_sequence(seq, backend=args.backend, constants=constants, time_limit=args.time_limit,
-                            observer=observe, sink=sink, keep_records=bool(args.scene))
+                            observer=observe, sink=sink, keep_records=bool(args.scene), **options.kwargs())
     if result.not_optimal_frames:
         print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
               f"within the time limit (best answer found used)", file=sys.stderr)
