@@ -12,8 +12,16 @@ problem with one line naming the value, before any backend sees it.  What the mo
   and an absolute difference: every coordinate and size must stay within +-2^28 (``BOX_LIMIT``);
 * areas: ``W * H`` of every box and ``100 * I > hide_overlap * W * H`` for track boxes, so
   ``max(100, hide_overlap) * W * H`` must fit;
-* ``img_width - border_margin`` and times plus the temporal constants: within +-2^30
-  (``TIME_LIMIT``) each;
+* ``img_width - border_margin`` (and height) and ``curr_time - T`` for every history time ``T``
+  (model/events.lp, lost and noise): each operand within +-2^30 (``TIME_LIMIT``), and the
+  difference itself checked, since 2^30 - (-2^30) is one beyond the range (found by
+  tools/fuzz_agreement.py: clingo wrapped it, abduced an impossible ``noise`` and missed a ``lost``);
+* ``hide_overlap`` >= 0: it is a percentage, and below 0 ``100 * I > hide_overlap * W * H``
+  holds for tracks that do not overlap at all, so any track could hide behind any other and the
+  canonical tie-break (refimpl/solvers/common.py, which ranks only overlapping or
+  history-named pairs) would no longer make the optimum unique (the backends then chose
+  different occluders at equal cost; a large negative value also overflowed ``hide_overlap * W
+  * H``);
 * the optimisation sums, bounded from above over every possible answer: level 10 (IoU x 100000
   per assignment plus one per assignment), level 3 (10 per ignored object), level 2, level 1
   (the largest event cost times the number of events an answer can abduce) and level 0 (the
@@ -39,6 +47,9 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
     if (name in _TEMPORAL or name in _BORDER or name == "curr_time") and abs(value) > TIME_LIMIT:
         raise ProblemFormatError(f"{name}={value} is outside -{TIME_LIMIT}..{TIME_LIMIT} (times and image "
                                  "sizes are added to other values in 32-bit arithmetic)", source)
+    if name == "hide_overlap" and value < 0:
+        raise ProblemFormatError(f"hide_overlap={value} must be >= 0 (a percentage of the track's box; below 0 "
+                                 "every pair of tracks would count as overlapping)", source)
 
 
 def _sum_of_largest_squares(pairs: int, count: int) -> int:
@@ -66,9 +77,16 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
                 what = f"{factor} * w * h" if factor > 1 else "w * h"
                 raise ProblemFormatError(f"box of {kind} {o.id}: {what} = {factor * w * h} exceeds {ASP_INT_MAX} "
                                          "(clingo's 32-bit integers)", source)
+    for size in ("img_width", "img_height"):
+        if not ASP_INT_MIN <= consts[size] - consts["border_margin"] <= ASP_INT_MAX:
+            raise ProblemFormatError(f"{size} - border_margin = {consts[size] - consts['border_margin']} is outside "
+                                     "the 32-bit range that clingo computes in", source)
     for h in problem.history:
         if abs(h.time) > TIME_LIMIT:
             raise ProblemFormatError(f"history time {h.time} of {h} is outside -{TIME_LIMIT}..{TIME_LIMIT}", source)
+        if problem.time - h.time > ASP_INT_MAX:
+            raise ProblemFormatError(f"curr_time - {h.time} (history event {h}) = {problem.time - h.time} exceeds "
+                                     f"{ASP_INT_MAX} (clingo's 32-bit integers)", source)
     nt, nd, pairs = len(problem.tracks), len(problem.detections), len(problem.iou)
     matched = min(nt, nd)
     costs = [abs(v) for k, v in consts.items() if k.startswith("cost_")]

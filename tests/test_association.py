@@ -42,7 +42,7 @@ def solve(backend: str, problem: FrameProblem, **kw) -> Hypothesis:
     """Solve, and pass the answer through the independent checker: no rule broken, cost as claimed."""
     hyp = solver_for(backend).solve(problem, **kw)
     report = check_answer(problem, hyp)
-    assert report.ok, [str(v) for v in report.violations]
+    assert report.ok, report.messages
     assert report.cost == hyp.cost
     return hyp
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 import shutil
 from pathlib import Path
 
@@ -274,3 +275,64 @@ def test_double_dash_values_of_other_options_end_in_one_usage_error(capsys, argv
     with pytest.raises(SystemExit) as exc:
         cli.main(argv)
     assert exc.value.code == 2 and "got '--'" in capsys.readouterr().err
+
+
+# -- limits and large inputs (issue 17, "Limits and interrupts", "Memory") --------------------------
+
+def test_an_error_in_a_large_detection_file_is_reported_before_the_rest_is_read(tmp_path):
+    # line 2 is bad, and 60,000 lines later (past the reader's first 50,000-line chunk) the file
+    # stops being UTF-8.  A reader that took in the whole file first would fail on the encoding;
+    # one that checks chunk by chunk reports line 2 and never reaches the end.
+    f = tmp_path / "det.txt"
+    good = "1,-1,10,10,20,40,0.9,-1,-1,-1\n"
+    with open(f, "wb") as fh:
+        fh.write((good + "1,-1,ten,10,20,40,0.9,-1,-1,-1\n" + good * 60_000).encode())
+        fh.write(b"\xff\xfe garbage\n")
+    with pytest.raises(InputFormatError, match=r"det\.txt:2: "):
+        read_mot_detections(f)
+
+
+def test_clingos_time_limit_covers_grounding():
+    # The issue's case: a 10 s limit took 60 s, all of it grounding, which cannot be stopped
+    # inside a process.  clingo's worker process is killed once it overruns the limit by GRACE
+    # (1 s), and the obvious answer (every track halted by missing_detections) is returned,
+    # flagged.  A 150-track frame at overlap 0.8 takes several seconds to ground (about 10 s on
+    # the 2-core test machine); with a 0.05 s limit the call must end within 0.05 + 1 + 1 s.
+    pytest.importorskip("clingo")
+    from refimpl.solvers.clingo_backend import ClingoSolver
+    from refimpl.solvers.clingo_worker import GRACE
+    from refimpl.solvers.fallback import obvious_hypothesis
+
+    solver = ClingoSolver(decompose=False, inline_solves=0)  # every solve in the worker
+    solver._worker.solve_one(synthetic_frame(5, 0.2, 0), None)  # the child is up
+    solver.solve(synthetic_frame(5, 0.2, 0), time_limit=0)  # the parent's lazy imports are done
+    child = solver._worker._proc
+    p = synthetic_frame(150, 0.8, 0)
+    started = time.perf_counter()
+    h = solver.solve(p, time_limit=0.05)
+    assert time.perf_counter() - started < 0.05 + GRACE + 1.0
+    assert not h.optimal and h.answer == obvious_hypothesis(p, "clingo").answer
+    assert child.poll() is not None  # the grounding child was killed
+
+
+def test_out_of_time_ends_in_a_flagged_answer_or_one_line(tmp_path, capsys):
+    # The audit: `solve --time-limit 0` with CP-SAT ended in a traceback, and the fast path ignored
+    # the limit (71/71 TUD-Campus frames "optimal" at 1e-6 s).  1e-9 s is less than any solve
+    # takes, so every backend answers with the obvious answer (all detections ignored, all active
+    # tracks halted by missing_detections), says so, and the checker confirms it.
+    for backend in BACKENDS:
+        assert cli.main(["solve", str(BUS), "--backend", backend, "--time-limit", "1e-9", "--check"]) == 0
+        out = capsys.readouterr().out
+        assert "NOT proven optimal" in out and "every rule holds, cost vector confirmed" in out
+    # no admissible fallback: a clipped active track cannot be halted by missing_detections
+    f = tmp_path / "clipped.lp"
+    f.write_text("#const curr_time=5.\ndet(det_0, car, 90).\nbox2d(det_0, 50, 50, 20, 20).\ntrk(trk_1, car).\n"
+                 "trk_state(trk_1, active).\nbox2d(trk_1, 50, 50, 20, 20).\niou(trk_1,det_0,100000).\n"
+                 "occurs_at(missing_detections(trk_1),3).\n")
+    for backend in BACKENDS:
+        assert cli.main(["solve", str(f), "--backend", backend, "--time-limit", "1e-9"]) == 2
+        assert "no answer at t=5 within the time limit" in _err(capsys)
+    # the fast path counts against the limit too: every TUD-Campus frame is flagged
+    assert cli.main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--backend", "cpsat", "--time-limit", "1e-6",
+                     "--out", str(tmp_path / "r.txt")]) == 0
+    assert "71 of 71 frames not proven optimal" in capsys.readouterr().err

@@ -15,17 +15,23 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 DOC = REPO / "docs" / "model.md"
 LABEL = re.compile(r"%\s*\[([A-Za-z0-9_]+)\]")
-ROW = re.compile(r"^\| `([A-Za-z0-9_]+)` \| `([a-z_]+\.lp):[\d,]+` \|")
+ROW = re.compile(r"^\| `([A-Za-z0-9_]+)` \| (`[a-z_]+\.lp:[\d,]+`(?:, `[a-z_]+\.lp:[\d,]+`)*) \|")
 
 
-def labels() -> dict[str, tuple[str, list[int]]]:
-    """label -> (file name, line numbers) of its `% [label]` comments (one file per label)."""
-    out: dict[str, tuple[str, list[int]]] = {}
+def labels() -> dict[str, dict[str, list[int]]]:
+    """label -> {file name: line numbers} of its `% [label]` comments (a label may stand in several files)."""
+    out: dict[str, dict[str, list[int]]] = {}
     for path in sorted((REPO / "model").glob("*.lp")):
         for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             for m in LABEL.finditer(line):
-                out.setdefault(m.group(1), (path.name, []))[1].append(n)
+                out.setdefault(m.group(1), {}).setdefault(path.name, []).append(n)
     return out
+
+
+def citation(places: dict[str, list[int]], order: list[str]) -> str:
+    """`file.lp:N,M`, one per file, in the order the row already names them (new files last)."""
+    files = [f for f in order if f in places] + sorted(f for f in places if f not in order)
+    return ", ".join(f"`{f}:{','.join(map(str, places[f]))}`" for f in files)
 
 
 def main(argv: list[str]) -> int:
@@ -37,11 +43,12 @@ def main(argv: list[str]) -> int:
         m = ROW.match(line)
         if not m or m.group(1) not in found:
             continue
-        name, (lp, numbers) = m.group(1), found[m.group(1)]
+        name = m.group(1)
         seen.add(name)
-        new = line.replace(m.group(0), f"| `{name}` | `{lp}:{','.join(map(str, numbers))}` |", 1)
+        cited = citation(found[name], re.findall(r"`([a-z_]+\.lp):", m.group(2)))
+        new = line.replace(m.group(0), f"| `{name}` | {cited} |", 1)
         if new != line:
-            changed.append(f"{name}: {m.group(2)} -> {lp}:{','.join(map(str, numbers))}")
+            changed.append(f"{name}: {m.group(2)} -> {cited}")
             lines[i] = new
     missing = sorted(set(found) - seen)
     for c in changed:

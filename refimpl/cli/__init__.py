@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 import warnings
 from typing import Sequence
@@ -80,7 +81,8 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def main(argv: Sequence[str] | None = None) -> int:
     """The command line; Ctrl-C (SIGINT) anywhere ends it with exit code 130 and one line, after the
-    outputs' temporary files are removed (refimpl.outputs), so no partial output is left."""
+    outputs' temporary files are removed (refimpl.outputs), so no partial output is left (SIGTERM
+    likewise, exit 143, when the process was started by run())."""
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -88,9 +90,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         with warnings.catch_warnings():  # one-line warnings for this command only, restored after it
             warnings.showwarning = _one_line_warning
             return _run(args)
+    except Terminated:
+        print("refimpl: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("refimpl: interrupted", file=sys.stderr)
         return 130
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, once run() has asked for it: handled as Ctrl-C is (outputs removed, one line), exit 143."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise Terminated()
 
 
 def _recheck_choices(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
@@ -120,8 +133,10 @@ def run() -> None:
     """The process entry point (``refimpl`` and ``python -m refimpl``): main, then exit.  After an
     interrupt the process ends at once (os._exit, outputs already cleaned up, streams flushed)
     rather than spending half a second tearing down numpy, scipy and the solvers' modules."""
+    if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:  # `kill`, a job scheduler: no partial output either
+        signal.signal(signal.SIGTERM, _on_sigterm)
     code = main()
-    if code == 130:
+    if code in (130, 143):
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()

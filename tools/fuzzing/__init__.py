@@ -3,12 +3,14 @@ tests/test_fuzz_cli.py) and run by two scripts:
 
     python tools/fuzz.py --inputs 10000 --seed 0      (the fact, MOTChallenge and KITTI readers)
     python tools/fuzz_cli.py --inputs 600 --seed 0    (scenes, CLI argument values, output paths)
+    python tools/fuzz_agreement.py --inputs 2000       (valid inputs: every backend, one answer)
 
 One module per concern: :mod:`.seeds` (the valid seed files), :mod:`.mutations`, :mod:`.readers`
 (the fuzzed readers and their checks), :mod:`.cases` (one input: generate, write, read, classify),
 :mod:`.command_line` (the same input through ``refimpl.cli.main``), :mod:`.driver` (the run, its
-table, ``tools/fuzz.py``'s options) and :mod:`.cli_inputs` (``tools/fuzz_cli.py``: scene files,
-option values and output paths through the CLI).
+table, ``tools/fuzz.py``'s options), :mod:`.cli_inputs` (``tools/fuzz_cli.py``: scene files,
+option values and output paths through the CLI) and :mod:`.agreement` (``tools/fuzz_agreement.py``:
+accepted frame problems and detection sequences, every backend must give the same answer).
 
 The readers' fuzzer, in detail:
 
