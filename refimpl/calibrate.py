@@ -110,7 +110,7 @@ def check_tunable(benchmark: str, data_root: str) -> None:
         if held_out:
             raise CalibrationRefused(
                 f"{benchmark} holds the held-out val sequences {', '.join(held_out)}; calibrate on "
-                f"kitti-{'car' if seqs[0].object_class == 'car' else 'ped'}-train")
+                f"{io.tuning_split(benchmark)}")
 
 
 def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:

@@ -46,6 +46,11 @@ class CheckReport:
     def ok(self) -> bool:
         return not self.violations
 
+    @property
+    def messages(self) -> tuple[str, ...]:
+        """One line per violation, ``[rule] detail``, as the command line prints them."""
+        return tuple(f"[{v.rule}] {v.detail}" for v in self.violations)
+
 
 @dataclass(frozen=True)
 class Violation:
@@ -53,9 +58,6 @@ class Violation:
     """The rule of the model the answer breaks (the names docs/model.md uses)."""
     detail: str
     """What breaks it: the atoms (in the fact syntax) and why."""
-
-    def __str__(self) -> str:
-        return f"[{self.rule}] {self.detail}"
 
 
 def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:

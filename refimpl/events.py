@@ -361,15 +361,17 @@ def anticipated_unhide(state: EventState, constants: Mapping[str, int], trk: Tra
 def poss_lost(state: EventState, constants: Mapping[str, int], trk: TrackPrediction, *,
               tracks: Mapping[str, TrackPrediction]) -> bool:
     """refimpl decision (docs/model.md): halted_at(T,Tm) and either curr_time - Tm >= L and T is not
-    kept in mind (L = lost_after_hidden if visibility(T)=not_visible, else lost_after_missing), or
-    curr_time - Tm >= lost_after_hidden_max (the safety bound, whatever the scene says)."""
+    kept in mind (L = lost_after_hidden if visibility(T)=not_visible and not clipped(T)=true, else
+    lost_after_missing: a track that went missing keeps that bound after it is re-explained as
+    hidden, 3.18), or curr_time - Tm >= lost_after_hidden_max (the safety bound, whatever the scene says)."""
     tm = state.halted_at(trk.id)
     if tm is None:
         return False
     age = constants["curr_time"] - tm
     if age >= constants["lost_after_hidden_max"]:
         return True
-    hidden = state.holds_at(("visibility", trk.id), "not_visible")
+    hidden = (state.holds_at(("visibility", trk.id), "not_visible")
+              and not state.holds_at(("clipped", trk.id), "true"))
     limit = constants["lost_after_hidden"] if hidden else constants["lost_after_missing"]
     return age >= limit and not kept_in_mind(state, constants, trk, tracks)
 
@@ -434,19 +436,21 @@ class EventType:
 EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
     # Appendix A: causesValue(hides_behind(T1,T2), visibility(T1), not_visible) and
     # causesValue(hides_behind(T1,T2), hidden_by(T1,T2), true); refimpl decision (docs/model.md
-    # 3.16): and clipped(T1) := false, so that hiding re-explains a missing track (explain_ignore,
-    # which it also explains) and a resume leaves every fluent at its initial value.
+    # 3.16): it also re-explains the ignore of a missing track (explain_ignore) and leaves its
+    # clipped = true (3.18: such a track keeps the lost_after_missing bound).
     EventType("hides_behind", 2, "halt", poss_hides_behind,
-              effects=(("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true"),
-                       ("clipped", (0,), "false")),
+              effects=(("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true")),
               phrase="went out of sight behind", closing="hidden", marker="v", colour="#d62728",
               also_explains=("ignore_trk",)),
     # Appendix A: causesValue(missing_detections(T), clipped(T), true).
     EventType("missing_detections", 1, "halt", poss_missing_detections, effects=(("clipped", (0,), "true"),),
               phrase="was missed by the detector", closing="missing", marker="x", colour="#e377c2"),
-    # refimpl decision (docs/model-spec.md): the inverse of hides_behind.
+    # refimpl decision (docs/model-spec.md): the inverse of hides_behind; and clipped(T1) := false
+    # (docs/model.md 3.18: a missing track re-explained as hidden is still clipped), so that a
+    # resume leaves every fluent at its initial value.
     EventType("unhides_from_behind", 2, "resume", poss_unhides_from_behind,
-              effects=(("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false")),
+              effects=(("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false"),
+                       ("clipped", (0,), "false")),
               phrase="came out from behind", closing="reappeared", marker="^", colour="#9467bd"),
     # refimpl decision (docs/model-spec.md): recover resets everything halting may have set.
     EventType("recover", 1, "resume", poss_recover,

@@ -65,16 +65,18 @@ def split_dataset(benchmark: str, dataset, data_root: str | Path, split: str):
 class SweepPlan:
     """What a sweep will run: checked, with its data read, before any task starts."""
 
-    benchmark: str
-    split: str
-    backend: str
     names: tuple[str, ...]
     """The swept model constants, in --grid order."""
     settings: tuple[tuple[int, ...], ...]
     """Every combination of their values (one per row of the table), in grid order."""
+    benchmark: str
+    split: str
+    """all, tune or val (SPLITS)."""
+    sequences: tuple[str, ...]
+    """The sequences of the split."""
+    backend: str
     requests: tuple[RunRequest, ...]
     """One tracking run of the split per setting."""
-    sequences: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -93,7 +95,7 @@ def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tupl
     split_dataset(benchmark, [], data_root, split)  # a split that does not apply, before reading the data
     dataset = split_dataset(benchmark, load_dataset(benchmark, data_root), data_root, split)
     requests = tuple(RunRequest(benchmark, dataset, backend, tuple(zip(names, values))) for values in settings)
-    return SweepPlan(benchmark, split, backend, names, settings, requests, tuple(n for n, _, _ in dataset))
+    return SweepPlan(names, settings, benchmark, split, tuple(n for n, _, _ in dataset), backend, requests)
 
 
 def run_sweep(sweep: SweepPlan, plan, quiet: bool = False) -> SweepResult:

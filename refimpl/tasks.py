@@ -71,7 +71,7 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
             report = check_answer(problem, hyp)
             checked += 1
             if report.violations or report.cost != hyp.cost:
-                found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
+                found = "; ".join(report.messages) or "the cost vector differs"
                 violations.append(f"frame {problem.time}: {found}")
         if on_frame is not None:
             on_frame()

@@ -56,6 +56,12 @@ def test_effects_of_every_event():
     assert s.values("visibility(trk_1)") == {"fully_visible"}
     assert s.values("hidden_by(trk_1,trk_2)") == {"false"}
     assert s.values("in_fov(trk_2)") == {"true"}
+    # docs/model.md 3.18: hiding leaves clipped as it is (a missing track re-explained as hidden
+    # stays clipped), unhiding resets it
+    s.apply(["hides_behind(trk_3,trk_2)"], 10)
+    assert s.values("clipped(trk_3)") == {"true"} and s.values("visibility(trk_3)") == {"not_visible"}
+    s.apply(["unhides_from_behind(trk_3,trk_2)"], 11)
+    assert s.values("clipped(trk_3)") == {"false"} and s.values("visibility(trk_3)") == {"fully_visible"}
 
 
 def test_inertia_over_unrelated_events():
@@ -345,3 +351,22 @@ def test_a_missing_track_covered_from_the_front_is_kept_in_mind_too():
     assert _lost(missing, 13, (t1,))
     # the safety bound still ends it: lost_after_hidden_max = 300 frames after halting
     assert not _lost(missing, 309, (t1, front)) and _lost(missing, 310, (t1, front))
+
+
+def test_a_missing_track_re_explained_as_hidden_keeps_the_missing_bound():
+    # docs/model.md 3.18: trk_1 missing at 10, re-explained as hidden behind trk_2 at 12 (3.16):
+    # not_visible, still clipped, halted_at 12.  trk_2 has moved away (disjoint): no cover, not
+    # kept in mind.  L = lost_after_missing = 3: lost from 15 on, not at 14
+    t1 = TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40))
+    away = TrackPrediction("trk_2", "car", "active", (300, 105, 60, 50))
+    behind = TrackPrediction("trk_2", "car", "active", (110, 105, 60, 50))  # overlaps trk_1
+    again = [H("missing_detections(trk_1)", 10), H("hides_behind(trk_1,trk_2)", 12)]
+    assert _lost(again, 15, (t1, away)) and not _lost(again, 14, (t1, away))
+    # while its occluder still covers it, it is kept in mind as any hidden track (3.14)
+    assert not _lost(again, 15, (t1, behind))
+    # hidden directly (never missing): L = lost_after_hidden = 30, lost from 42 on
+    hidden = [H("hides_behind(trk_1,trk_2)", 12)]
+    assert not _lost(hidden, 41, (t1, away)) and _lost(hidden, 42, (t1, away))
+    # unhiding resets clipped: a later direct hiding (at 20) has the hidden bound again (20 + 30)
+    back = again + [H("unhides_from_behind(trk_1,trk_2)", 16), H("hides_behind(trk_1,trk_2)", 20)]
+    assert not _lost(back, 49, (t1, away)) and _lost(back, 50, (t1, away))

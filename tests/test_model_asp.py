@@ -81,12 +81,29 @@ def test_holds_at_after_a_history():
     t = 10
     assert values(facts, "visibility(trk_1)", t) == {"fully_visible"}   # hidden at 3, unhidden at 6
     assert values(facts, "hidden_by(trk_1,trk_2)", t) == {"false"}
-    assert values(facts, "clipped(trk_3)", t) == {"false"}    # missing at 4, hiding at 8 re-explains it
+    # missing at 4; the hiding at 8 re-explains it but leaves it clipped (docs/model.md 3.18)
+    assert values(facts, "clipped(trk_3)", t) == {"true"}
     assert values(facts, "visibility(trk_3)", t) == {"not_visible"}       # hid at 8
     assert values(facts, "hidden_by(trk_3,trk_1)", t) == {"true"}
     assert values(facts, "in_fov(trk_2)", t) == {"true"}                  # left at 7, entered at 8
     assert values(facts, "in_fov(trk_1)", t) == {"true"}                  # initial value
     assert values(facts, "clipped(trk_1)", t) == {"false"}
+
+
+def test_a_re_explained_track_stays_clipped_and_keeps_the_missing_bound():
+    # docs/model.md 3.18.  THREE/HISTORY at 10: trk_3 missing at 4, re-explained as hidden at 8:
+    # not_visible and still clipped, so its bound is lost_after_missing (3) only; trk_1 hid at 3
+    # and came back at 6 (visible, unclipped): lost_after_missing as any visible track
+    facts = ground_facts(frame([], THREE, [], HISTORY))
+    assert {f for f in facts if f.startswith("lost_after(")} == {
+        "lost_after(trk_1,3)", "lost_after(trk_2,3)", "lost_after(trk_3,3)"}
+    # missing at 1, re-explained at 2, unhidden at 3 (which resets clipped), hidden directly at 5:
+    # not_visible and unclipped, so lost_after_hidden (30)
+    facts = ground_facts(frame([], [trk(1, "halted"), trk(2)], [],
+                               [hist("missing_detections(trk_1)", 1), hist("hides_behind(trk_1,trk_2)", 2),
+                                hist("unhides_from_behind(trk_1,trk_2)", 3), hist("hides_behind(trk_1,trk_2)", 5)]))
+    assert values(facts, "clipped(trk_1)", 10) == {"false"}
+    assert {f for f in facts if f.startswith("lost_after(trk_1,")} == {"lost_after(trk_1,30)"}
 
 
 def test_an_event_takes_effect_from_the_next_time_point():

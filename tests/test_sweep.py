@@ -54,7 +54,7 @@ def test_sweep_on_the_demo_sequence():
     data = [(seq.name, io.load_detections(seq), io.load_ground_truth(seq))]
     names, settings = grid_settings([("conf_thresh_new_track", (40, 101))])
     requests = tuple(RunRequest("demo", data, "cpsat", tuple(zip(names, v))) for v in settings)
-    result = run_sweep(SweepPlan("demo", "all", "cpsat", names, settings, requests, (seq.name,)), Plan(), quiet=True)
+    result = run_sweep(SweepPlan(names, settings, "demo", "all", (seq.name,), "cpsat", requests), Plan(), quiet=True)
     default, never = (r.overall for r in result.runs)
     # 101 > every confidence (0..100): no track ever starts, so no predictions: FN = num_gt, FP = 0,
     # MOTA = 1 - FN / num_gt = 0, IDF1 = 2*0 / (0 + 0 + IDFN) = 0, and HOTA = 0 (DetA = TP / (TP +
@@ -70,7 +70,7 @@ def test_sweep_on_the_demo_sequence():
 def test_table_has_no_hota_column_without_hota():
     from refimpl.sweep import SweepResult
     o = {"mota": 0.6, "idf1": 0.5, "idsw": 3, "fp": 4, "fn": 5}
-    plan = SweepPlan("b", "all", "cpsat", ("iou_thresh",), ((30000,),), (), ("s",))
+    plan = SweepPlan(("iou_thresh",), ((30000,),), "b", "all", ("s",), "cpsat", ())
     result = SweepResult(plan, (RunSummary(0, {}, o),))
     assert format_sweep(result).splitlines()[2] == "| iou_thresh | MOTA | IDF1 | IDs | FP | FN |"
 
@@ -78,7 +78,7 @@ def test_table_has_no_hota_column_without_hota():
 def test_table_shows_hota_when_the_evaluation_has_it():
     from refimpl.sweep import SweepResult
     o = {"hota": 0.5234, "mota": 0.6, "idf1": math.nan, "idsw": 3, "fp": 4, "fn": 5}
-    plan = SweepPlan("b", "all", "cpsat", ("iou_thresh",), ((30000,),), (), ("s",))
+    plan = SweepPlan(("iou_thresh",), ((30000,),), "b", "all", ("s",), "cpsat", ())
     result = SweepResult(plan, (RunSummary(0, {}, o),))
     lines = format_sweep(result).splitlines()
     assert lines[2] == "| iou_thresh | HOTA | MOTA | IDF1 | IDs | FP | FN |"

@@ -125,7 +125,7 @@ def replay(p: FrameProblem) -> dict[str, dict]:
             s["visible"] = False
             s["hidden_by"].add(args[1])
         elif name == "unhides_from_behind":
-            s["visible"] = True
+            s["visible"], s["clipped"] = True, False
             s["hidden_by"].discard(args[1])
         elif name == "missing_detections":
             s["clipped"] = True

@@ -36,7 +36,7 @@ def test_tracking_with_a_tiny_time_limit_runs_on_and_counts_unproven_frames(shar
 
     def observe(problem, hyp):
         report = check_answer(problem, hyp)
-        assert report.ok, [str(v) for v in report.violations]
+        assert report.ok, report.messages
         assert report.cost == hyp.cost
         checked.append(hyp.optimal)
 

@@ -30,7 +30,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.check:
         from ..check import check_answer
         report = check_answer(problem, hyp)
-        violations = tuple(str(v) for v in report.violations)
+        violations = report.messages
         if report.cost != hyp.cost:
             violations += (f"[cost_vector] the answer's cost is {list(report.cost)}, not {list(hyp.cost)}",)
     if args.json:

@@ -158,7 +158,7 @@ def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[
         checked += 1
         if report.violations or report.cost != hyp.cost:
             violations += 1
-            found = "; ".join(str(v) for v in report.violations) or "the cost vector differs"
+            found = "; ".join(report.messages) or "the cost vector differs"
             print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
 
     result = track_sequence(seq, backend=args.backend, constants=constants, time_limit=args.time_limit,

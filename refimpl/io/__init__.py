@@ -111,7 +111,7 @@ from .formats import (FORMAT_NAMES, FORMATS, KITTI, MOT, RESULT_FORMATS, DataFor
                       results_formatter, write_results)
 from .catalogue import (BENCHMARKS, KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_SORT6, MOT15_TRAIN, BenchmarkSequence,
                         benchmark_sequences, demo_sequence_paths, kitti_val_sequences, load_detections,
-                        load_ground_truth)
+                        load_ground_truth, tuning_split)
 
 __all__ = [
     "InputFormatError", "InputFormatWarning",
@@ -127,4 +127,5 @@ __all__ = [
     "FORMAT_NAMES", "FORMATS", "KITTI", "MOT", "DataFormat", "get_format",
     "BENCHMARKS", "KITTI_TRAIN", "KITTI_VAL_SEQMAP", "MOT15_SORT6", "MOT15_TRAIN", "BenchmarkSequence",
     "benchmark_sequences", "demo_sequence_paths", "kitti_val_sequences", "load_detections", "load_ground_truth",
+    "tuning_split",
 ]

@@ -80,6 +80,15 @@ def _kitti(root: Path, object_class: str, split: str = "all") -> list[BenchmarkS
         format=KITTI, object_class=object_class, seqinfo_path=None) for name in names]
 
 
+def tuning_split(name: str) -> str | None:
+    """The benchmark to tune on instead of a KITTI benchmark holding val sequences
+    (``kitti-car`` / ``kitti-car-val`` -> ``kitti-car-train``); None for any other benchmark."""
+    parts = name.strip().lower().split("-")
+    if name not in BENCHMARKS or parts[0] != "kitti":
+        return None
+    return f"kitti-{parts[1]}-train"
+
+
 def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
     """The sequences of a named benchmark under data_root (layout of /work/shared/data).
 

@@ -303,7 +303,7 @@ def judge_frame(problem: FrameProblem, solvers: Sequence, time_limit: float = TI
     for n, h in zip(names, answers):
         rep = check_answer(problem, h)
         if rep.violations:
-            bad.append(f"{n}: {'; '.join(str(v) for v in rep.violations[:3])}")
+            bad.append(f"{n}: {'; '.join(rep.messages[:3])}")
         elif rep.cost != h.cost:
             bad.append(f"{n}: reported cost {list(h.cost)}, checker {list(rep.cost)}")
     if bad:
