@@ -286,7 +286,7 @@ def query(scene: Scene, text: str, config: ReasoningConfig = DEFAULT_CONFIG) -> 
                     "position": list(ant.position), "in_front": ant.in_front, "warning": ant.warning,
                     "atoms": ant.atoms()}
             lines = ant.atoms() + [f"({x} predicted to reappear from behind {ant.hider} at frame {ant.at}, "
-                                   f"{ant.at - f} frames after {f}, at ({ant.position[0]:.0f}, "
+                                   f"{ant.at - f} frame{'' if ant.at - f == 1 else 's'} after {f}, at ({ant.position[0]:.0f}, "
                                    f"{ant.position[1]:.0f}) px; {'in front' if ant.in_front else 'not in front'})"]
     else:  # situations
         found = situations(scene, config)
