@@ -6,7 +6,9 @@ Algorithm 1 (refimpl.tracker.AbductionTracker), so the rows returned for a frame
 the rows ``refimpl track`` writes for that frame, with one documented exception: the boxes
 ``refimpl track`` interpolates inside a *bridged* gap (a confirmed track resumed after at most
 ``bridge_gap`` hidden frames) are only known once the track resumes, so an online caller never
-gets them; ``result().rows`` (or ``interpolated_rows()``) has them after the fact.
+gets them, nor (with the tracker option ``backfill``) the earlier frames a confirmation writes;
+``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has them after
+the fact.
 
 Scores map to the model's integer confidences 0..100 exactly as the MOTChallenge reader maps a
 file whose scores all lie in [0, 1] (refimpl.io): ``conf = floor(100 * score + 0.5)``.
@@ -22,8 +24,8 @@ from numpy.typing import ArrayLike
 from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
 from .solvers import BACKENDS, DEFAULT_BACKEND, get_solver
 from .spec import HistoryEvent
-from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, DEFAULT_WRITTEN_BOX,
-                      AbductionTracker, TrackerOptions, TrackingResult, WrittenBox)
+from .options import TrackerOptions
+from .tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker, TrackingResult
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -45,11 +47,9 @@ class Tracker:
         field-of-view border).  Without it the border is not tested, as for a det.txt
         without seqinfo.ini.
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
-    written_box: the box returned (and written) for an observed frame: "filtered" (the Kalman state
-        after the update, the default) or "detection" (the detection's own box; what the KITTI
+    **options: the tracker options by name (refimpl.options.TRACKER_OPTIONS: written_box,
+        velocity_noise, backfill, scene_velocity), e.g. ``written_box="detection"`` (what the KITTI
         Car preset of ``refimpl track`` chooses, docs/peers.md).  The API applies no preset.
-    velocity_noise: the factor on the Kalman filter's velocity process noise (1: SORT's filter;
-        refimpl.tracker.TrackerOptions).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
     first_frame: the number of the first frame (1 as MOTChallenge, 0 as KITTI).
     name, fps: carried into ``scene()``.
@@ -59,8 +59,7 @@ class Tracker:
                  img_size: tuple[int, int] | None = None, min_hits: int = DEFAULT_MIN_HITS,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  time_limit: float | None = None, object_type: str = "pedestrian", first_frame: int = 1,
-                 name: str = "sequence", fps: float | None = None,
-                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0) -> None:
+                 name: str = "sequence", fps: float | None = None, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         merged = self._constants(constants)
@@ -75,14 +74,15 @@ class Tracker:
                 raise ValueError(f"{label} must be a non-negative integer, got {value!r}")
         if time_limit is not None and not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
-        options = TrackerOptions(written_box, velocity_noise)  # ValueError naming what is wrong
+        chosen = TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
         self.object_type = self._type(object_type, "object_type")
         self.backend = backend
         self.name, self.fps, self.image_size = name, fps, img_size
         self.first_frame = int(first_frame)
         self._tracker = AbductionTracker(get_solver(backend), merged, int(min_hits), time_limit,
-                                         int(bridge_gap), int(bridge_conf), **options.kwargs())
+                                         int(bridge_gap), int(bridge_conf), **chosen.kwargs())
         self._frames: list[DetectionFrame] = []
+        self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
 
     # -- validation --------------------------------------------------------------------------
     @staticmethod
@@ -172,6 +172,7 @@ class Tracker:
                 x, y, w, h = trk.observed[frame]
                 rows.append((x, y, x + w, y + h, float(trk.id.rsplit("_", 1)[1])))
         out = np.array(rows, dtype=float).reshape(-1, 5)
+        self._reported.update((frame, int(n)) for n in out[:, 4])
         return out[np.argsort(out[:, 4], kind="stable")]
 
     @property
@@ -185,11 +186,10 @@ class Tracker:
         return self._tracker.result()
 
     def interpolated_rows(self) -> np.ndarray:
-        """The (n, 6) MOT rows of bridged gaps that ``update`` could not report online."""
+        """The (n, 6) MOT rows that ``update`` could not report online: bridged gaps and, with
+        ``backfill``, the earlier frames of a confirmation."""
         rows = self._tracker.result_rows()
-        observed = {(f, int(t.id.rsplit("_", 1)[1]))
-                    for t in list(self._tracker.tracks.values()) + self._tracker.finished for f in t.observed}
-        keep = [(int(r[0]), int(r[1])) not in observed for r in rows]
+        keep = [(int(r[0]), int(r[1])) not in self._reported for r in rows]
         return rows[np.asarray(keep, dtype=bool)] if len(rows) else rows
 
     def sequence(self) -> DetectionSequence:

@@ -38,9 +38,11 @@ DEFAULT_GRID: dict[str, tuple] = {
     "iou_thresh_resume": (10000,),
     "written_box": ("filtered", "detection"),
     "velocity_noise": ("1", "10"),
+    "backfill": ("no", "yes"),
+    "scene_velocity": ("no", "yes"),
 }
-"""The search space (confidences 0..100, IoU x 100000; ``written_box`` and ``velocity_noise`` are
-tracker options, refimpl.tracker.TrackerOptions): 32 points.  The thresholds are where the earlier,
+"""The search space (confidences 0..100, IoU x 100000; ``written_box``, ``velocity_noise``,
+``backfill`` and ``scene_velocity`` are tracker options, refimpl.options.TRACKER_OPTIONS): 128 points.  The thresholds are where the earlier,
 wider grids put the best points on all three tuning sets (new track 40/60/80/90 and assign 0/40/60
 were searched there: the best sat at new track >= 80, assign >= 40; on MOT15 assign 0 and 40 tied
 exactly), docs/peers.md.  The resume thresholds are held at their defaults: a wider grid (``--grid
@@ -115,7 +117,7 @@ def check_tunable(benchmark: str, data_root: str) -> None:
 
 def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:
     """A grid point's (name, value) pairs as model constants and tracker options (TrackerOptions)."""
-    from .tracker import TrackerOptions
+    from .options import TrackerOptions
     names = set(TrackerOptions.names())
     constants = {k: int(v) for k, v in point if k not in names}
     return constants, TrackerOptions.from_mapping({k: v for k, v in point if k in names}, "--grid")
@@ -233,7 +235,7 @@ def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple]:
     """DEFAULT_GRID with NAME=V1,V2,... replacing a dimension (or adding one of the known constants
     or tracker options)."""
     from .constants import default_constants
-    from .tracker import TrackerOptions
+    from .options import TrackerOptions
     grid = dict(DEFAULT_GRID)
     for spec in specs or ():
         name, sep, values = spec.partition("=")

@@ -142,10 +142,12 @@ class BoxKalman:
       time_since_update   predictions since the last update (0 right after an update or at creation)
     """
 
-    def __init__(self, box_xywh, velocity_noise: float = 1.0):
+    def __init__(self, box_xywh, velocity_noise: float = 1.0, velocity=None):
         """velocity_noise: the factor on SORT's process noise of the velocities (process_noise):
         larger lets the velocity follow faster changes, e.g. a car at 10 fps (refimpl decision, a
-        tracker option; 1 is SORT)."""
+        tracker option; 1 is SORT).  velocity: the centre's initial (du, dv) in pixels per frame
+        (default zero, SORT's start; the tracker option scene_velocity gives the scene's); its
+        covariance stays INITIAL_VELOCITY_VARIANCE, so the first updates still correct it."""
         if not (np.isfinite(velocity_noise) and velocity_noise > 0):
             raise ValueError(f"velocity_noise must be a positive finite number, got {velocity_noise!r}")
         kf = KalmanFilter(dim_x=DIM_X, dim_z=DIM_Z)
@@ -157,6 +159,11 @@ class BoxKalman:
         self.velocity_noise = float(velocity_noise)
         kf.x = np.zeros((DIM_X, 1))
         kf.x[:DIM_Z, 0] = xywh_to_z(box_xywh)
+        if velocity is not None:
+            v = np.asarray(velocity, dtype=float).reshape(-1)
+            if v.shape != (2,) or not np.all(np.isfinite(v)):
+                raise ValueError(f"velocity must be a finite (du, dv), got {velocity!r}")
+            kf.x[4:6, 0] = v
         self.kf = kf
         self._last_obs = (kf.x.copy(), kf.P.copy(), np.asarray(box_xywh, dtype=float).reshape(4).copy())
         self.age = 0

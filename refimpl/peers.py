@@ -154,7 +154,7 @@ class Comparison:
     constants: Mapping[str, int]
     """The constants the abduction tracker ran with beyond model/constants.lp (preset + --const)."""
     options: Mapping[str, str] = field(default_factory=dict)
-    """The tracker options it ran with that differ from the defaults (preset + --written-box)."""
+    """The tracker options it ran with that differ from the defaults (the preset's, then any tracker option flag)."""
 
 
 def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAULT_BACKEND,
@@ -169,7 +169,7 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
     dataset = dataset if dataset is not None else load_dataset(name, data_root)
     frames = sum(len(d.frames) for _, d, _ in dataset)
     scores = []
-    from .tracker import TrackerOptions
+    from .options import TrackerOptions
     options = options or TrackerOptions()
     runs = [(BASELINE, "refimpl baseline (SORT)", None, None),
             (backend, f"refimpl abduction ({backend})", dict(constants or {}), options)]
@@ -226,7 +226,7 @@ def comparison_table(c: Comparison) -> str:
     consts = ", ".join(f"{k}={v}" for k, v in sorted(c.constants.items())) or "none"
     opts = "".join(f"; tracker option {k}={v}" for k, v in sorted(c.options.items()))
     notes.insert(0, f"- refimpl abduction: model/constants.lp with {consts}{opts} (the preset of this format "
-                    f"and class, refimpl.presets, and any --const / --written-box / --velocity-noise); \"no preset\": "
+                    f"and class, refimpl.presets, and any --const or tracker option flag); \"no preset\": "
                     f"model/constants.lp and the tracker's default options (--no-preset)")
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 

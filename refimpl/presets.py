@@ -4,7 +4,7 @@ chosen automatically.
 ``refimpl track --format kitti --class Car`` (and ``refimpl benchmark kitti-car...``) runs the
 abduction tracker with the preset of (kitti, car): its constants on top of model/constants.lp and
 its tracker options (refimpl.tracker.TrackerOptions, e.g. which box is written); ``--const
-NAME=VALUE``, ``--written-box`` and ``--velocity-noise`` override them.  A (format, class) without a preset, or
+NAME=VALUE`` and the tracker option flags (``--written-box``, ...; refimpl.options) override them.  A (format, class) without a preset, or
 ``--no-preset``, runs with the model's defaults and the tracker's default options.
 
 The presets live in model/presets.json, written by ``refimpl calibrate ... --write-presets``
@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Mapping
 
 from .constants import default_constants, model_dir
-from .tracker import TrackerOptions
+from .options import TrackerOptions
 
 PRESETS_FILE = "presets.json"
 

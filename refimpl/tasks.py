@@ -23,7 +23,7 @@ import numpy as np
 
 from .io import DetectionSequence, GroundTruth
 from .solvers import BASELINE
-from .tracker import TrackerOptions
+from .options import TrackerOptions
 
 
 # ---------------------------------------------------------------------------------------

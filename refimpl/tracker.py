@@ -18,7 +18,10 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
   frames) and the resuming detection confident (>= bridge_conf): then it stays confirmed and its
   hidden frames are filled by linear interpolation between the boxes around the gap (the paper's
   commonsense interpolation of a hidden object's position);
-- a halted track writes nothing for its halted frames otherwise.
+- a halted track writes nothing for its halted frames otherwise;
+- with the tracker option ``backfill`` (refimpl.options), a track that becomes confirmed also
+  writes the min_hits - 1 observed frames before it that confirmed it (SORT writes them never):
+  a frame's rows are then final min_hits - 1 frames late instead of bridge_gap.
 Measured on MOT15 and KITTI: writing longer hidden spans, or every resumed frame, adds more false
 positives than it removes misses (flickering false detections survive halts), which is why the
 defaults are this conservative.
@@ -27,7 +30,6 @@ defaults are this conservative.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import Enum
 from typing import Callable, Mapping
 
 import numpy as np
@@ -36,6 +38,7 @@ from .geometry import integer_box, iou_matrix, scale_iou
 from .events import explaining
 from .hypothesis import Hypothesis
 from .motion import BoxKalman, InvalidPrediction
+from .options import DEFAULT_WRITTEN_BOX, TrackerOptions, WrittenBox
 from .ranges import check_ranges
 from .solvers import DEFAULT_BACKEND, Solver, get_solver
 from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
@@ -52,81 +55,6 @@ MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
-
-
-class WrittenBox(str, Enum):
-    """Which box a track writes for a frame in which it was observed (a tracker option, not a
-    rule of the model: the abduced hypothesis and the identities are the same either way)."""
-
-    FILTERED = "filtered"
-    """The Kalman state after the update with the detection (SORT's output; the default)."""
-    DETECTION = "detection"
-    """The detection's box itself (what ByteTrack and OC-SORT write)."""
-
-    @classmethod
-    def parse(cls, value: "str | WrittenBox") -> "WrittenBox":
-        """A WrittenBox from itself or its name; ValueError naming the choices otherwise."""
-        try:
-            return cls(value)
-        except ValueError:
-            raise ValueError(f"written_box must be one of {', '.join(w.value for w in cls)}, "
-                             f"got {value!r}") from None
-
-
-DEFAULT_WRITTEN_BOX = WrittenBox.FILTERED
-
-
-@dataclass(frozen=True)
-class TrackerOptions:
-    """The tracker's own choices that a preset may carry beside the model constants (none of them
-    changes a rule of the model).  The defaults are the tracker's behaviour without a preset."""
-
-    written_box: WrittenBox = DEFAULT_WRITTEN_BOX
-    """Which box an observed frame writes (WrittenBox)."""
-    velocity_noise: float = 1.0
-    """The factor on SORT's process noise of the Kalman filter's velocities (refimpl.motion.
-    process_noise); 1 is SORT's filter."""
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "written_box", WrittenBox.parse(self.written_box))
-        v = self.velocity_noise
-        if isinstance(v, str):  # from the command line or a --grid value
-            try:
-                v = float(v)
-            except ValueError:
-                pass
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < float(v) < float("inf")):
-            raise ValueError(f"velocity_noise must be a positive number, got {v!r}")
-        object.__setattr__(self, "velocity_noise", float(v))
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, object], where: str = "tracker options") -> "TrackerOptions":
-        """From {name: value} (a preset's "tracker" entry); ValueError naming the known options."""
-        known = cls.names()
-        unknown = sorted(set(values) - set(known))
-        if unknown:
-            raise ValueError(f"{where}: unknown tracker option(s) {', '.join(unknown)} (known: {', '.join(known)})")
-        try:
-            return cls(**{str(k): v for k, v in values.items()})
-        except ValueError as exc:
-            raise ValueError(f"{where}: {exc}") from None
-
-    @staticmethod
-    def names() -> tuple[str, ...]:
-        return tuple(TrackerOptions.__dataclass_fields__)
-
-    def as_dict(self) -> dict[str, object]:
-        """{name: value} of every option, values as written in model/presets.json."""
-        return {"written_box": self.written_box.value, "velocity_noise": self.velocity_noise}
-
-    def changed(self) -> dict[str, object]:
-        """The options that differ from the defaults (what a preset changes)."""
-        default = TrackerOptions().as_dict()
-        return {k: v for k, v in self.as_dict().items() if default[k] != v}
-
-    def kwargs(self) -> dict[str, object]:
-        """Keyword arguments of track_sequence / AbductionTracker."""
-        return {"written_box": self.written_box, "velocity_noise": self.velocity_noise}
 
 
 class ResultSink:
@@ -201,9 +129,10 @@ class AbductionTracker:
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False,
                  sink: ResultSink | None = None, keep_records: bool = True,
-                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0):
-        """written_box: which box an observed frame writes (WrittenBox; the module docstring);
-        velocity_noise: the factor on the Kalman filter's velocity process noise (TrackerOptions).
+                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0,
+                 backfill: bool = False, scene_velocity: bool = False):
+        """written_box, velocity_noise, backfill, scene_velocity: the tracker options
+        (refimpl.options.TRACKER_OPTIONS; the module docstring says what each writes).
 
         hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
         frozen (BoxKalman.predict(hold=True)); reupdate_on_resume: a resume re-runs the filter along
@@ -212,13 +141,16 @@ class AbductionTracker:
 
         ``sink``: results rows and events are handed to it as soon as they are final (a frame's
         rows once no later frame can add any: bridged-gap interpolation reaches back at most
-        ``bridge_gap`` frames), instead of being kept; with ``keep_records=False`` as well, the
+        ``bridge_gap`` frames, a backfilled confirmation min_hits - 1; ``delay``), instead of being kept; with ``keep_records=False`` as well, the
         tracker forgets everything a later frame does not need (finished tracks, all but the last
         observed box of a live one), so its memory does not grow with the sequence; then
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
-        self.written_box = WrittenBox.parse(written_box)
-        self.velocity_noise = TrackerOptions(velocity_noise=velocity_noise).velocity_noise  # checked
+        options = TrackerOptions(written_box, velocity_noise, backfill, scene_velocity)  # ValueError if bad
+        self.written_box = options.written_box
+        self.velocity_noise = options.velocity_noise
+        self.backfill = options.backfill
+        self.scene_velocity = options.scene_velocity
         self.hold_hidden = hold_hidden
         self.reupdate_on_resume = reupdate_on_resume
         self.constants = tuple((constants or {}).items())
@@ -238,6 +170,8 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
+        self.delay = max(bridge_gap, min_hits - 1 if self.backfill else 0)
+        """How many frames late a frame's rows are final (bridged gaps, backfilled confirmations)."""
 
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
@@ -299,7 +233,7 @@ class AbductionTracker:
         self.solve_ms += hyp.solve_ms
         self._apply(frame, boxes, np.asarray(confidences), types, hyp)
         if self.sink is not None:
-            self._flush(frame - self.bridge_gap)
+            self._flush(frame - self.delay)
             if not self.keep_records:
                 self._forget()
         return hyp
@@ -316,11 +250,12 @@ class AbductionTracker:
         """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
         self.finished.clear()
         self.events.clear()
+        keep = max(self.min_hits, 1) if self.backfill else 1  # backfill reads the streak's boxes
         for trk in self.tracks.values():
-            last = max(trk.observed)
-            if len(trk.observed) > 1:
-                trk.observed = {last: trk.observed[last]}
-            trk.confirmed &= {last}
+            recent = sorted(trk.observed)[-keep:]
+            if len(trk.observed) > keep:
+                trk.observed = {f: trk.observed[f] for f in recent}
+            trk.confirmed &= {recent[-1]}
             trk.gaps.clear()
             trk.halted.clear()
 
@@ -332,6 +267,7 @@ class AbductionTracker:
     def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
                hyp: Hypothesis) -> None:
         index = {_det_id(j): j for j in range(len(boxes))}
+        scene = self._scene_velocity(frame) if self.scene_velocity else None
         for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
             self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
         for trk_id, det_id in hyp.resumes:
@@ -352,7 +288,7 @@ class AbductionTracker:
         for j in sorted(index[d] for d in hyp.starts):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
-            kalman = BoxKalman(boxes[j], self.velocity_noise)
+            kalman = BoxKalman(boxes[j], self.velocity_noise, scene)
             trk = _Track(trk_id, types[j], kalman)
             trk.observed[frame] = self._written(kalman, boxes[j])
             self._confirm(trk, frame)
@@ -383,6 +319,15 @@ class AbductionTracker:
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
 
+    def _scene_velocity(self, frame: int) -> np.ndarray | None:
+        """The tracker option scene_velocity: the component-wise median (du, dv) of the active tracks
+        observed in the previous frame and at least once before it (a velocity measured, not a
+        newborn's), the image motion they share when the camera turns; None (a new track starts at
+        rest, as in SORT) with fewer than two such tracks."""
+        moving = [t.kalman.velocity for t in self.tracks.values()
+                  if t.state == "active" and frame - 1 in t.observed and t.streak >= 1]
+        return np.median(np.array(moving), axis=0) if len(moving) >= 2 else None
+
     def _observe(self, trk: _Track, frame: int, box: np.ndarray, resumed: bool = False) -> None:
         """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
         if resumed and self.reupdate_on_resume:
@@ -400,11 +345,17 @@ class AbductionTracker:
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
-        frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed."""
+        frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed.
+        With backfill, the frame that confirms a streak also writes the streak's earlier frames."""
         if trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged:
-            trk.confirmed.add(frame)
-            if self.sink is not None:
-                self._pending.setdefault(frame, []).append([frame, _trk_number(trk.id), *trk.observed[frame]])
+            written = [frame]
+            if self.backfill and trk.streak == self.min_hits:
+                written = [f for f in range(frame - self.min_hits + 1, frame + 1)
+                           if f in trk.observed and f not in trk.confirmed]
+            for f in written:
+                trk.confirmed.add(f)
+                if self.sink is not None:
+                    self._pending.setdefault(f, []).append([f, _trk_number(trk.id), *trk.observed[f]])
 
     def _pend_gap(self, trk: _Track, last: int, resumed: int) -> None:
         """The interpolated rows of a bridged gap, exactly as result_rows computes them."""
@@ -450,7 +401,8 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                    reupdate_on_resume: bool = False, sink: ResultSink | None = None,
                    keep_records: bool = True,
                    written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX,
-                   velocity_noise: float = 1.0) -> TrackingResult:
+                   velocity_noise: float = 1.0, backfill: bool = False,
+                   scene_velocity: bool = False) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
 
@@ -466,7 +418,8 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
                                hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records,
-                               written_box=written_box, velocity_noise=velocity_noise)
+                               written_box=written_box, velocity_noise=velocity_noise, backfill=backfill,
+                               scene_velocity=scene_velocity)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
-from refimpl.tracker import TrackerOptions, WrittenBox, track_sequence
+from refimpl.options import TrackerOptions, WrittenBox
+from refimpl.tracker import track_sequence
 
 # one object over three frames, moving right and getting wider (x, y, w, h)
 BOXES = [(100.0, 100.0, 40.0, 80.0), (104.0, 100.0, 44.0, 80.0), (109.0, 101.0, 46.0, 80.0)]
@@ -102,7 +103,8 @@ def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"iou_thresh": 20000}, "kitti-car-train", "test",
                         TrackerOptions(WrittenBox.DETECTION)), path)
-    assert json.loads(path.read_text())["kitti/car"]["tracker"] == {"written_box": "detection", "velocity_noise": 1.0}
+    assert json.loads(path.read_text())["kitti/car"]["tracker"] == {"written_box": "detection", "velocity_noise": 1.0,
+                                                                         "backfill": False, "scene_velocity": False}
     assert load_presets(path)["kitti/car"].tracker.written_box is WrittenBox.DETECTION
     assert options_for("kitti", "car", path=path).written_box is WrittenBox.DETECTION
     assert options_for("kitti", "car", path=path, use_preset=False) == TrackerOptions()

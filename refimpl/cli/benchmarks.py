@@ -10,7 +10,8 @@ from pathlib import Path
 
 from ..progress import Progress
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
-from .common import EXIT_OK, UserError, _abduction_constants, _plan, _tracker_options
+from ..options import option_flags
+from .common import EXIT_OK, UserError, _abduction_constants, _option_flags_given, _plan, _tracker_options
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
@@ -23,9 +24,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         return _benchmark_peers(args)
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
-    if args.backend == BASELINE and (args.const or args.written_box or args.velocity_noise):
-        raise UserError(f"--const, --written-box and --velocity-noise need an abduction backend "
-                        f"({', '.join(BACKENDS)})")
+    if args.backend == BASELINE and (args.const or _option_flags_given(args)):
+        raise UserError(f"--const and {option_flags()} need an abduction backend ({', '.join(BACKENDS)})")
     plan = _plan(args)
     requests = []
     for name in args.names:

@@ -69,15 +69,21 @@ def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> 
 
 
 def _tracker_options(fmt: str, cls: str | None, args: argparse.Namespace):
-    """The preset's tracker options of (format, class) unless --no-preset, then --written-box and
-    --velocity-noise (refimpl.presets.options_for; refimpl.tracker.TrackerOptions)."""
+    """The preset's tracker options of (format, class) unless --no-preset, then the tracker option
+    flags (refimpl.presets.options_for; refimpl.options.TRACKER_OPTIONS)."""
+    from ..options import TrackerOptions
     from ..presets import options_for
-    overrides = {name: getattr(args, name) for name in ("written_box", "velocity_noise")
-                 if getattr(args, name, None) is not None}
+    overrides = {name: getattr(args, name) for name in TrackerOptions.names() if getattr(args, name, None) is not None}
     try:
         return options_for(fmt, cls or "pedestrian", overrides, use_preset=not args.no_preset)
     except ValueError as exc:
         raise UserError(str(exc)) from None
+
+
+def _option_flags_given(args: argparse.Namespace) -> bool:
+    """Whether any tracker option flag was given (they need an abduction backend)."""
+    from ..options import TrackerOptions
+    return any(getattr(args, name, None) is not None for name in TrackerOptions.names())
 
 
 def _plan(args: argparse.Namespace):

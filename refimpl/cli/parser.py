@@ -13,7 +13,7 @@ from .demo import cmd_demo
 from .scenes import cmd_explain, cmd_plot, cmd_query
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
-from ..tracker import WrittenBox
+from ..options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
 
 
 def _class_name(text: str) -> str:
@@ -24,23 +24,24 @@ def _class_name(text: str) -> str:
 
 
 def _add_tracker_options(p: argparse.ArgumentParser) -> None:
-    """The tracker options a preset carries (refimpl.tracker.TrackerOptions), overridable here."""
-    p.add_argument("--written-box", choices=[w.value for w in WrittenBox], default=None,
-                   help="abduction: the box written for an observed frame, the detection's or the Kalman-filtered "
-                        "one (default: the preset's; filtered without one or with --no-preset)")
-    p.add_argument("--velocity-noise", type=_positive_number, default=None, metavar="X",
-                   help="abduction: the factor on the Kalman filter's velocity process noise (default: the "
-                        "preset's; 1, SORT's filter, without one or with --no-preset)")
+    """The tracker options a preset carries (refimpl.options.TRACKER_OPTIONS), overridable here."""
+    for option in TRACKER_OPTIONS:
+        p.add_argument(option.flag, dest=option.name, type=_option_value(option), default=None,
+                       choices=option.choices, metavar=None if option.choices else "X",
+                       help=f"abduction: {option.help} (default: the preset's; "
+                            f"{TrackerOption.text(getattr(TrackerOptions(), option.name))} without one or with --no-preset)")
 
 
-def _positive_number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (0 < value < float("inf")):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
+def _option_value(option: "TrackerOption"):
+    """argparse's type: the option's own parser, its error as argparse's one-line message."""
+    def parse(text: str):
+        if option.choices:
+            return text  # argparse checks the choices; TrackerOptions parses them
+        try:
+            return option.parse(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return parse
 
 
 def _add_scaleout(p: argparse.ArgumentParser) -> None:

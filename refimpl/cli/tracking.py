@@ -10,7 +10,9 @@ from pathlib import Path
 
 from ..progress import Progress
 from ..solvers import BACKENDS, BASELINE
-from .common import CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _plan, _tracker_options
+from ..options import option_flags
+from .common import (CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _option_flags_given, _plan,
+                     _tracker_options)
 
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
@@ -74,8 +76,8 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
                         f"frames, a class): it needs --format {out_fmt.name}")
     if args.backend == BASELINE and (args.check or args.time_limit is not None or args.scene or args.const
-                                       or args.img_size or args.written_box or args.velocity_noise):
-        raise UserError("--check, --time-limit, --scene, --const, --img-size, --written-box and --velocity-noise "
+                                       or args.img_size or _option_flags_given(args)):
+        raise UserError(f"--check, --time-limit, --scene, --const, --img-size and {option_flags()} "
                         f"need an abduction backend ({', '.join(BACKENDS)}); the baseline abduces no events")
     outs = _track_outputs(args)
     outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}

@@ -1,0 +1,161 @@
+"""The tracker's own options: one table, read by the tracker, the presets, the CLI, the API and
+the calibration.
+
+A tracker option is a choice of the tracking loop that a preset may carry beside the model
+constants; none of them changes a rule of the model (the same frame problems are solved by the
+same rules; what changes is the motion model that builds them or which rows are written).  Each
+option is one row of TRACKER_OPTIONS (name, command-line flag, parser, help) and one field of
+TrackerOptions (its default, the tracker's behaviour without a preset); adding an option is one
+row, one field and the code that reads it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+from typing import Callable, Mapping
+
+
+class WrittenBox(str, Enum):
+    """Which box a track writes for a frame in which it was observed (a tracker option, not a
+    rule of the model: the abduced hypothesis and the identities are the same either way)."""
+
+    FILTERED = "filtered"
+    """The Kalman state after the update with the detection (SORT's output; the default)."""
+    DETECTION = "detection"
+    """The detection's box itself (what ByteTrack and OC-SORT write)."""
+
+    @classmethod
+    def parse(cls, value: "str | WrittenBox") -> "WrittenBox":
+        """A WrittenBox from itself or its name; ValueError naming the choices otherwise."""
+        try:
+            return cls(value)
+        except ValueError:
+            raise ValueError(f"written_box must be one of {', '.join(w.value for w in cls)}, "
+                             f"got {value!r}") from None
+
+
+DEFAULT_WRITTEN_BOX = WrittenBox.FILTERED
+
+_TRUE, _FALSE = ("yes", "true", "1", "on"), ("no", "false", "0", "off")
+
+
+def _positive(name: str) -> Callable[[object], float]:
+    def parse(value: object) -> float:
+        v = value
+        if isinstance(v, str):  # from the command line, a --grid value or presets.json
+            try:
+                v = float(v)
+            except ValueError:
+                pass
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < float(v) < float("inf")):
+            raise ValueError(f"{name} must be a positive number, got {value!r}")
+        return float(v)
+    return parse
+
+
+def _switch(name: str) -> Callable[[object], bool]:
+    def parse(value: object) -> bool:
+        if isinstance(value, bool):
+            return value
+        text = str(value).strip().lower()
+        if text in _TRUE:
+            return True
+        if text in _FALSE:
+            return False
+        raise ValueError(f"{name} must be yes or no, got {value!r}")
+    return parse
+
+
+def _written(value: object) -> WrittenBox:
+    return WrittenBox.parse(value)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class TrackerOption:
+    """One tracker option: how it is named, parsed, written and explained."""
+
+    name: str
+    parse: Callable[[object], object]
+    """Its value from itself or its text (command line, --grid, presets.json); ValueError otherwise."""
+    choices: tuple[str, ...] | None
+    """The command line's choices, or None for a number."""
+    help: str
+
+    @property
+    def flag(self) -> str:
+        return "--" + self.name.replace("_", "-")
+
+    @staticmethod
+    def text(value: object) -> object:
+        """The value as presets.json and the tables write it."""
+        if isinstance(value, Enum):
+            return value.value
+        return value
+
+
+TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
+    TrackerOption("written_box", _written, tuple(w.value for w in WrittenBox),
+                  "the box written for an observed frame: the detection's own box or the Kalman state after "
+                  "the update (SORT's output)"),
+    TrackerOption("velocity_noise", _positive("velocity_noise"), None,
+                  "the factor on the process noise of the Kalman filter's velocities (1: SORT's filter)"),
+    TrackerOption("backfill", _switch("backfill"), ("yes", "no"),
+                  "when a track is confirmed (min_hits consecutive observations), also write the frames "
+                  "that confirmed it (results final min_hits - 1 frames late)"),
+    TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
+                  "a new track starts with the median velocity of the tracks observed in the previous frame "
+                  "(the image motion that a turning camera gives every object) instead of zero"),
+)
+"""Every tracker option, in the order of the command line's help and of the tables."""
+
+OPTIONS_BY_NAME: dict[str, TrackerOption] = {o.name: o for o in TRACKER_OPTIONS}
+
+
+@dataclass(frozen=True)
+class TrackerOptions:
+    """The values of the tracker options (TRACKER_OPTIONS); the defaults are the tracker's
+    behaviour without a preset."""
+
+    written_box: WrittenBox = DEFAULT_WRITTEN_BOX
+    velocity_noise: float = 1.0
+    backfill: bool = False
+    scene_velocity: bool = False
+
+    def __post_init__(self) -> None:
+        for option in TRACKER_OPTIONS:
+            object.__setattr__(self, option.name, option.parse(getattr(self, option.name)))
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, object], where: str = "tracker options") -> "TrackerOptions":
+        """From {name: value} (a preset's "tracker" entry); ValueError naming the known options."""
+        known = cls.names()
+        unknown = sorted(set(values) - set(known))
+        if unknown:
+            raise ValueError(f"{where}: unknown tracker option(s) {', '.join(unknown)} (known: {', '.join(known)})")
+        try:
+            return cls(**{str(k): v for k, v in values.items()})
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+
+    @staticmethod
+    def names() -> tuple[str, ...]:
+        return tuple(o.name for o in TRACKER_OPTIONS)
+
+    def as_dict(self) -> dict[str, object]:
+        """{name: value} of every option, values as written in model/presets.json."""
+        return {o.name: o.text(getattr(self, o.name)) for o in TRACKER_OPTIONS}
+
+    def changed(self) -> dict[str, object]:
+        """The options that differ from the defaults (what a preset changes)."""
+        default = TrackerOptions().as_dict()
+        return {k: v for k, v in self.as_dict().items() if default[k] != v}
+
+    def kwargs(self) -> dict[str, object]:
+        """Keyword arguments of track_sequence / AbductionTracker."""
+        return {o.name: getattr(self, o.name) for o in TRACKER_OPTIONS}
+
+
+def option_flags() -> str:
+    """The command-line flags of every tracker option, for messages: '--written-box, --velocity-noise, ...'."""
+    return ", ".join(o.flag for o in TRACKER_OPTIONS)
