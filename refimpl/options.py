@@ -101,8 +101,8 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("velocity_noise", _positive("velocity_noise"), None,
                   "the factor on the process noise of the Kalman filter's velocities (1: SORT's filter)"),
     TrackerOption("backfill", _switch("backfill"), ("yes", "no"),
-                  "when a track is confirmed (min_hits consecutive observations), also write the frames "
-                  "that confirmed it (results final min_hits - 1 frames late)"),
+                  "when a track is confirmed (min_hits consecutive updates), also write the earlier frames "
+                  "of that streak, a new track's first frame included (results final min_hits frames late)"),
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero"),

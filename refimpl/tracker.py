@@ -20,8 +20,9 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
   commonsense interpolation of a hidden object's position);
 - a halted track writes nothing for its halted frames otherwise;
 - with the tracker option ``backfill`` (refimpl.options), a track that becomes confirmed also
-  writes the min_hits - 1 observed frames before it that confirmed it (SORT writes them never):
-  a frame's rows are then final min_hits - 1 frames late instead of bridge_gap.
+  writes the earlier frames of the streak that confirmed it (up to min_hits frames back: a new
+  track's first frame and its first min_hits - 1 updates; SORT never writes them): a frame's rows
+  are then final min_hits frames late instead of bridge_gap.
 Measured on MOT15 and KITTI: writing longer hidden spans, or every resumed frame, adds more false
 positives than it removes misses (flickering false detections survive halts), which is why the
 defaults are this conservative.
@@ -141,7 +142,7 @@ class AbductionTracker:
 
         ``sink``: results rows and events are handed to it as soon as they are final (a frame's
         rows once no later frame can add any: bridged-gap interpolation reaches back at most
-        ``bridge_gap`` frames, a backfilled confirmation min_hits - 1; ``delay``), instead of being kept; with ``keep_records=False`` as well, the
+        ``bridge_gap`` frames, a backfilled confirmation min_hits; ``delay``), instead of being kept; with ``keep_records=False`` as well, the
         tracker forgets everything a later frame does not need (finished tracks, all but the last
         observed box of a live one), so its memory does not grow with the sequence; then
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
@@ -170,7 +171,7 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
-        self.delay = max(bridge_gap, min_hits - 1 if self.backfill else 0)
+        self.delay = max(bridge_gap, min_hits if self.backfill else 0)
         """How many frames late a frame's rows are final (bridged gaps, backfilled confirmations)."""
 
     # -- step 1: the problem specification ---------------------------------------------------
@@ -250,7 +251,7 @@ class AbductionTracker:
         """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
         self.finished.clear()
         self.events.clear()
-        keep = max(self.min_hits, 1) if self.backfill else 1  # backfill reads the streak's boxes
+        keep = self.min_hits + 1 if self.backfill else 1  # backfill reads the streak's boxes
         for trk in self.tracks.values():
             recent = sorted(trk.observed)[-keep:]
             if len(trk.observed) > keep:
@@ -349,9 +350,11 @@ class AbductionTracker:
         With backfill, the frame that confirms a streak also writes the streak's earlier frames."""
         if trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged:
             written = [frame]
-            if self.backfill and trk.streak == self.min_hits:
-                written = [f for f in range(frame - self.min_hits + 1, frame + 1)
-                           if f in trk.observed and f not in trk.confirmed]
+            if self.backfill and trk.streak == self.min_hits:  # the streak's frames, its birth included
+                back = frame - 1
+                while back in trk.observed and back not in trk.confirmed and frame - back <= self.min_hits:
+                    back -= 1
+                written = list(range(back + 1, frame + 1))
             for f in written:
                 trk.confirmed.add(f)
                 if self.sink is not None:
