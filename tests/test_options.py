@@ -1,0 +1,164 @@
+"""The tracker options (refimpl.options): one table, and what backfill and scene_velocity do."""
+
+from __future__ import annotations
+
+import dataclasses
+import io as stdio
+
+import numpy as np
+import pytest
+
+from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
+from refimpl.options import OPTIONS_BY_NAME, TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
+from refimpl.tracker import track_sequence
+from test_streaming import _walk
+from test_tracker import _occlusion_sequence
+
+
+def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker():
+    assert tuple(f.name for f in dataclasses.fields(TrackerOptions)) == TrackerOptions.names()
+    assert TrackerOptions().as_dict() == {"written_box": "filtered", "velocity_noise": 1.0, "backfill": False,
+                                          "scene_velocity": False}
+    assert TrackerOptions().changed() == {}
+    assert option_flags() == "--written-box, --velocity-noise, --backfill, --scene-velocity"
+
+
+def test_option_values_parse_from_their_text_and_round_trip_through_presets_json():
+    o = TrackerOptions.from_mapping({"written_box": "detection", "velocity_noise": "10", "backfill": "yes",
+                                     "scene_velocity": "no"})
+    assert (o.written_box, o.velocity_noise, o.backfill, o.scene_velocity) == (WrittenBox.DETECTION, 10.0, True, False)
+    assert TrackerOptions.from_mapping(o.as_dict()) == o
+    assert o.changed() == {"written_box": "detection", "velocity_noise": 10.0, "backfill": True}
+    for name, bad in (("backfill", "maybe"), ("scene_velocity", 2), ("velocity_noise", 0), ("written_box", "box")):
+        with pytest.raises(ValueError, match=name):
+            TrackerOptions.from_mapping({name: bad})
+    with pytest.raises(ValueError, match="unknown tracker option"):
+        TrackerOptions.from_mapping({"nosuch": 1})
+    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no") and len(TRACKER_OPTIONS) == 4
+
+
+def _rows_of(result, number: int) -> list[int]:
+    return sorted(int(f) for f, i, *_ in result.rows.tolist() if i == number)
+
+
+def test_backfill_writes_the_frames_that_confirmed_a_resumed_track():
+    # the car of _occlusion_sequence (trk_2) resumes at frame 28 after hiding in 9-27: its streak
+    # restarts at 1 (28), 2 (29), 3 (30) = min_hits, so it is written again from 30.  With backfill,
+    # frame 30 also writes 28 and 29 (the walk back stops at 27, not observed).
+    plain = track_sequence(_occlusion_sequence(), backend="cpsat")
+    back = track_sequence(_occlusion_sequence(), backend="cpsat", backfill=True)
+    assert _rows_of(plain, 2) == list(range(1, 9)) + list(range(30, 33))
+    assert _rows_of(back, 2) == list(range(1, 9)) + list(range(28, 33))
+    assert [str(e) for e in back.events] == [str(e) for e in plain.events]  # the same hypotheses
+
+
+def _late_pedestrian() -> DetectionSequence:
+    """A walker detected in every frame 1-12 and a second one from frame 6 on, plus one false
+    detection at frame 9 only (far from both)."""
+    frames = []
+    for f in range(1, 13):
+        boxes = [[10.0 * f, 50.0, 40.0, 80.0]]
+        if f >= 6:
+            boxes.append([600.0 - 10.0 * f, 300.0, 40.0, 80.0])
+        if f == 9:
+            boxes.append([900.0, 20.0, 40.0, 80.0])
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.ones(n), np.full(n, 90), ("pedestrian",) * n))
+    return DetectionSequence("late", tuple(frames), 1, (1000, 600), 25.0)
+
+
+def test_backfill_writes_a_new_tracks_first_frames_but_never_a_one_frame_detection():
+    # the second walker starts trk_2 at frame 6 (hit streak 0) and is updated at 7, 8, 9: streak 3
+    # = min_hits at frame 9, SORT's first written frame.  Backfill also writes 6, 7 and 8.  The
+    # false detection of frame 9 starts trk_3, which is never updated, never confirmed, never written.
+    plain = track_sequence(_late_pedestrian(), backend="cpsat")
+    back = track_sequence(_late_pedestrian(), backend="cpsat", backfill=True)
+    assert _rows_of(plain, 2) == list(range(9, 13))
+    assert _rows_of(back, 2) == list(range(6, 13))
+    assert _rows_of(back, 1) == _rows_of(plain, 1) == list(range(1, 13))
+    assert set(back.rows[:, 1].tolist()) == {1, 2}
+
+
+@pytest.mark.parametrize("keep_records", [False, True])
+def test_backfilled_rows_stream_to_the_same_file(keep_records):
+    # the sink holds a frame until no later frame can add a row to it (min_hits = 3 frames late
+    # with backfill): the streamed file equals the one written at the end
+    seq = _walk(120, 8, seed=3)
+    result = track_sequence(seq, backend="cpsat", backfill=True)
+    out = stdio.StringIO()
+    track_sequence(seq, backend="cpsat", backfill=True, sink=ResultWriter(out, first_frame=1),
+                   keep_records=keep_records)
+    assert out.getvalue() == format_mot_results(result.rows, 1)
+    assert len(result.rows) > len(track_sequence(seq, backend="cpsat").rows)
+
+
+def _turning_camera() -> DetectionSequence:
+    """What a turning camera does to parked cars (KITTI 0007, frames 44-56): everything slides
+    35 px/frame to the right.  Two big cars (100x60) are in view from frame 1; from frame 6 a row
+    of four small cars (30x30, 40 px apart) slides through as well, car k at x = 100 - 40 k + 35 (f - 6).
+
+    A track that starts at rest predicts car k where car k was; one frame later car k is 35 px
+    further (no overlap with a 30 px box) and car k+1 is 5 px short of it (IoU 25/35 = 0.71): the
+    track takes its neighbour, every frame.  Started with the big cars' velocity instead, it
+    predicts car k where car k is."""
+    frames = []
+    for f in range(1, 13):
+        boxes = [[20.0 + 35 * (f - 1), 40.0, 100.0, 60.0], [60.0 + 35 * (f - 1), 420.0, 100.0, 60.0]]
+        if f >= 6:
+            boxes += [[100.0 - 40 * k + 35 * (f - 6), 250.0, 30.0, 30.0] for k in range(4)]
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.ones(n), np.full(n, 90), ("car",) * n))
+    return DetectionSequence("turning", tuple(frames), 1, (1400, 600), 10.0)
+
+
+def _row_cars_per_track(result) -> list[set[int]]:
+    """For every track of the row (y = 250), the set of row-car indices k it was assigned over time."""
+    out = []
+    for rec in result.tracks:
+        ks = {round((100 + 35 * (f - 6) - box[0]) / 40) for f, box in rec.observed if box[1] == 250.0}
+        if ks:
+            out.append(ks)
+    return out
+
+
+def test_scene_velocity_keeps_each_car_of_a_sliding_row_on_its_own_track():
+    kw = dict(backend="cpsat", written_box="detection", velocity_noise=10)
+    plain = _row_cars_per_track(track_sequence(_turning_camera(), **kw))
+    scene = _row_cars_per_track(track_sequence(_turning_camera(), scene_velocity=True, **kw))
+    assert any(len(ks) > 1 for ks in plain)  # started at rest: tracks hop to the neighbouring car
+    assert sorted(scene, key=min) == [{0}, {1}, {2}, {3}]  # one track per car, from frame 6 to 12
+
+
+def test_a_new_track_starts_with_the_median_velocity_of_the_tracks_seen_last_frame():
+    from refimpl.solvers import get_solver
+    from refimpl.tracker import AbductionTracker
+    seq = _turning_camera()
+    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1400, "img_height": 600}, scene_velocity=True)
+    for fr in seq.frames[:5]:
+        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types)
+    big = [t.kalman.velocity for t in tracker.tracks.values()]  # both observed at frame 5, streak 4
+    assert len(big) == 2 and all(v[0] > 20 for v in big)  # they learned the slide to the right
+    expected = np.median(np.array(big), axis=0)  # of two values: their mean
+    fr = seq.frames[5]
+    tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types)
+    newborn = [t for t in tracker.tracks.values() if min(t.observed) == 6]
+    assert len(newborn) == 4
+    for t in newborn:
+        np.testing.assert_allclose(t.kalman.velocity, expected)
+
+
+def test_the_api_takes_options_by_name_and_hands_backfilled_rows_over_afterwards():
+    from refimpl.api import Tracker
+    tracker = Tracker("cpsat", img_size=(1000, 600), backfill=True)
+    reported = {}
+    for fr in _late_pedestrian().frames:
+        b = fr.boxes
+        dets = np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], np.full(len(b), 0.9)])
+        reported[fr.frame] = tracker.update(dets)[:, 4].tolist()
+    # online, trk 2 is reported from its confirming frame 9 on, as without backfill; its frames 6-8
+    # (written by the confirmation, 3 frames late) come with interpolated_rows()
+    assert [f for f, ids in reported.items() if 2.0 in ids] == list(range(9, 13))
+    late = tracker.interpolated_rows()
+    assert sorted((int(f), int(i)) for f, i, *_ in late.tolist()) == [(6, 2), (7, 2), (8, 2)]
+    with pytest.raises(ValueError, match="unknown tracker option"):
+        Tracker("cpsat", backfil=True)
