@@ -77,11 +77,13 @@ def test_the_serial_files(inputs, serial, tmp_path):
     assert run_cli(["track", "--backend", "cpsat", "--dets", inputs[0], "--out", str(tmp_path / "one.txt"),
                     "--quiet"])[0] == 0
     assert (tmp_path / "one.txt").read_bytes() == files["TUD-Campus.txt"]
-    # tracking is online: a sequence cut after frame 20 (40) has the full run's rows of frames
-    # 1..20 (1..40), interpolated bridged gaps aside (TUD-Campus has none: test_api)
+    # tracking is online up to a fixed delay: a frame's rows are final 3 frames later (the MOT
+    # preset backfills a confirmation, min_hits = 3 frames back; bridged gaps reach back 2), so a
+    # sequence cut after frame 20 (40) has the full run's rows of frames 1..17 (1..37)
     for name, last in (("0007.txt", 20), ("Cut40.txt", 40)):
-        head = [r for r in files["TUD-Campus.txt"].decode().splitlines() if int(r.split(",")[0]) <= last]
-        assert files[name].decode().splitlines() == head
+        def upto(text, f=last - 3):
+            return [r for r in text.decode().splitlines() if int(r.split(",")[0]) <= f]
+        assert upto(files[name]) == upto(files["TUD-Campus.txt"]) != []
 
 
 def test_two_local_workers_write_the_same_bytes(inputs, serial, tmp_path):
