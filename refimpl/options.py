@@ -156,6 +156,8 @@ class TrackerOptions:
         return {o.name: getattr(self, o.name) for o in TRACKER_OPTIONS}
 
 
-def option_flags() -> str:
-    """The command-line flags of every tracker option, for messages: '--written-box, --velocity-noise, ...'."""
-    return ", ".join(o.flag for o in TRACKER_OPTIONS)
+def option_flags(*before: str) -> str:
+    """Flags for a message, the tracker options' last: option_flags("--const") ==
+    '--const, --written-box, --velocity-noise, --backfill and --scene-velocity'."""
+    flags = [*before, *(o.flag for o in TRACKER_OPTIONS)]
+    return ", ".join(flags[:-1]) + " and " + flags[-1]

@@ -20,7 +20,8 @@ def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker()
     assert TrackerOptions().as_dict() == {"written_box": "filtered", "velocity_noise": 1.0, "backfill": False,
                                           "scene_velocity": False}
     assert TrackerOptions().changed() == {}
-    assert option_flags() == "--written-box, --velocity-noise, --backfill, --scene-velocity"
+    assert option_flags() == "--written-box, --velocity-noise, --backfill and --scene-velocity"
+    assert option_flags("--const") == "--const, --written-box, --velocity-noise, --backfill and --scene-velocity"
 
 
 def test_option_values_parse_from_their_text_and_round_trip_through_presets_json():
@@ -162,3 +163,33 @@ def test_the_api_takes_options_by_name_and_hands_backfilled_rows_over_afterwards
     assert sorted((int(f), int(i)) for f, i, *_ in late.tolist()) == [(6, 2), (7, 2), (8, 2)]
     with pytest.raises(ValueError, match="unknown tracker option"):
         Tracker("cpsat", backfil=True)
+
+
+DEMO = __import__("pathlib").Path(__file__).resolve().parent.parent / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
+
+
+def test_cli_backfill_flag_overrides_the_preset(tmp_path):
+    from refimpl.cli import main
+    # the mot/pedestrian preset backfills; --backfill no gives the same tracks without the frames
+    # that confirmed them, so its rows are a strict subset of the preset's
+    rows = {}
+    for flag in ("yes", "no"):
+        out = tmp_path / f"{flag}.txt"
+        assert main(["track", "--dets", str(DEMO), "--backend", "cpsat", "--out", str(out), "--quiet",
+                     "--backfill", flag]) == 0
+        rows[flag] = set(out.read_text().splitlines())
+    assert rows["no"] < rows["yes"]
+    assert main(["track", "--dets", str(DEMO), "--backend", "cpsat", "--out", str(tmp_path / "p.txt"),
+                 "--quiet"]) == 0
+    assert set((tmp_path / "p.txt").read_text().splitlines()) == rows["yes"]
+
+
+def test_cli_option_flags_are_refused_for_the_baseline_and_checked(tmp_path, capsys):
+    from refimpl.cli import main
+    out = str(tmp_path / "o.txt")
+    assert main(["track", "--dets", str(DEMO), "--backend", "baseline", "--out", out, "--scene-velocity", "yes"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --backfill and --scene-velocity need an abduction" in err
+    with pytest.raises(SystemExit) as exc:
+        main(["track", "--dets", str(DEMO), "--out", out, "--backfill", "maybe"])
+    assert exc.value.code == 2 and "invalid choice: 'maybe'" in capsys.readouterr().err

@@ -25,7 +25,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
     if args.backend == BASELINE and (args.const or _option_flags_given(args)):
-        raise UserError(f"--const and {option_flags()} need an abduction backend ({', '.join(BACKENDS)})")
+        raise UserError(f"{option_flags('--const')} need an abduction backend ({', '.join(BACKENDS)})")
     plan = _plan(args)
     requests = []
     for name in args.names:

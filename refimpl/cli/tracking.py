@@ -77,7 +77,7 @@ def cmd_track(args: argparse.Namespace) -> int:
                         f"frames, a class): it needs --format {out_fmt.name}")
     if args.backend == BASELINE and (args.check or args.time_limit is not None or args.scene or args.const
                                        or args.img_size or _option_flags_given(args)):
-        raise UserError(f"--check, --time-limit, --scene, --const, --img-size and {option_flags()} "
+        raise UserError(f"{option_flags('--check', '--time-limit', '--scene', '--const', '--img-size')} "
                         f"need an abduction backend ({', '.join(BACKENDS)}); the baseline abduces no events")
     outs = _track_outputs(args)
     outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
