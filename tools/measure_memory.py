@@ -17,7 +17,7 @@ import tracemalloc
 import numpy as np
 
 from refimpl.io import DetectionFrame
-from refimpl.solvers import get_solver
+from refimpl.solvers import DEFAULT_BACKEND, get_solver
 from refimpl.tracker import AbductionTracker
 
 
@@ -40,7 +40,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=10_000)
     ap.add_argument("--objects", type=int, default=15)
-    ap.add_argument("--backend", default="cpsat")
+    ap.add_argument("--backend", default=DEFAULT_BACKEND)
     args = ap.parse_args()
     tracker = AbductionTracker(get_solver(args.backend), {"img_width": 1920, "img_height": 1080})
     tracemalloc.start()
