@@ -39,9 +39,10 @@ DEFAULT_GRID: dict[str, tuple] = {
     "written_box": ("filtered", "detection"),
     "velocity_noise": ("1", "10"),
     "backfill": ("no", "yes"),
+    "fill_hidden": ("0", "10", "30"),
 }
-"""The search space (confidences 0..100, IoU x 100000; ``written_box``, ``velocity_noise`` and
-``backfill`` are tracker options, refimpl.options.TRACKER_OPTIONS): 64 points.  The option
+"""The search space (confidences 0..100, IoU x 100000; ``written_box``, ``velocity_noise``,
+``backfill`` and ``fill_hidden`` are tracker options, refimpl.options.TRACKER_OPTIONS): 192 points.  The option
 ``scene_velocity`` is not searched by default: chosen on kitti-car-train, it tripled the ID
 switches on kitti-car-val (docs/peers.md); ``--grid scene_velocity=no,yes`` adds it.  The thresholds are where the earlier,
 wider grids put the best points on all three tuning sets (new track 40/60/80/90 and assign 0/40/60

@@ -67,6 +67,22 @@ def _switch(name: str) -> Callable[[object], bool]:
     return parse
 
 
+def _frames(name: str) -> Callable[[object], int]:
+    def parse(value: object) -> int:
+        v = value
+        if isinstance(v, str):
+            try:
+                v = int(v.strip())
+            except ValueError:
+                pass
+        if isinstance(v, float) and v.is_integer():
+            v = int(v)
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ValueError(f"{name} must be a number of frames >= 0, got {value!r}")
+        return v
+    return parse
+
+
 def _written(value: object) -> WrittenBox:
     return WrittenBox.parse(value)  # type: ignore[arg-type]
 
@@ -103,6 +119,10 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("backfill", _switch("backfill"), ("yes", "no"),
                   "when a track is confirmed (min_hits consecutive updates), also write the earlier frames "
                   "of that streak, a new track's first frame included (results final min_hits frames late)"),
+    TrackerOption("fill_hidden", _frames("fill_hidden"), None,
+                  "write the interpolated boxes of a confirmed track's occlusion episode of at most this many "
+                  "frames (halted by hides_behind, resumed by unhides_from_behind); 0: never (results final "
+                  "that many frames late)"),
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero"),
@@ -120,6 +140,7 @@ class TrackerOptions:
     written_box: WrittenBox = DEFAULT_WRITTEN_BOX
     velocity_noise: float = 1.0
     backfill: bool = False
+    fill_hidden: int = 0
     scene_velocity: bool = False
 
     def __post_init__(self) -> None:

@@ -19,6 +19,11 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
   hidden frames are filled by linear interpolation between the boxes around the gap (the paper's
   commonsense interpolation of a hidden object's position);
 - a halted track writes nothing for its halted frames otherwise;
+- with the tracker option ``fill_hidden`` (refimpl.options), an occlusion episode of a confirmed
+  track (halted with hides_behind right after its last observed frame, resumed with
+  unhides_from_behind) of at most fill_hidden frames is filled by the same interpolation once the
+  resumed track is confirmed again (min_hits updates): the paper's interpolated position of a
+  hidden object, written;
 - with the tracker option ``backfill`` (refimpl.options), a track that becomes confirmed also
   writes the earlier frames of the streak that confirmed it (up to min_hits frames back: a new
   track's first frame and its first min_hits - 1 updates; SORT never writes them): a frame's rows
@@ -84,6 +89,7 @@ class _Track:
     predicted: np.ndarray | None = None
     streak: int = 0  # consecutive observed frames, SORT's hit_streak (0 at birth)
     bridged: bool = False  # resumed after a short gap while confirmed: stays confirmed
+    episode: tuple[int, int] | None = None  # an occlusion episode to fill once re-confirmed (fill_hidden)
     confirmed: set[int] = field(default_factory=set)  # observed frames that are written
 
 
@@ -131,8 +137,8 @@ class AbductionTracker:
                  compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False,
                  sink: ResultSink | None = None, keep_records: bool = True,
                  written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0,
-                 backfill: bool = False, scene_velocity: bool = False):
-        """written_box, velocity_noise, backfill, scene_velocity: the tracker options
+                 backfill: bool = False, scene_velocity: bool = False, fill_hidden: int = 0):
+        """written_box, velocity_noise, backfill, fill_hidden, scene_velocity: the tracker options
         (refimpl.options.TRACKER_OPTIONS; the module docstring says what each writes).
 
         hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
@@ -147,11 +153,12 @@ class AbductionTracker:
         observed box of a live one), so its memory does not grow with the sequence; then
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
-        options = TrackerOptions(written_box, velocity_noise, backfill, scene_velocity)  # ValueError if bad
+        options = TrackerOptions(written_box, velocity_noise, backfill, fill_hidden, scene_velocity)  # ValueError if bad
         self.written_box = options.written_box
         self.velocity_noise = options.velocity_noise
         self.backfill = options.backfill
         self.scene_velocity = options.scene_velocity
+        self.fill_hidden = options.fill_hidden
         self.hold_hidden = hold_hidden
         self.reupdate_on_resume = reupdate_on_resume
         self.constants = tuple((constants or {}).items())
@@ -171,8 +178,10 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
-        self.delay = max(bridge_gap, min_hits if self.backfill else 0)
-        """How many frames late a frame's rows are final (bridged gaps, backfilled confirmations)."""
+        self.delay = max(bridge_gap, min_hits if self.backfill else 0,
+                         self.fill_hidden + min_hits if self.fill_hidden else 0)
+        """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
+        backfilled confirmations)."""
 
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
@@ -251,10 +260,12 @@ class AbductionTracker:
         """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
         self.finished.clear()
         self.events.clear()
-        keep = self.min_hits + 1 if self.backfill else 1  # backfill reads the streak's boxes
+        keep = self.min_hits + 1 if self.backfill or self.fill_hidden else 1  # the streak's boxes
         for trk in self.tracks.values():
             recent = sorted(trk.observed)[-keep:]
-            if len(trk.observed) > keep:
+            if trk.episode is not None:  # the box before a pending occlusion episode
+                recent = sorted({*recent, trk.episode[0]})
+            if len(trk.observed) > len(recent):
                 trk.observed = {f: trk.observed[f] for f in recent}
             trk.confirmed &= {recent[-1]}
             trk.gaps.clear()
@@ -271,11 +282,16 @@ class AbductionTracker:
         scene = self._scene_velocity(frame) if self.scene_velocity else None
         for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
             self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
+        unhidden = {args[0] for name, args in hyp.event_terms if name == "unhides_from_behind"}
         for trk_id, det_id in hyp.resumes:
             trk, j = self.tracks[trk_id], index[det_id]
             last = max(trk.observed)
-            trk.bridged = (frame - last - 1 <= self.bridge_gap and int(confidences[j]) >= self.bridge_conf
+            gap = frame - last - 1
+            trk.bridged = (gap <= self.bridge_gap and int(confidences[j]) >= self.bridge_conf
                            and last in trk.confirmed)
+            hidden = (not trk.bridged and last in trk.confirmed and gap <= self.fill_hidden
+                      and trk_id in unhidden and self._hid_after(trk, last))
+            trk.episode = (last, frame) if hidden else None
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
@@ -320,6 +336,11 @@ class AbductionTracker:
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
 
+    @staticmethod
+    def _hid_after(trk: _Track, last: int) -> bool:
+        """Whether the track's halt after its last observed frame was explained by hides_behind."""
+        return any(e.event.name == "hides_behind" and e.time == last + 1 for e in trk.history)
+
     def _scene_velocity(self, frame: int) -> np.ndarray | None:
         """The tracker option scene_velocity: the component-wise median (du, dv) of the active tracks
         observed in the previous frame and at least once before it (a velocity measured, not a
@@ -347,15 +368,24 @@ class AbductionTracker:
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
         frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed.
-        With backfill, the frame that confirms a streak also writes the streak's earlier frames."""
-        if trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged:
-            written = [frame]
-            if self.backfill and trk.streak == self.min_hits:  # the streak's frames, its birth included
-                back = frame - 1
-                while back in trk.observed and back not in trk.confirmed and frame - back <= self.min_hits:
-                    back -= 1
-                written = list(range(back + 1, frame + 1))
-            for f in written:
+        With backfill, the frame that confirms a streak also writes the streak's earlier frames; a
+        track re-confirmed after an occlusion episode (fill_hidden) writes the episode, interpolated,
+        and the frames that re-confirmed it."""
+        if not (trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged):
+            return
+        first = frame
+        if self.backfill and trk.streak == self.min_hits:  # the streak's frames, a new track's first included
+            while first - 1 in trk.observed and first - 1 not in trk.confirmed and frame - first < self.min_hits:
+                first -= 1
+        if trk.episode is not None and trk.streak >= self.min_hits:
+            last, resumed = trk.episode
+            trk.gaps.append(trk.episode)
+            if self.sink is not None:
+                self._pend_gap(trk, last, resumed)
+            first = min(first, resumed)
+            trk.episode = None
+        for f in range(first, frame + 1):
+            if f in trk.observed and f not in trk.confirmed:
                 trk.confirmed.add(f)
                 if self.sink is not None:
                     self._pending.setdefault(f, []).append([f, _trk_number(trk.id), *trk.observed[f]])
@@ -405,7 +435,7 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                    keep_records: bool = True,
                    written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX,
                    velocity_noise: float = 1.0, backfill: bool = False,
-                   scene_velocity: bool = False) -> TrackingResult:
+                   scene_velocity: bool = False, fill_hidden: int = 0) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
 
@@ -422,7 +452,7 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
                                hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records,
                                written_box=written_box, velocity_noise=velocity_noise, backfill=backfill,
-                               scene_velocity=scene_velocity)
+                               scene_velocity=scene_velocity, fill_hidden=fill_hidden)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()

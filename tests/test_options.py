@@ -18,24 +18,26 @@ from test_tracker import _occlusion_sequence
 def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker():
     assert tuple(f.name for f in dataclasses.fields(TrackerOptions)) == TrackerOptions.names()
     assert TrackerOptions().as_dict() == {"written_box": "filtered", "velocity_noise": 1.0, "backfill": False,
-                                          "scene_velocity": False}
+                                          "fill_hidden": 0, "scene_velocity": False}
     assert TrackerOptions().changed() == {}
-    assert option_flags() == "--written-box, --velocity-noise, --backfill and --scene-velocity"
-    assert option_flags("--const") == "--const, --written-box, --velocity-noise, --backfill and --scene-velocity"
+    assert option_flags() == "--written-box, --velocity-noise, --backfill, --fill-hidden and --scene-velocity"
+    assert option_flags("--const").startswith("--const, --written-box, ")
 
 
 def test_option_values_parse_from_their_text_and_round_trip_through_presets_json():
     o = TrackerOptions.from_mapping({"written_box": "detection", "velocity_noise": "10", "backfill": "yes",
-                                     "scene_velocity": "no"})
-    assert (o.written_box, o.velocity_noise, o.backfill, o.scene_velocity) == (WrittenBox.DETECTION, 10.0, True, False)
+                                     "scene_velocity": "no", "fill_hidden": "30"})
+    assert (o.written_box, o.velocity_noise, o.backfill, o.scene_velocity, o.fill_hidden) == \
+        (WrittenBox.DETECTION, 10.0, True, False, 30)
     assert TrackerOptions.from_mapping(o.as_dict()) == o
-    assert o.changed() == {"written_box": "detection", "velocity_noise": 10.0, "backfill": True}
-    for name, bad in (("backfill", "maybe"), ("scene_velocity", 2), ("velocity_noise", 0), ("written_box", "box")):
+    assert o.changed() == {"written_box": "detection", "velocity_noise": 10.0, "backfill": True, "fill_hidden": 30}
+    for name, bad in (("backfill", "maybe"), ("scene_velocity", 2), ("velocity_noise", 0), ("written_box", "box"),
+                      ("fill_hidden", -1), ("fill_hidden", 1.5), ("fill_hidden", "ten")):
         with pytest.raises(ValueError, match=name):
             TrackerOptions.from_mapping({name: bad})
     with pytest.raises(ValueError, match="unknown tracker option"):
         TrackerOptions.from_mapping({"nosuch": 1})
-    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no") and len(TRACKER_OPTIONS) == 4
+    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no") and len(TRACKER_OPTIONS) == 5
 
 
 def _rows_of(result, number: int) -> list[int]:
@@ -189,7 +191,47 @@ def test_cli_option_flags_are_refused_for_the_baseline_and_checked(tmp_path, cap
     out = str(tmp_path / "o.txt")
     assert main(["track", "--dets", str(DEMO), "--backend", "baseline", "--out", out, "--scene-velocity", "yes"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --backfill and --scene-velocity need an abduction" in err
+    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --backfill, --fill-hidden and " \
+        "--scene-velocity need an abduction" in err
     with pytest.raises(SystemExit) as exc:
         main(["track", "--dets", str(DEMO), "--out", out, "--backfill", "maybe"])
     assert exc.value.code == 2 and "invalid choice: 'maybe'" in capsys.readouterr().err
+
+
+def test_fill_hidden_writes_an_occlusion_episode_once_the_track_is_confirmed_again():
+    # the car (trk_2) hides behind the bus at 9 (hides_behind right after its last frame, 8) and
+    # comes out at 28 (unhides_from_behind): a 19-frame episode.  fill_hidden >= 19 fills it when the
+    # resumed track is confirmed again at 30 (streak 3), with the frames 28 and 29 that confirmed it;
+    # 18 is too short, so the rows are those of the plain tracker
+    filled = track_sequence(_occlusion_sequence(), backend="cpsat", fill_hidden=19)
+    short = track_sequence(_occlusion_sequence(), backend="cpsat", fill_hidden=18)
+    assert _rows_of(filled, 2) == list(range(1, 33))
+    assert _rows_of(short, 2) == list(range(1, 9)) + list(range(30, 33))
+    car = {int(f): b for f, i, *b in filled.rows.tolist() if i == 2}
+    # frame 18 lies 10/20 of the way from frame 8 to frame 28: x halfway between the two boxes
+    np.testing.assert_allclose(car[18][0], (car[8][0] + car[28][0]) / 2)
+    assert [str(e) for e in filled.events] == [str(e) for e in short.events]
+
+
+def test_fill_hidden_needs_the_resumed_track_to_be_confirmed_again():
+    # the car comes out at 28 for one frame only and is never seen again: the resume is not
+    # confirmed (streak 1), so nothing of the episode is written
+    seq = _occlusion_sequence()
+    frames = tuple(fr if fr.frame <= 28 else DetectionFrame(fr.frame, fr.boxes[:1], fr.scores[:1],
+                                                             fr.confidences[:1], fr.types[:1])
+                   for fr in seq.frames)
+    result = track_sequence(DetectionSequence(seq.name, frames, 1, seq.image_size, seq.fps), backend="cpsat",
+                            fill_hidden=30)
+    assert "occurs_at(unhides_from_behind(trk_2,trk_1),28)" in [str(e) for e in result.events]
+    assert _rows_of(result, 2) == list(range(1, 9))
+
+
+@pytest.mark.parametrize("keep_records", [False, True])
+def test_filled_episodes_stream_to_the_same_file(keep_records):
+    # rows of a filled episode are final fill_hidden + min_hits frames late; the sink waits that long
+    seq = _occlusion_sequence()
+    result = track_sequence(seq, backend="cpsat", fill_hidden=19)
+    out = stdio.StringIO()
+    track_sequence(seq, backend="cpsat", fill_hidden=19, sink=ResultWriter(out, first_frame=1),
+                   keep_records=keep_records)
+    assert out.getvalue() == format_mot_results(result.rows, 1)

@@ -197,11 +197,11 @@ def test_leave_one_sequence_out_scores_each_sequence_with_the_point_best_on_the_
 def test_grid_is_the_product_of_its_dimensions_and_grid_options_replace_one():
     from refimpl.calibrate import DEFAULT_GRID, grid_points, parse_grid
     # 2 new-track x 2 assign x 2 IoU x 1 x 1 x 2 written boxes x 2 velocity noises x 2 backfill
-    # = 64 points, every combination once
+    # x 3 fill_hidden = 192 points, every combination once
     points = grid_points(DEFAULT_GRID)
-    assert len(points) == 64 == len(set(points))
+    assert len(points) == 192 == len(set(points))
     grid = parse_grid(["iou_thresh_resume=10000,20000"])
-    assert len(grid_points(grid)) == 128 and grid["conf_thresh_new_track"] == DEFAULT_GRID["conf_thresh_new_track"]
+    assert len(grid_points(grid)) == 384 and grid["conf_thresh_new_track"] == DEFAULT_GRID["conf_thresh_new_track"]
     assert parse_grid(["backfill=yes"])["backfill"] == ("yes",)
     for bad in ("nosuch=1", "iou_thresh=", "iou_thresh=0.3", "backfill=maybe"):
         with pytest.raises(ValueError):
