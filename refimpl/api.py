@@ -6,7 +6,8 @@ Algorithm 1 (refimpl.tracker.AbductionTracker), so the rows returned for a frame
 the rows ``refimpl track`` writes for that frame, with one documented exception: the boxes
 ``refimpl track`` interpolates inside a *bridged* gap (a confirmed track resumed after at most
 ``bridge_gap`` hidden frames) are only known once the track resumes, so an online caller never
-gets them, nor (with the tracker option ``backfill``) the earlier frames a confirmation writes;
+gets them, nor (with the tracker options ``backfill`` and ``fill_hidden``) the earlier frames a
+confirmation writes and the filled frames of an occlusion episode;
 ``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has them after
 the fact.
 
@@ -48,7 +49,7 @@ class Tracker:
         without seqinfo.ini.
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
     **options: the tracker options by name (refimpl.options.TRACKER_OPTIONS: written_box,
-        velocity_noise, backfill, scene_velocity), e.g. ``written_box="detection"`` (what the KITTI
+        velocity_noise, backfill, fill_hidden, scene_velocity), e.g. ``written_box="detection"`` (what the KITTI
         Car preset of ``refimpl track`` chooses, docs/peers.md).  The API applies no preset.
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
     first_frame: the number of the first frame (1 as MOTChallenge, 0 as KITTI).
@@ -187,7 +188,7 @@ class Tracker:
 
     def interpolated_rows(self) -> np.ndarray:
         """The (n, 6) MOT rows that ``update`` could not report online: bridged gaps and, with
-        ``backfill``, the earlier frames of a confirmation."""
+        ``backfill`` / ``fill_hidden``, the earlier frames of a confirmation and filled occlusion episodes."""
         rows = self._tracker.result_rows()
         keep = [(int(r[0]), int(r[1])) not in self._reported for r in rows]
         return rows[np.asarray(keep, dtype=bool)] if len(rows) else rows
