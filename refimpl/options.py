@@ -83,10 +83,6 @@ def _frames(name: str) -> Callable[[object], int]:
     return parse
 
 
-def _written(value: object) -> WrittenBox:
-    return WrittenBox.parse(value)  # type: ignore[arg-type]
-
-
 @dataclass(frozen=True)
 class TrackerOption:
     """One tracker option: how it is named, parsed, written and explained."""
@@ -111,7 +107,7 @@ class TrackerOption:
 
 
 TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
-    TrackerOption("written_box", _written, tuple(w.value for w in WrittenBox),
+    TrackerOption("written_box", WrittenBox.parse, tuple(w.value for w in WrittenBox),
                   "the box written for an observed frame: the detection's own box or the Kalman state after "
                   "the update (SORT's output)"),
     TrackerOption("velocity_noise", _positive("velocity_noise"), None,
@@ -179,6 +175,6 @@ class TrackerOptions:
 
 def option_flags(*before: str) -> str:
     """Flags for a message, the tracker options' last: option_flags("--const") ==
-    '--const, --written-box, --velocity-noise, --backfill and --scene-velocity'."""
+    '--const, --written-box, --velocity-noise, --backfill, --fill-hidden and --scene-velocity'."""
     flags = [*before, *(o.flag for o in TRACKER_OPTIONS)]
     return ", ".join(flags[:-1]) + " and " + flags[-1]

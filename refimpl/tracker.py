@@ -282,7 +282,8 @@ class AbductionTracker:
         scene = self._scene_velocity(frame) if self.scene_velocity else None
         for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
             self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
-        unhidden = {args[0] for name, args in hyp.event_terms if name == "unhides_from_behind"}
+        unhidden = {args[0] for name, args in hyp.event_terms
+                    if name == "unhides_from_behind"} if self.fill_hidden and hyp.resumes else set()
         for trk_id, det_id in hyp.resumes:
             trk, j = self.tracks[trk_id], index[det_id]
             last = max(trk.observed)
@@ -432,15 +433,13 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
                    compact_history: bool = True, hold_hidden: bool = False,
                    reupdate_on_resume: bool = False, sink: ResultSink | None = None,
-                   keep_records: bool = True,
-                   written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX,
-                   velocity_noise: float = 1.0, backfill: bool = False,
-                   scene_velocity: bool = False, fill_hidden: int = 0) -> TrackingResult:
+                   keep_records: bool = True, **options: object) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
 
-    With a ``sink`` the rows and events go to it as they are decided (see AbductionTracker) and
-    the result's rows are empty (its events and tracks too unless ``keep_records``)."""
+    ``**options``: the tracker options by name (refimpl.options.TRACKER_OPTIONS), passed on to
+    AbductionTracker.  With a ``sink`` the rows and events go to it as they are decided (see
+    AbductionTracker) and the result's rows are empty (its events and tracks too unless ``keep_records``)."""
     merged = dict(constants or {})
     if seq.image_size is not None:
         merged.setdefault("img_width", int(seq.image_size[0]))
@@ -450,9 +449,7 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
-                               hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records,
-                               written_box=written_box, velocity_noise=velocity_noise, backfill=backfill,
-                               scene_velocity=scene_velocity, fill_hidden=fill_hidden)
+                               hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records, **options)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()

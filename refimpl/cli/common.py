@@ -71,19 +71,23 @@ def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> 
 def _tracker_options(fmt: str, cls: str | None, args: argparse.Namespace):
     """The preset's tracker options of (format, class) unless --no-preset, then the tracker option
     flags (refimpl.presets.options_for; refimpl.options.TRACKER_OPTIONS)."""
-    from ..options import TrackerOptions
     from ..presets import options_for
-    overrides = {name: getattr(args, name) for name in TrackerOptions.names() if getattr(args, name, None) is not None}
+    overrides = _option_overrides(args)
     try:
         return options_for(fmt, cls or "pedestrian", overrides, use_preset=not args.no_preset)
     except ValueError as exc:
         raise UserError(str(exc)) from None
 
 
+def _option_overrides(args: argparse.Namespace) -> dict[str, object]:
+    """{name: value} of the tracker option flags given on the command line."""
+    from ..options import TrackerOptions
+    return {name: getattr(args, name) for name in TrackerOptions.names() if getattr(args, name, None) is not None}
+
+
 def _option_flags_given(args: argparse.Namespace) -> bool:
     """Whether any tracker option flag was given (they need an abduction backend)."""
-    from ..options import TrackerOptions
-    return any(getattr(args, name, None) is not None for name in TrackerOptions.names())
+    return bool(_option_overrides(args))
 
 
 def _plan(args: argparse.Namespace):
