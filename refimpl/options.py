@@ -122,6 +122,12 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero"),
+    TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
+                  "a halted track's prediction keeps its size and a bounded constant velocity "
+                  "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),
+    TrackerOption("reupdate_on_resume", _switch("reupdate_on_resume"), ("yes", "no"),
+                  "a resumed track's filter is re-run over the gap along the interpolated box "
+                  "(observation-centric re-update, the idea of OC-SORT's ORU) instead of one plain update"),
 )
 """Every tracker option, in the order of the command line's help and of the tables."""
 
@@ -138,6 +144,8 @@ class TrackerOptions:
     backfill: bool = False
     fill_hidden: int = 0
     scene_velocity: bool = False
+    hold_hidden: bool = False
+    reupdate_on_resume: bool = False
 
     def __post_init__(self) -> None:
         for option in TRACKER_OPTIONS:
@@ -175,6 +183,7 @@ class TrackerOptions:
 
 def option_flags(*before: str) -> str:
     """Flags for a message, the tracker options' last: option_flags("--const") ==
-    '--const, --written-box, --velocity-noise, --backfill, --fill-hidden and --scene-velocity'."""
+    '--const, --written-box, --velocity-noise, --backfill, --fill-hidden, --scene-velocity, --hold-hidden
+    and --reupdate-on-resume'."""
     flags = [*before, *(o.flag for o in TRACKER_OPTIONS)]
     return ", ".join(flags[:-1]) + " and " + flags[-1]

@@ -44,7 +44,7 @@ from .geometry import integer_box, iou_matrix, scale_iou
 from .events import explaining
 from .hypothesis import Hypothesis
 from .motion import BoxKalman, InvalidPrediction
-from .options import DEFAULT_WRITTEN_BOX, TrackerOptions, WrittenBox
+from .options import TrackerOptions, WrittenBox
 from .ranges import check_ranges
 from .solvers import DEFAULT_BACKEND, Solver, get_solver
 from .spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
@@ -134,17 +134,12 @@ class AbductionTracker:
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
-                 compact_history: bool = True, hold_hidden: bool = False, reupdate_on_resume: bool = False,
-                 sink: ResultSink | None = None, keep_records: bool = True,
-                 written_box: WrittenBox | str = DEFAULT_WRITTEN_BOX, velocity_noise: float = 1.0,
-                 backfill: bool = False, scene_velocity: bool = False, fill_hidden: int = 0):
-        """written_box, velocity_noise, backfill, fill_hidden, scene_velocity: the tracker options
-        (refimpl.options.TRACKER_OPTIONS; the module docstring says what each writes).
-
-        hold_hidden: a halted track's prediction keeps constant velocity, bounded, with its size
-        frozen (BoxKalman.predict(hold=True)); reupdate_on_resume: a resume re-runs the filter along
-        the box interpolated over the gap (BoxKalman.reupdate).  Both off by default (issue 12,
-        item 4; measured in docs/tracking.md).
+                 compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True,
+                 **options: object):
+        """``**options``: the tracker options by name (refimpl.options.TRACKER_OPTIONS: written_box,
+        velocity_noise, backfill, fill_hidden, scene_velocity, hold_hidden, reupdate_on_resume; the
+        module docstring says what each writes; docs/tracking.md measures them); ValueError for an
+        unknown name or a bad value.
 
         ``sink``: results rows and events are handed to it as soon as they are final (a frame's
         rows once no later frame can add any: bridged-gap interpolation reaches back at most
@@ -153,14 +148,14 @@ class AbductionTracker:
         observed box of a live one), so its memory does not grow with the sequence; then
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
         self.solver = solver
-        options = TrackerOptions(written_box, velocity_noise, backfill, fill_hidden, scene_velocity)  # ValueError if bad
-        self.written_box = options.written_box
-        self.velocity_noise = options.velocity_noise
-        self.backfill = options.backfill
-        self.scene_velocity = options.scene_velocity
-        self.fill_hidden = options.fill_hidden
-        self.hold_hidden = hold_hidden
-        self.reupdate_on_resume = reupdate_on_resume
+        chosen = TrackerOptions.from_mapping(options)  # ValueError if unknown or bad
+        self.written_box = chosen.written_box
+        self.velocity_noise = chosen.velocity_noise
+        self.backfill = chosen.backfill
+        self.scene_velocity = chosen.scene_velocity
+        self.fill_hidden = chosen.fill_hidden
+        self.hold_hidden = chosen.hold_hidden
+        self.reupdate_on_resume = chosen.reupdate_on_resume
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
         self.min_hits = min_hits
@@ -431,8 +426,7 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
-                   compact_history: bool = True, hold_hidden: bool = False,
-                   reupdate_on_resume: bool = False, sink: ResultSink | None = None,
+                   compact_history: bool = True, sink: ResultSink | None = None,
                    keep_records: bool = True, **options: object) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
@@ -449,7 +443,7 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
-                               hold_hidden, reupdate_on_resume, sink=sink, keep_records=keep_records, **options)
+                               sink=sink, keep_records=keep_records, **options)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()

@@ -10,7 +10,8 @@ import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
 from refimpl.options import OPTIONS_BY_NAME, TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
-from refimpl.tracker import track_sequence
+from refimpl.solvers import get_solver
+from refimpl.tracker import AbductionTracker, track_sequence
 from test_streaming import _walk
 from test_tracker import _occlusion_sequence
 
@@ -18,9 +19,11 @@ from test_tracker import _occlusion_sequence
 def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker():
     assert tuple(f.name for f in dataclasses.fields(TrackerOptions)) == TrackerOptions.names()
     assert TrackerOptions().as_dict() == {"written_box": "filtered", "velocity_noise": 1.0, "backfill": False,
-                                          "fill_hidden": 0, "scene_velocity": False}
+                                          "fill_hidden": 0, "scene_velocity": False, "hold_hidden": False,
+                                          "reupdate_on_resume": False}
     assert TrackerOptions().changed() == {}
-    assert option_flags() == "--written-box, --velocity-noise, --backfill, --fill-hidden and --scene-velocity"
+    assert option_flags() == ("--written-box, --velocity-noise, --backfill, --fill-hidden, --scene-velocity, "
+                              "--hold-hidden and --reupdate-on-resume")
     assert option_flags("--const").startswith("--const, --written-box, ")
 
 
@@ -37,7 +40,7 @@ def test_option_values_parse_from_their_text_and_round_trip_through_presets_json
             TrackerOptions.from_mapping({name: bad})
     with pytest.raises(ValueError, match="unknown tracker option"):
         TrackerOptions.from_mapping({"nosuch": 1})
-    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no") and len(TRACKER_OPTIONS) == 5
+    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no") and len(TRACKER_OPTIONS) == 7
 
 
 def _rows_of(result, number: int) -> list[int]:
@@ -191,8 +194,8 @@ def test_cli_option_flags_are_refused_for_the_baseline_and_checked(tmp_path, cap
     out = str(tmp_path / "o.txt")
     assert main(["track", "--dets", str(DEMO), "--backend", "baseline", "--out", out, "--scene-velocity", "yes"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --backfill, --fill-hidden and " \
-        "--scene-velocity need an abduction" in err
+    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --backfill, --fill-hidden, " \
+        "--scene-velocity, --hold-hidden and --reupdate-on-resume need an abduction" in err
     with pytest.raises(SystemExit) as exc:
         main(["track", "--dets", str(DEMO), "--out", out, "--backfill", "maybe"])
     assert exc.value.code == 2 and "invalid choice: 'maybe'" in capsys.readouterr().err
@@ -235,3 +238,15 @@ def test_filled_episodes_stream_to_the_same_file(keep_records):
     track_sequence(seq, backend="cpsat", fill_hidden=19, sink=ResultWriter(out, first_frame=1),
                    keep_records=keep_records)
     assert out.getvalue() == format_mot_results(result.rows, 1)
+
+
+def test_motion_options_are_rows_of_the_table_parsed_like_the_others():
+    # hold_hidden and reupdate_on_resume (docs/tracking.md, "Motion while hidden") are tracker
+    # options: text values parse, a bad value or an unknown name is one ValueError naming it
+    tracker = AbductionTracker(get_solver("cpsat"), {}, hold_hidden="yes", reupdate_on_resume="no")
+    assert tracker.hold_hidden is True and tracker.reupdate_on_resume is False
+    with pytest.raises(ValueError, match="hold_hidden"):
+        AbductionTracker(get_solver("cpsat"), {}, hold_hidden="maybe")
+    with pytest.raises(ValueError, match="unknown tracker option"):
+        AbductionTracker(get_solver("cpsat"), {}, hold=True)
+    assert OPTIONS_BY_NAME["reupdate_on_resume"].flag == "--reupdate-on-resume"
