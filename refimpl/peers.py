@@ -231,7 +231,30 @@ def comparison_table(c: Comparison) -> str:
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 
 
-def comparison_report(comparisons, command: str, machine: str) -> str:
+def per_sequence_table(c: Comparison) -> str:
+    """Markdown: one row per sequence, one column per tracker, each cell HOTA / IDF1 / IDs; the last
+    column names the tracker with the best IDF1 on that sequence ('-' for a sequence without targets,
+    ties named together), and the last row counts, per tracker, the sequences it is best on."""
+    head = "| sequence | " + " | ".join(s.label for s in c.scores) + " | best IDF1 |"
+    lines = [head, "|---|" + "---:|" * len(c.scores) + "---|"]
+    wins = [0] * len(c.scores)
+    for seq in c.scores[0].per_sequence:
+        rows = [s.per_sequence[seq] for s in c.scores]
+        cells = [f"{_pct(r.get('hota'))} / {_pct(r['idf1'])} / {r['idsw']}" for r in rows]
+        if rows[0]["num_gt"]:
+            top = max(round(float(r["idf1"]), 6) for r in rows)
+            best = [k for k, r in enumerate(rows) if round(float(r["idf1"]), 6) == top]
+            for k in best:
+                wins[k] += 1
+            name = ", ".join(c.scores[k].label for k in best)
+        else:
+            name = "- (no targets)"
+        lines.append(f"| {seq} | " + " | ".join(cells) + f" | {name} |")
+    lines.append("| best IDF1 on | " + " | ".join(str(w) for w in wins) + " | |")
+    return "\n".join(lines) + "\n"
+
+
+def comparison_report(comparisons, command: str, machine: str, per_sequence: bool = False) -> str:
     """The generated section of docs/peers.md: the command, then a table per dataset."""
     out = [f"Command: `{command}`  \nMachine: {machine}.\n"]
     for c in comparisons:
@@ -239,6 +262,8 @@ def comparison_report(comparisons, command: str, machine: str) -> str:
         out.append(f"### {c.title}\n\n{c.scores[0].frames} frames, {o['num_unique_objects']} targets, "
                    f"{o['num_gt']} target boxes.\n")
         out.append(comparison_table(c))
+        if per_sequence:
+            out.append(f"Per sequence (HOTA / IDF1 / IDs):\n\n{per_sequence_table(c)}")
     out.append("HOTA, DetA, AssA: TrackEval's HOTA ('-' where refimpl.evaluate does not provide it yet); "
                "MOTA, IDF1, IDs (ID switches), Frag, FP, FN: CLEAR MOT / IDF1 via motmetrics, all on the "
                "same rows (refimpl.evaluate: distractor and DontCare handling). fps: frames / seconds of the "

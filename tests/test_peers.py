@@ -127,6 +127,28 @@ def test_unknown_peer_is_a_one_line_user_error(capsys):
     assert "--peers takes" in err and "\n" not in err
 
 
+def test_per_sequence_table_names_the_best_idf1_per_sequence_and_counts_the_wins():
+    # two trackers on three sequences: A has the better IDF1 on s1 (0.80 > 0.70), they tie on s2
+    # (0.5 each: both named, both counted), s3 has no targets (no winner); so A wins 2, B wins 1
+    def seq(idf1, hota, idsw, num_gt=10):
+        return {"idf1": idf1, "hota": hota, "idsw": idsw, "num_gt": num_gt}
+    a = peers.TrackerScore("A", {}, {"s1": seq(0.80, 0.7, 1), "s2": seq(0.5, 0.4, 2), "s3": seq(0.0, 0.0, 0, 0)}, 9, 1.0)
+    b = peers.TrackerScore("B", {}, {"s1": seq(0.70, 0.75, 0), "s2": seq(0.5, 0.45, 3), "s3": seq(0.0, 0.0, 0, 0)}, 9, 1.0)
+    table = peers.per_sequence_table(peers.Comparison("x", "x", (a, b), {}))
+    lines = table.splitlines()
+    assert lines[0] == "| sequence | A | B | best IDF1 |"
+    assert lines[2] == "| s1 | 70.0 / 80.0 / 1 | 75.0 / 70.0 / 0 | A |"
+    assert lines[3] == "| s2 | 40.0 / 50.0 / 2 | 45.0 / 50.0 / 3 | A, B |"
+    assert lines[4].endswith("| - (no targets) |")
+    assert lines[5] == "| best IDF1 on | 2 | 1 | |"
+
+
+def test_per_sequence_without_peers_is_a_one_line_user_error(capsys):
+    assert main(["benchmark", "mot15", "--per-sequence", "--data", "/nonexistent"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--per-sequence is for the peer comparison" in err and "\n" not in err
+
+
 # ---------------------------------------------------------------------------------------
 # presets
 

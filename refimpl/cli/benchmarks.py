@@ -24,6 +24,9 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         return _benchmark_peers(args)
     if args.out:
         raise UserError("--out writes the peer comparison: give --peers too")
+    if args.per_sequence:
+        raise UserError("--per-sequence is for the peer comparison (without --peers every sequence is "
+                        "printed already): give --peers too")
     if args.backend == BASELINE and (args.const or _option_flags_given(args)):
         raise UserError(f"{option_flags('--const')} need an abduction backend ({', '.join(BACKENDS)})")
     plan = _plan(args)
@@ -50,7 +53,7 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 def _benchmark_peers(args: argparse.Namespace) -> int:
     """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
     from ..benchmarks import format_command, machine_note, write_section
-    from ..peers import PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table
+    from ..peers import PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, per_sequence_table
     from ..datasets import dataset_kind, load_dataset
     peers = [p.strip() for p in args.peers.split(",") if p.strip()]
     unknown = [p for p in peers if p not in PEERS]
@@ -69,13 +72,16 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
         comparisons.append(c)
         print(f"## {c.title}\n")
         print(comparison_table(c))
+        if args.per_sequence:
+            print(f"Per sequence (HOTA / IDF1 / IDs):\n\n{per_sequence_table(c)}")
         report[name] = {s.label: {"overall": s.overall, "per_sequence": s.per_sequence, "frames": s.frames,
                                   "seconds": s.seconds, "parameters": s.parameters} for s in c.scores}
         report[name]["constants"] = c.constants
         report[name]["tracker_options"] = dict(c.options)
     if args.out:
         write_section(args.out, PEERS_BEGIN, PEERS_END,
-                      comparison_report(comparisons, format_command(sys.argv[1:]), machine_note()))
+                      comparison_report(comparisons, format_command(sys.argv[1:]), machine_note(),
+                                        args.per_sequence))
         print(f"written: {args.out}")
     if args.json:
         from ..io import write_text_atomic

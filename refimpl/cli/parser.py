@@ -145,6 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
                         f"baseline, abduction (--backend, {DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
+    b.add_argument("--per-sequence", action="store_true",
+                   help="with --peers: also a table per dataset of every sequence (HOTA / IDF1 / IDs per tracker)")
     b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
     b.add_argument("--no-preset", action="store_true",
