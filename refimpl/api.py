@@ -48,8 +48,8 @@ class Tracker:
         field-of-view border).  Without it the border is not tested, as for a det.txt
         without seqinfo.ini.
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
-    **options: the tracker options by name (refimpl.options.TRACKER_OPTIONS: written_box,
-        velocity_noise, backfill, fill_hidden, scene_velocity), e.g. ``written_box="detection"`` (what the KITTI
+    **options: the tracker options by name (refimpl.options.TRACKER_OPTIONS), e.g.
+        ``written_box="detection"`` (what the KITTI
         Car preset of ``refimpl track`` chooses, docs/peers.md).  The API applies no preset.
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
     first_frame: the number of the first frame (1 as MOTChallenge, 0 as KITTI).

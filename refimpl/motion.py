@@ -124,11 +124,12 @@ def measurement_noise() -> np.ndarray:
     return np.diag([MEASUREMENT_POSITION_VARIANCE] * 2 + [MEASUREMENT_SHAPE_VARIANCE] * 2)
 
 
-def process_noise(velocity_noise: float = 1.0) -> np.ndarray:
+def process_noise(velocity_noise: float = 1.0, area_noise: float = 1.0) -> np.ndarray:
     """Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001), the velocity block (du, dv, ds) times
-    ``velocity_noise`` (1: SORT's values)."""
+    ``velocity_noise`` and the area s times ``area_noise`` (1, 1: SORT's values)."""
     v = float(velocity_noise)
-    return np.diag([PROCESS_STATE_VARIANCE] * 4 + [PROCESS_VELOCITY_VARIANCE * v] * 2
+    return np.diag([PROCESS_STATE_VARIANCE] * 2 + [PROCESS_STATE_VARIANCE * float(area_noise)]
+                   + [PROCESS_STATE_VARIANCE] + [PROCESS_VELOCITY_VARIANCE * v] * 2
                    + [PROCESS_AREA_VELOCITY_VARIANCE * v])
 
 
@@ -142,21 +143,28 @@ class BoxKalman:
       time_since_update   predictions since the last update (0 right after an update or at creation)
     """
 
-    def __init__(self, box_xywh, velocity_noise: float = 1.0, velocity=None):
+    def __init__(self, box_xywh, velocity_noise: float = 1.0, velocity=None, area_noise: float = 1.0):
         """velocity_noise: the factor on SORT's process noise of the velocities (process_noise):
         larger lets the velocity follow faster changes, e.g. a car at 10 fps (refimpl decision, a
         tracker option; 1 is SORT).  velocity: the centre's initial (du, dv) in pixels per frame
         (default zero, SORT's start; the tracker option scene_velocity gives the scene's); its
-        covariance stays INITIAL_VELOCITY_VARIANCE, so the first updates still correct it."""
-        if not (np.isfinite(velocity_noise) and velocity_noise > 0):
-            raise ValueError(f"velocity_noise must be a positive finite number, got {velocity_noise!r}")
+        covariance stays INITIAL_VELOCITY_VARIANCE, so the first updates still correct it.
+        area_noise: the factor on SORT's process noise of the area s (process_noise).  SORT's 1 px^4
+        against a measurement noise of 10 makes the filter trust its area velocity ten times more
+        than a detected area, so a box whose size changes fast (a car passing close by at 10 fps)
+        is followed with a lag, and the area velocity overshoots; a large factor (1e4) lets the
+        filtered area follow the detections (refimpl decision, a tracker option; docs/tracking.md)."""
+        for name, value in (("velocity_noise", velocity_noise), ("area_noise", area_noise)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive finite number, got {value!r}")
         kf = KalmanFilter(dim_x=DIM_X, dim_z=DIM_Z)
         kf.F = transition_matrix()
         kf.H = measurement_matrix()
         kf.P = initial_covariance()
         kf.R = measurement_noise()
-        kf.Q = process_noise(velocity_noise)
+        kf.Q = process_noise(velocity_noise, area_noise)
         self.velocity_noise = float(velocity_noise)
+        self.area_noise = float(area_noise)
         kf.x = np.zeros((DIM_X, 1))
         kf.x[:DIM_Z, 0] = xywh_to_z(box_xywh)
         if velocity is not None:

@@ -112,6 +112,9 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "the update (SORT's output)"),
     TrackerOption("velocity_noise", _positive("velocity_noise"), None,
                   "the factor on the process noise of the Kalman filter's velocities (1: SORT's filter)"),
+    TrackerOption("area_noise", _positive("area_noise"), None,
+                  "the factor on the process noise of the Kalman filter's box area (1: SORT's filter; large: "
+                  "the filtered size follows the detections)"),
     TrackerOption("backfill", _switch("backfill"), ("yes", "no"),
                   "when a track is confirmed (min_hits consecutive updates), also write the earlier frames "
                   "of that streak, a new track's first frame included (results final min_hits frames late)"),
@@ -141,6 +144,7 @@ class TrackerOptions:
 
     written_box: WrittenBox = DEFAULT_WRITTEN_BOX
     velocity_noise: float = 1.0
+    area_noise: float = 1.0
     backfill: bool = False
     fill_hidden: int = 0
     scene_velocity: bool = False
@@ -183,7 +187,7 @@ class TrackerOptions:
 
 def option_flags(*before: str) -> str:
     """Flags for a message, the tracker options' last: option_flags("--const") ==
-    '--const, --written-box, --velocity-noise, --backfill, --fill-hidden, --scene-velocity, --hold-hidden
-    and --reupdate-on-resume'."""
+    '--const, --written-box, --velocity-noise, --area-noise, --backfill, --fill-hidden,
+    --scene-velocity, --hold-hidden and --reupdate-on-resume'."""
     flags = [*before, *(o.flag for o in TRACKER_OPTIONS)]
     return ", ".join(flags[:-1]) + " and " + flags[-1]

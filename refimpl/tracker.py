@@ -136,10 +136,9 @@ class AbductionTracker:
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True,
                  **options: object):
-        """``**options``: the tracker options by name (refimpl.options.TRACKER_OPTIONS: written_box,
-        velocity_noise, backfill, fill_hidden, scene_velocity, hold_hidden, reupdate_on_resume; the
-        module docstring says what each writes; docs/tracking.md measures them); ValueError for an
-        unknown name or a bad value.
+        """``**options``: the tracker options by name (refimpl.options.TRACKER_OPTIONS; the module
+        docstring says what the writing ones write; docs/tracking.md measures them); ValueError for
+        an unknown name or a bad value.
 
         ``sink``: results rows and events are handed to it as soon as they are final (a frame's
         rows once no later frame can add any: bridged-gap interpolation reaches back at most
@@ -151,6 +150,7 @@ class AbductionTracker:
         chosen = TrackerOptions.from_mapping(options)  # ValueError if unknown or bad
         self.written_box = chosen.written_box
         self.velocity_noise = chosen.velocity_noise
+        self.area_noise = chosen.area_noise
         self.backfill = chosen.backfill
         self.scene_velocity = chosen.scene_velocity
         self.fill_hidden = chosen.fill_hidden
@@ -221,7 +221,8 @@ class AbductionTracker:
         try:
             return trk.kalman.predict(hold)
         except InvalidPrediction:
-            trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise)
+            trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise,
+                                   area_noise=trk.kalman.area_noise)
             return trk.kalman.predict()
 
     # -- steps 2-3 and the update ------------------------------------------------------------
@@ -301,7 +302,7 @@ class AbductionTracker:
         for j in sorted(index[d] for d in hyp.starts):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
-            kalman = BoxKalman(boxes[j], self.velocity_noise, scene)
+            kalman = BoxKalman(boxes[j], self.velocity_noise, scene, self.area_noise)
             trk = _Track(trk_id, types[j], kalman)
             trk.observed[frame] = self._written(kalman, boxes[j])
             self._confirm(trk, frame)

@@ -18,12 +18,12 @@ from test_tracker import _occlusion_sequence
 
 def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker():
     assert tuple(f.name for f in dataclasses.fields(TrackerOptions)) == TrackerOptions.names()
-    assert TrackerOptions().as_dict() == {"written_box": "filtered", "velocity_noise": 1.0, "backfill": False,
+    assert TrackerOptions().as_dict() == {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "backfill": False,
                                           "fill_hidden": 0, "scene_velocity": False, "hold_hidden": False,
                                           "reupdate_on_resume": False}
     assert TrackerOptions().changed() == {}
-    assert option_flags() == ("--written-box, --velocity-noise, --backfill, --fill-hidden, --scene-velocity, "
-                              "--hold-hidden and --reupdate-on-resume")
+    assert option_flags() == ("--written-box, --velocity-noise, --area-noise, --backfill, --fill-hidden, "
+                              "--scene-velocity, --hold-hidden and --reupdate-on-resume")
     assert option_flags("--const").startswith("--const, --written-box, ")
 
 
@@ -40,7 +40,7 @@ def test_option_values_parse_from_their_text_and_round_trip_through_presets_json
             TrackerOptions.from_mapping({name: bad})
     with pytest.raises(ValueError, match="unknown tracker option"):
         TrackerOptions.from_mapping({"nosuch": 1})
-    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no") and len(TRACKER_OPTIONS) == 7
+    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no") and len(TRACKER_OPTIONS) == 8
 
 
 def _rows_of(result, number: int) -> list[int]:
@@ -194,7 +194,7 @@ def test_cli_option_flags_are_refused_for_the_baseline_and_checked(tmp_path, cap
     out = str(tmp_path / "o.txt")
     assert main(["track", "--dets", str(DEMO), "--backend", "baseline", "--out", out, "--scene-velocity", "yes"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --backfill, --fill-hidden, " \
+    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --area-noise, --backfill, --fill-hidden, " \
         "--scene-velocity, --hold-hidden and --reupdate-on-resume need an abduction" in err
     with pytest.raises(SystemExit) as exc:
         main(["track", "--dets", str(DEMO), "--out", out, "--backfill", "maybe"])
