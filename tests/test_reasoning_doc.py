@@ -97,10 +97,11 @@ def test_command_parses(lineno, args):
     assert callable(getattr(ns, "func", None)), f"docs/reasoning.md:{lineno}: no command selected"
 
 
-PINNED_PRESET = ("--const", "conf_thresh_new_track=80", "--const", "conf_thresh_assign=60", "--const",
+PINNED_PRESET = ("--no-preset", "--const", "conf_thresh_new_track=80", "--const", "conf_thresh_assign=60", "--const",
                  "iou_thresh=20000", "--const", "conf_thresh_resume=50", "--const", "iou_thresh_resume=10000",
                  "--written-box", "detection", "--velocity-noise", "10", "--backfill", "no", "--fill-hidden", "0")
-"""The KITTI Car preset the doc's examples were made with, as the doc's command spells it out."""
+"""The KITTI Car preset the doc's examples were made with, as the doc's command spells it out: on
+top of the defaults (--no-preset), so that a later preset's new constant or option cannot change it."""
 
 
 def test_doc_pins_the_preset_its_examples_were_made_with():
