@@ -127,10 +127,10 @@ def measurement_noise() -> np.ndarray:
 def process_noise(velocity_noise: float = 1.0, area_noise: float = 1.0) -> np.ndarray:
     """Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001), the velocity block (du, dv, ds) times
     ``velocity_noise`` and the area s times ``area_noise`` (1, 1: SORT's values)."""
-    v = float(velocity_noise)
-    return np.diag([PROCESS_STATE_VARIANCE] * 2 + [PROCESS_STATE_VARIANCE * float(area_noise)]
-                   + [PROCESS_STATE_VARIANCE] + [PROCESS_VELOCITY_VARIANCE * v] * 2
-                   + [PROCESS_AREA_VELOCITY_VARIANCE * v])
+    q = np.diag([PROCESS_STATE_VARIANCE] * 4 + [PROCESS_VELOCITY_VARIANCE] * 2 + [PROCESS_AREA_VELOCITY_VARIANCE])
+    q[2, 2] *= float(area_noise)
+    q[4:, 4:] *= float(velocity_noise)
+    return q
 
 
 class BoxKalman:

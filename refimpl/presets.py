@@ -3,7 +3,7 @@ chosen automatically.
 
 ``refimpl track --format kitti --class Car`` (and ``refimpl benchmark kitti-car...``) runs the
 abduction tracker with the preset of (kitti, car): its constants on top of model/constants.lp and
-its tracker options (refimpl.tracker.TrackerOptions, e.g. which box is written); ``--const
+its tracker options (refimpl.options.TrackerOptions, e.g. which box is written); ``--const
 NAME=VALUE`` and the tracker option flags (``--written-box``, ...; refimpl.options) override them.  A (format, class) without a preset, or
 ``--no-preset``, runs with the model's defaults and the tracker's default options.
 
