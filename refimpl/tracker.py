@@ -263,7 +263,9 @@ class AbductionTracker:
                 recent = sorted({*recent, trk.episode[0]})
             if len(trk.observed) > len(recent):
                 trk.observed = {f: trk.observed[f] for f in recent}
-            trk.confirmed &= {recent[-1]}
+            # which of the kept frames are already written: a later confirmation (backfill, an
+            # occlusion episode) walks back over exactly these, and must not write one twice
+            trk.confirmed &= set(recent)
             trk.gaps.clear()
             trk.halted.clear()
 
