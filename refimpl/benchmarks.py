@@ -358,8 +358,7 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
     """Frames per second of the whole tracking loop per tracker and sequence (files read beforehand;
     every sequence is tracked by every tracker in turn, in an order rotated from sequence to sequence)."""
     from . import io
-    from .baseline import track_sequence as sort_sequence
-    from .tracker import track_sequence
+    from .pipeline import Setup, run_sequence
 
     for tr in trackers:
         if tr not in THROUGHPUT_TRACKERS:
@@ -377,11 +376,7 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
         for tr in order:
             solver = None if tr == BASELINE else get_solver(tr)
             t0 = time.perf_counter()
-            if tr == BASELINE:
-                sort_sequence(seq)
-                not_optimal = 0
-            else:
-                not_optimal = track_sequence(seq, solver=solver).not_optimal_frames
+            not_optimal = run_sequence(seq, Setup(tr), solver=solver).not_optimal_frames
             secs = time.perf_counter() - t0
             fast = solver.stats.get("fast") if getattr(solver, "fast_path", False) else None
             runs.append(SequenceRun(bench, name, tr, len(seq.frames), secs, not_optimal, fast))

@@ -18,7 +18,7 @@ from .check import check_answer
 from .hypothesis import Hypothesis
 from .solvers import ORACLE_PAIR, Solver, get_solver
 from .spec import FrameProblem
-from .tracker import track_sequence
+from .pipeline import Setup, run_sequence
 
 DEFAULT_BACKENDS = ORACLE_PAIR
 DEFAULT_TIME_LIMIT = 20.0
@@ -144,6 +144,6 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
             if report.first_divergence is None:
                 report.first_divergence = Divergence(problem.time, problem, answers, explanation)
 
-    track_sequence(seq, backends[0], constants=constants, observer=observe, solver=solvers[0],
-                   time_limit=time_limit)
+    setup = Setup(backends[0], tuple((constants or {}).items()), time_limit=time_limit)
+    run_sequence(seq, setup, observer=observe, solver=solvers[0])
     return report

@@ -127,11 +127,10 @@ def score(scenario: Scenario, variant: str, rows: np.ndarray, events=()) -> Scen
 
 def run_variant(scenario: Scenario, variant: str) -> ScenarioResult:
     head, options = parse_variant(variant)
-    if head == BASELINE:
-        from .baseline import track_sequence as sort_track
-        return score(scenario, variant, sort_track(scenario.detections))
-    from .tracker import track_sequence
-    result = track_sequence(scenario.detections, backend=head, **options)
+    from .options import TrackerOptions
+    from .pipeline import Setup, run_sequence
+    setup = Setup(head) if head == BASELINE else Setup(head, options=TrackerOptions.from_mapping(options))
+    result = run_sequence(scenario.detections, setup)
     return score(scenario, variant, result.rows, result.events)
 
 

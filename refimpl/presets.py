@@ -24,6 +24,9 @@ from .constants import default_constants, model_dir
 from .options import TrackerOptions
 
 PRESETS_FILE = "presets.json"
+DEFAULT_KEY = "default"
+"""The preset a (format, class) without its own runs with: chosen for robustness across every
+tuning set at once (refimpl calibrate --robust), not one set's optimum."""
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,12 @@ class Preset:
     tracker: TrackerOptions = TrackerOptions()
     """The tracker options of the preset (the "tracker" entry; defaults where it is absent)."""
 
+    @property
+    def name(self) -> str:
+        """Its key in the presets file: ``format/class``, or ``default`` for the robust default."""
+        return DEFAULT_KEY if (self.format, self.object_class) == ("*", "*") else preset_key(self.format,
+                                                                                              self.object_class)
+
 
 def preset_key(fmt: str, object_class: str) -> str:
     return f"{fmt.lower()}/{object_class.lower()}"
@@ -52,7 +61,7 @@ def _parse(data: Mapping, source: Path) -> dict[str, Preset]:
     known = default_constants()
     out = {}
     for key, entry in data.items():
-        fmt, _, cls = key.partition("/")
+        fmt, _, cls = ("*", "/", "*") if key == DEFAULT_KEY else key.partition("/")
         consts = {str(k): int(v) for k, v in entry["constants"].items()}
         unknown = sorted(set(consts) - set(known))
         if unknown or not cls:
@@ -81,31 +90,52 @@ def preset_for(fmt: str, object_class: str, path: str | Path | None = None) -> P
     return load_presets(path).get(preset_key(fmt, object_class))
 
 
-def constants_for(fmt: str, object_class: str, overrides: Mapping[str, int] | None = None,
-                  path: str | Path | None = None, use_preset: bool = True) -> dict[str, int]:
-    """The constants the tracker runs with beyond model/constants.lp: the preset (unless
-    ``use_preset`` is false), then overrides.
+def preset_named(name: str, path: str | Path | None = None) -> Preset:
+    """The preset stored under this name (``kitti/car``, ``default``); ValueError naming the known ones."""
+    presets = load_presets(path)
+    key = name.lower()
+    if key not in presets:
+        raise ValueError(f"unknown preset {name!r} (known: {', '.join(sorted(presets)) or 'none'})")
+    return presets[key]
 
-    Unknown override names are an error (``ValueError`` naming the known constants).
-    """
+
+def resolve_preset(fmt: str, object_class: str, path: str | Path | None = None) -> Preset | None:
+    """The preset a (format, class) runs with: its own, else the robust default, else none."""
+    presets = load_presets(path)
+    return presets.get(preset_key(fmt, object_class), presets.get(DEFAULT_KEY))
+
+
+def merge_constants(preset: Preset | None, overrides: Mapping[str, int] | None = None) -> dict[str, int]:
+    """The preset's constants (none without one), then overrides; ValueError for an unknown name."""
     known = default_constants()
     for name in overrides or {}:
         if name not in known:
             raise ValueError(f"unknown constant {name!r} (known: {', '.join(sorted(known))})")
-    preset = preset_for(fmt, object_class, path) if use_preset else None
     merged = dict(preset.constants) if preset else {}
     merged.update({k: int(v) for k, v in (overrides or {}).items()})
     return merged
 
 
-def options_for(fmt: str, object_class: str, overrides: Mapping[str, object] | None = None,
-                path: str | Path | None = None, use_preset: bool = True) -> TrackerOptions:
-    """The tracker options to run with: the preset's (unless ``use_preset`` is false; the
-    defaults without one), then overrides {name: value} (ValueError for an unknown name or value)."""
-    preset = preset_for(fmt, object_class, path) if use_preset else None
+def merge_options(preset: Preset | None, overrides: Mapping[str, object] | None = None) -> TrackerOptions:
+    """The preset's tracker options (the defaults without one), then overrides {name: value}."""
     values: dict[str, object] = dict((preset.tracker if preset else TrackerOptions()).as_dict())
     values.update(overrides or {})
     return TrackerOptions.from_mapping(values)
+
+
+def constants_for(fmt: str, object_class: str, overrides: Mapping[str, int] | None = None,
+                  path: str | Path | None = None, use_preset: bool = True) -> dict[str, int]:
+    """The constants the tracker runs with beyond model/constants.lp: the preset of (format, class)
+    by :func:`resolve_preset` (unless ``use_preset`` is false), then overrides (ValueError for an
+    unknown name)."""
+    return merge_constants(resolve_preset(fmt, object_class, path) if use_preset else None, overrides)
+
+
+def options_for(fmt: str, object_class: str, overrides: Mapping[str, object] | None = None,
+                path: str | Path | None = None, use_preset: bool = True) -> TrackerOptions:
+    """The tracker options to run with: the preset's by :func:`resolve_preset` (unless
+    ``use_preset`` is false; the defaults without one), then overrides {name: value}."""
+    return merge_options(resolve_preset(fmt, object_class, path) if use_preset else None, overrides)
 
 
 def write_preset(preset: Preset, path: str | Path | None = None) -> Path:
@@ -114,7 +144,7 @@ def write_preset(preset: Preset, path: str | Path | None = None) -> Path:
 
     p = Path(path) if path is not None else presets_path()
     data = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
-    data[preset_key(preset.format, preset.object_class)] = {
+    data[preset.name] = {
         "constants": dict(sorted(preset.constants.items())), "tracker": preset.tracker.as_dict(),
         "tuned_on": preset.tuned_on, "procedure": preset.procedure}
     write_text_atomic(p, json.dumps(dict(sorted(data.items())), indent=2) + "\n")

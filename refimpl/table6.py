@@ -32,12 +32,13 @@ class BenchmarkRun:
 
 def run_tracker(seq, tracker: str, constants=None, options=None):
     """Results rows and events of one sequence with 'baseline' (SORT) or an abduction backend
-    (with these model constants on top of model/constants.lp and these TrackerOptions)."""
-    if tracker == BASELINE:
-        from .baseline import track_sequence
-        return track_sequence(seq), ()
-    from .tracker import track_sequence
-    result = track_sequence(seq, backend=tracker, constants=constants, **(options.kwargs() if options else {}))
+    (with these model constants on top of model/constants.lp and these TrackerOptions), through
+    the one pipeline (refimpl.pipeline)."""
+    from .pipeline import Setup, run_sequence
+    from .options import TrackerOptions
+    setup = Setup(tracker) if tracker == BASELINE else \
+        Setup(tracker, tuple((constants or {}).items()), options or TrackerOptions())
+    result = run_sequence(seq, setup)
     return result.rows, result.events
 
 

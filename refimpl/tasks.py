@@ -22,8 +22,9 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from .io import DetectionSequence, GroundTruth
-from .solvers import BASELINE
 from .options import TrackerOptions
+from .pipeline import NONE, Setup, run_sequence
+from .solvers import BASELINE
 
 
 # ---------------------------------------------------------------------------------------
@@ -33,12 +34,9 @@ from .options import TrackerOptions
 @dataclass(frozen=True)
 class TrackJob:
     seq: DetectionSequence
-    backend: str
-    time_limit: float | None = None
+    setup: Setup
     check: bool = False
     scene: bool = False
-    constants: tuple[tuple[str, int], ...] = ()
-    options: TrackerOptions = TrackerOptions()
 
 
 @dataclass(frozen=True)
@@ -55,36 +53,36 @@ class TrackOutput:
     scene: object | None = None
 
 
+class AnswerCheck:
+    """The independent checker on every frame's answer (``--check``): counts and one line per
+    frame whose answer breaks a rule or whose cost vector differs (refimpl.check)."""
+
+    def __init__(self, report: Callable[[str], None] | None = None) -> None:
+        self.checked = 0
+        self.violations: list[str] = []
+        self.report = report
+
+    def __call__(self, problem, hyp) -> None:
+        from .check import check_answer
+        found = check_answer(problem, hyp)
+        self.checked += 1
+        if found.violations or found.cost != hyp.cost:
+            line = f"frame {problem.time}: {'; '.join(found.messages) or 'the cost vector differs'}"
+            self.violations.append(line)
+            if self.report is not None:
+                self.report(line)
+
+
 def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> TrackOutput:
-    """Track one sequence with the baseline or an abduction backend (optionally checking each answer)."""
-    if job.backend == BASELINE:
-        from .baseline import track_sequence as sort_track
-        return TrackOutput(job.seq.name, sort_track(job.seq), (), len(job.seq.frames))
-    from .tracker import track_sequence
-    checked = 0
-    violations: list[str] = []
-
-    def observe(problem, hyp) -> None:
-        nonlocal checked
-        if job.check:
-            from .check import check_answer
-            report = check_answer(problem, hyp)
-            checked += 1
-            if report.violations or report.cost != hyp.cost:
-                found = "; ".join(report.messages) or "the cost vector differs"
-                violations.append(f"frame {problem.time}: {found}")
-        if on_frame is not None:
-            on_frame()
-
-    result = track_sequence(job.seq, backend=job.backend, constants=dict(job.constants) or None,
-                            time_limit=job.time_limit, **job.options.kwargs(),
-                            observer=observe if (job.check or on_frame is not None) else None)
+    """Track one sequence through the pipeline (optionally checking each answer)."""
+    check = AnswerCheck() if job.check and not job.setup.baseline else None
+    result = run_sequence(job.seq, job.setup, observer=check, on_frame=on_frame)
     scene = None
-    if job.scene:
+    if job.scene and not job.setup.baseline:
         from .scene import scene_from_result
         scene = scene_from_result(job.seq, result)
     return TrackOutput(job.seq.name, result.rows, result.events, result.frames, result.not_optimal_frames,
-                       checked, tuple(violations), scene)
+                       check.checked if check else 0, tuple(check.violations) if check else (), scene)
 
 
 # ---------------------------------------------------------------------------------------
@@ -109,24 +107,20 @@ class BenchmarkOutput:
     """Event name -> count, in order of first occurrence."""
     frames: int
     seconds: float
+    rows: np.ndarray | None = None
+    """The results rows scored (only when the request keeps them: ``benchmark --results-dir``)."""
 
 
 def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
     """Track one sequence with job.tracker and score it against its ground truth."""
     from .evaluate import evaluate_sequence
     start = time.perf_counter()
-    how = job.request
-    if how.tracker == BASELINE:
-        from .baseline import track_sequence as sort_track
-        rows, events = sort_track(job.dets), ()
-    else:
-        from .tracker import track_sequence
-        result = track_sequence(job.dets, backend=how.tracker, constants=dict(how.constants) or None,
-                                **how.options.kwargs())
-        rows, events = result.rows, result.events
+    result = run_sequence(job.dets, job.request.setup)
+    rows, events = result.rows, result.events
     seconds = time.perf_counter() - start  # tracking only: scoring is not the tracker's time
     metrics = evaluate_sequence(job.gt, rows)
-    return BenchmarkOutput(metrics, dict(Counter(e.event.name for e in events)), len(job.dets.frames), seconds)
+    return BenchmarkOutput(metrics, dict(Counter(e.event.name for e in events)), len(job.dets.frames), seconds,
+                           rows if job.request.keep_rows else None)
 
 
 @dataclass(frozen=True)
@@ -138,6 +132,16 @@ class RunRequest:
     tracker: str
     constants: tuple[tuple[str, int], ...] = ()
     options: TrackerOptions = TrackerOptions()
+    preset: str = NONE
+    keep_rows: bool = False
+    """Hand every sequence's results rows back (RunSummary.rows)."""
+
+    @property
+    def setup(self) -> Setup:
+        """What each sequence is tracked with (refimpl.pipeline)."""
+        if self.tracker == BASELINE:
+            return Setup(BASELINE)
+        return Setup(self.tracker, tuple(self.constants), self.options, None, self.preset)
 
 
 @dataclass(frozen=True)
@@ -149,6 +153,8 @@ class RunSummary:
     frames: int = 0
     seconds: float = 0.0
     """Summed tracking seconds of the tasks (not wall time, not scoring)."""
+    rows: dict = field(default_factory=dict)
+    """Sequence name -> its results rows, when the request keeps them."""
 
 
 def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
@@ -171,8 +177,9 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
                 raise ValueError(f"sequence name {name!r} given twice")
             per_seq[name] = out.metrics
             events.update(out.events)
+        rows = {name: out.rows for (name, _, _), out in zip(r.sequences, mine) if out.rows is not None}
         summaries.append(RunSummary(i, per_seq, combine(per_seq.values()), dict(events),
-                                    sum(o.frames for o in mine), sum(o.seconds for o in mine)))
+                                    sum(o.frames for o in mine), sum(o.seconds for o in mine), rows))
     return summaries
 
 

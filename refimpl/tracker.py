@@ -425,6 +425,20 @@ class AbductionTracker:
                               self.not_optimal, self.solve_ms)
 
 
+def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,
+                       fps: float | None) -> dict[str, int]:
+    """The constants a sequence is tracked with: the given ones, then what the sequence says of
+    itself where they do not (image size: the field-of-view border; frame rate: the safety bound on
+    halts, HIDDEN_MAX_SECONDS)."""
+    merged = dict(constants or {})
+    if image_size is not None:
+        merged.setdefault("img_width", int(image_size[0]))
+        merged.setdefault("img_height", int(image_size[1]))
+    if fps:
+        merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * fps))))
+    return merged
+
+
 def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, int] | None = None,
                    min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                    observer: FrameObserver | None = None, solver: Solver | None = None,
@@ -437,12 +451,7 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
     ``**options``: the tracker options by name (refimpl.options.TRACKER_OPTIONS), passed on to
     AbductionTracker.  With a ``sink`` the rows and events go to it as they are decided (see
     AbductionTracker) and the result's rows are empty (its events and tracks too unless ``keep_records``)."""
-    merged = dict(constants or {})
-    if seq.image_size is not None:
-        merged.setdefault("img_width", int(seq.image_size[0]))
-        merged.setdefault("img_height", int(seq.image_size[1]))
-    if getattr(seq, "fps", None):
-        merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * seq.fps))))
+    merged = sequence_constants(constants, seq.image_size, getattr(seq, "fps", None))
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,

@@ -38,7 +38,7 @@ from .common import (  # noqa: F401  (the public names of refimpl.cli)
     TRACKERS,
     CheckFailed,
     UserError,
-    _abduction_constants,
+    _setup,
     _load_sequence,
     _parse_const,
     _parse_img_size,
@@ -51,7 +51,6 @@ from .scenes import cmd_explain, cmd_plot, cmd_query  # noqa: F401
 from .solving import cmd_diff, cmd_solve  # noqa: F401
 from .tracking import (  # noqa: F401
     _prefix,
-    _track_abduction,
     _track_constants,
     _track_inputs,
     _track_outputs,

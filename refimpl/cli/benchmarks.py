@@ -11,7 +11,7 @@ from pathlib import Path
 from ..progress import Progress
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
 from ..options import option_flags
-from .common import EXIT_OK, UserError, _abduction_constants, _option_flags_given, _plan, _tracker_options
+from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
@@ -20,6 +20,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..tasks import RunRequest, run_requests
     from ..outputs import check_outputs
     check_outputs({"--json": args.json, "--out": args.out})
+    if args.results_dir and args.peers is not None:
+        raise UserError("--results-dir writes the results files of refimpl's tracker: give it without --peers")
     if args.peers is not None:
         return _benchmark_peers(args)
     if args.out:
@@ -32,11 +34,14 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     plan = _plan(args)
     requests = []
     for name in args.names:
-        constants = () if args.backend == BASELINE else \
-            tuple(_abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset).items())
-        options = _tracker_options(*dataset_kind(name, args.data), args)
-        requests.append(RunRequest(name, load_dataset(name, args.data), args.backend, constants, options))
+        setup = _setup(args, *dataset_kind(name, args.data))
+        if not args.quiet:
+            print(f"refimpl benchmark: {name}: {setup.describe()}", file=sys.stderr)
+        requests.append(RunRequest(name, load_dataset(name, args.data), setup.backend, setup.constants,
+                                   setup.options, setup.preset, keep_rows=bool(args.results_dir)))
     runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
+    if args.results_dir:
+        _write_results(args, runs)
     report = {}
     for name, run in zip(args.names, runs):
         print(f"## {TITLES[name]} — {args.backend}\n")
@@ -48,6 +53,22 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         write_text_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
                                                 default=float))
     return EXIT_OK
+
+
+def _write_results(args: argparse.Namespace, runs) -> None:
+    """benchmark --results-dir DIR: every scored sequence's rows as DIR/<dataset>/<sequence>.txt, in
+    the MOTChallenge lines ``refimpl track`` writes (KITTI frames kept 0-based), all files together."""
+    from .. import io
+    from ..datasets import dataset_kind
+    from ..outputs import OutputSet
+    with OutputSet() as files:
+        for name, run in zip(args.names, runs):
+            fmt, cls = dataset_kind(name, args.data)
+            first = io.get_format(fmt).first_frame
+            (Path(args.results_dir) / name).mkdir(parents=True, exist_ok=True)
+            for seq, rows in run.rows.items():
+                files.write(Path(args.results_dir) / name / f"{seq}.txt", io.results_formatter(io.MOT, first, cls)(rows))
+    print(f"results: {args.results_dir}/<dataset>/<sequence>.txt", file=sys.stderr)
 
 
 def _benchmark_peers(args: argparse.Namespace) -> int:
@@ -63,8 +84,8 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     comparisons, report = [], {}
     for name in args.names:
         dataset = load_dataset(name, args.data)
-        constants = _abduction_constants(*dataset_kind(name, args.data), args.const, args.no_preset)
-        options = _tracker_options(*dataset_kind(name, args.data), args)
+        setup = _setup(argparse.Namespace(**{**vars(args), "backend": backend}), *dataset_kind(name, args.data))
+        constants, options = dict(setup.constants), setup.options
         progress = Progress(len(dataset) * (2 + bool(constants or options.changed()) + len(peers)),
                             f"{name}/peers", enabled=not args.quiet)
         c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step,

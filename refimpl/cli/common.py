@@ -58,23 +58,17 @@ def _load_sequence(args: argparse.Namespace, path: str | None = None):
                                scores_rule=getattr(args, "scores", "auto"))
 
 
-def _abduction_constants(fmt: str, cls: str | None, consts, no_preset: bool) -> dict[str, int]:
-    """The preset of (format, class) unless --no-preset, then --const overrides (refimpl.presets)."""
-    from ..presets import constants_for
-    overrides = dict(consts or [])
+def _setup(args: argparse.Namespace, fmt: str, cls: str | None, constants=None):
+    """What to track with, by the one rule (refimpl.pipeline.setup_for): the preset of (format,
+    class) unless --no-preset or another --preset, then --const and the tracker option flags."""
+    from ..pipeline import AUTO, NONE, setup_for
+    asked = getattr(args, "preset", None)
+    if getattr(args, "no_preset", False) and asked not in (None, AUTO, NONE):
+        raise UserError(f"give --no-preset or --preset {asked}, not both")
+    preset = NONE if getattr(args, "no_preset", False) else (asked or AUTO)
     try:
-        return constants_for(fmt, cls or "pedestrian", overrides, use_preset=not no_preset)
-    except ValueError as exc:
-        raise UserError(f"--const: {exc}") from None
-
-
-def _tracker_options(fmt: str, cls: str | None, args: argparse.Namespace):
-    """The preset's tracker options of (format, class) unless --no-preset, then the tracker option
-    flags (refimpl.presets.options_for; refimpl.options.TRACKER_OPTIONS)."""
-    from ..presets import options_for
-    overrides = _option_overrides(args)
-    try:
-        return options_for(fmt, cls or "pedestrian", overrides, use_preset=not args.no_preset)
+        return setup_for(fmt, cls, args.backend, constants if constants is not None else dict(args.const or []),
+                         _option_overrides(args), preset, getattr(args, "time_limit", None))
     except ValueError as exc:
         raise UserError(str(exc)) from None
 

@@ -9,8 +9,10 @@ from .common import EXIT_OK, TRACKERS, UserError
 
 
 def _run_tracker(seq, backend: str):
-    from ..table6 import run_tracker
-    return run_tracker(seq, backend)
+    """What ``refimpl track --format mot`` runs: the MOTChallenge preset (refimpl.pipeline.setup_for)."""
+    from ..pipeline import run_sequence, setup_for
+    result = run_sequence(seq, setup_for("mot", None, backend))
+    return result.rows, result.events
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

@@ -65,7 +65,7 @@ def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..io import FORMAT_NAMES, MOT, RESULT_FORMATS
+    from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
     p = argparse.ArgumentParser(
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
@@ -89,12 +89,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir)")
     t.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
-    t.add_argument("--backend", choices=TRACKERS, default=BASELINE)
+    t.add_argument("--backend", choices=TRACKERS, default=DEFAULT_BACKEND,
+                   help=f"the paper's method by abduction ({', '.join(BACKENDS)}) or {BASELINE} (SORT)")
     t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti; "
                                  "- for standard output)")
-    t.add_argument("--scores", choices=("auto", "probability", "raw"), default="auto",
-                   help="MOTChallenge detection scores: probabilities in 0..1 or raw detector scores "
-                        "(default auto: decided by the file, see refimpl/io/detections.py)")
+    t.add_argument("--scores", choices=SCORE_RULES, default=DEFAULT_SCORE_RULE,
+                   help="how detection scores become the model's confidences 0..100: rank (their place among "
+                        "the scores seen so far: any detector's scale, refimpl/confidence.py), or read as "
+                        "numbers: probability (0..1), raw (0..100), sigmoid (KITTI logits), auto (the file "
+                        "decides, refimpl/io/detections.py)")
     t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
                    "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
     t.add_argument("--out-format", choices=RESULT_FORMATS, default=MOT,
@@ -114,6 +117,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (an abduction backend)")
+    t.add_argument("--preset", default=None, metavar="NAME",
+                   help="the preset to run with: auto (that of --format/--class, else the robust default), none, "
+                        "or a name of model/presets.json (kitti/car, default, ...) (default: auto)")
     t.add_argument("--no-preset", action="store_true",
                    help="run with model/constants.lp's defaults and the tracker's default options instead of the "
                         "calibrated preset (model/presets.json)")
@@ -138,8 +144,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
                    help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate)")
     b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    b.add_argument("--backend", choices=TRACKERS, default=BASELINE)
+    b.add_argument("--backend", choices=TRACKERS, default=DEFAULT_BACKEND,
+                   help=f"the paper's method by abduction ({', '.join(BACKENDS)}) or {BASELINE} (SORT)")
     b.add_argument("--json", help="also write the metrics as JSON")
+    b.add_argument("--results-dir", metavar="DIR",
+                   help="also write every scored sequence's results file, DIR/<dataset>/<sequence>.txt (the "
+                        "lines refimpl track writes)")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     b.add_argument("--peers", metavar="LIST",
                    help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
@@ -149,6 +159,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --peers: also a table per dataset of every sequence (HOTA / IDF1 / IDs per tracker)")
     b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
+    b.add_argument("--preset", default=None, metavar="NAME",
+                   help="the preset to run with: auto (that of --format/--class, else the robust default), none, "
+                        "or a name of model/presets.json (kitti/car, default, ...) (default: auto)")
     b.add_argument("--no-preset", action="store_true",
                    help="abduction with model/constants.lp's defaults and the tracker's default options instead "
                         "of the calibrated preset")
@@ -307,4 +320,25 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--tracks", help="comma-separated tracks to draw (default: those observed in 3+ frames)")
     pl.add_argument("--frames", metavar="FROM:TO", help="frame range of the space-time picture")
     pl.set_defaults(func=cmd_plot)
+    for command in sub.choices.values():
+        _show_defaults(command)
     return p
+
+
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """Every option's help ends with its default, unless the help already names it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        shown = action.default not in (None, False, argparse.SUPPRESS) and action.option_strings
+        if shown and "default" not in text:
+            text = f"{text} (default: %(default)s)" if text else "(default: %(default)s)"
+        return text
+
+
+def _show_defaults(command: argparse.ArgumentParser) -> None:
+    """``--help`` of a command shows every default (an option without help text gets a line too)."""
+    command.formatter_class = _DefaultsFormatter
+    for action in command._actions:
+        if action.help is None and action.default not in (None, False) and action.option_strings:
+            action.help = "(default: %(default)s)"

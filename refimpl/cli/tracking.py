@@ -11,8 +11,7 @@ from pathlib import Path
 from ..progress import Progress
 from ..solvers import BACKENDS, BASELINE
 from ..options import option_flags
-from .common import (CheckFailed, EXIT_OK, UserError, _abduction_constants, _load_sequence, _option_flags_given, _plan,
-                     _tracker_options)
+from .common import CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup
 
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
@@ -84,22 +83,21 @@ def cmd_track(args: argparse.Namespace) -> int:
     outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
     check_outputs(outputs, _track_inputs(args))  # before any work: never an input, never each other
     plan = _plan(args)
-    constants = tuple(_abduction_constants(args.format, args.cls, _track_constants(args), args.no_preset).items()) \
-        if args.backend != BASELINE else ()
-    options = _tracker_options(args.format, args.cls, args)
+    setup = _setup(args, args.format, args.cls, _track_constants(args) if args.backend != BASELINE else None)
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
     for seq, path in zip(seqs, args.dets):
-        if seq.image_size is None and "img_width" not in dict(constants):
+        if seq.image_size is None and "img_width" not in dict(setup.constants):
             warnings.warn(f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
                           "is unknown, so the right and bottom field-of-view borders are not tested "
                           "(enters_fov, leaves_fov, clipped)")
+    _say_setup(setup, seqs, args)
     summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
     if len(seqs) == 1 and not plan.distributed:
-        _track_streaming(seqs[0], args, outs[0], dict(constants), summary, options)
+        _track_streaming(seqs[0], args, outs[0], setup, summary)
         return EXIT_OK
-    jobs = [TrackJob(seq, args.backend, args.time_limit, args.check, False, constants, options) for seq in seqs]
+    jobs = [TrackJob(seq, setup, args.check) for seq in seqs]
     results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name)
     failed = 0
     with OutputSet() as files:  # every results file lands together, after the last sequence
@@ -116,65 +114,69 @@ def cmd_track(args: argparse.Namespace) -> int:
                     failed += len(out.violations)
                     continue  # a backend that broke the model writes no results
             files.write(path, io.results_formatter(args.out_format, seq.first_frame, args.cls)(out.rows))
-            print(f"{seq.name}: {len(seq.frames)} frames, "
-                  f"{len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0} tracks -> {path}", file=summary)
+            tracks = len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0
+            print(f"{seq.name}: {len(seq.frames)} frames, {tracks} tracks -> {path}", file=summary)
+            _warn_if_empty(seq, tracks, setup, args)
     if failed:
         raise CheckFailed(f"{failed} answers break a rule of the model")
     return EXIT_OK
 
 
-def _track_streaming(seq, args: argparse.Namespace, out_path, constants: dict[str, int], summary,
-                     options) -> None:
+def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
+    """One line on stderr: which tracker and preset run (unless --quiet), and a warning when the
+    file's scores lie far from what the preset was fitted on (refimpl.presets.score_warning)."""
+    if not args.quiet:
+        print(f"refimpl track: {setup.describe()}", file=sys.stderr)
+
+
+def _warn_if_empty(seq, tracks: int, setup, args: argparse.Namespace) -> None:
+    """A run that wrote no track says so, with the likely cause."""
+    if tracks:
+        return
+    n = seq.num_detections
+    if n == 0:
+        cls = f" of class {args.cls}" if args.cls else ""
+        why = f"the file has no detection{cls} (is --class right?)"
+    else:
+        conf = [int(c) for f in seq.frames for c in f.confidences]
+        need = dict(setup.constants).get("conf_thresh_new_track")
+        if need is None and not setup.baseline:
+            from ..constants import default_constants
+            need = default_constants()["conf_thresh_new_track"]
+        why = (f"{n} detections, confidences {min(conf)}..{max(conf)}" +
+               (f" (a new track needs > {need}: conf_thresh_new_track; see --scores)" if need is not None else ""))
+    print(f"refimpl track: warning: {seq.name}: no track written: {why}", file=sys.stderr)
+
+
+def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary) -> None:
     """One sequence in this process: results and event logs streamed to staged files as frames are
     decided (bounded memory, docs/robustness.md), committed together at the end."""
     from ..io import ResultWriter, results_formatter
     from ..outputs import OutputSet
+    from ..pipeline import run_sequence
+    from ..tasks import AnswerCheck
     with OutputSet() as outs:
         sink = ResultWriter(outs.open(out_path), outs.open(args.events) if args.events else None,
                             outs.open(args.events_json) if args.events_json else None, seq.first_frame,
                             results_formatter(args.out_format, seq.first_frame, args.cls))
-        if args.backend == BASELINE:
-            from ..baseline import stream_sequence
-            for rows in stream_sequence(seq):
-                sink.rows(rows)
-        else:
-            bar = Progress(len(seq.frames), seq.name, enabled=not args.quiet, unit="frame")
-            with bar:
-                _track_abduction(seq, args, sink, outs, constants, bar.step, summary, options)
+        check = AnswerCheck(lambda line: print(f"refimpl track: {line}", file=sys.stderr)) \
+            if args.check and not setup.baseline else None
+        with Progress(len(seq.frames), seq.name, enabled=not args.quiet, unit="frame") as bar:
+            result = run_sequence(seq, setup, observer=check, sink=sink, keep_records=bool(args.scene),
+                                  on_frame=bar.step)
+        if result.not_optimal_frames:
+            print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
+                  f"within the time limit (best answer found used)", file=sys.stderr)
+        if check is not None:
+            print(f"check: {check.checked} answers checked, {len(check.violations)} with violations", file=summary)
+            if check.violations:
+                raise CheckFailed(f"{len(check.violations)} answers break a rule of the model")
+        if args.scene:
+            from ..scene import scene_from_result, scene_to_json
+            outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)),
+                                              separators=(",", ":")) + "\n")
     print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
-
-
-def _track_abduction(seq, args: argparse.Namespace, sink, outs, constants: dict[str, int], on_frame, summary,
-                     options) -> None:
-    """Algorithm 1 with the chosen backend, streaming to ``sink``, optionally checking every frame's answer."""
-    from ..tracker import track_sequence
-    checked = violations = 0
-
-    def observe(problem, hyp) -> None:
-        nonlocal checked, violations
-        on_frame()
-        if not args.check:
-            return
-        from ..check import check_answer
-        report = check_answer(problem, hyp)
-        checked += 1
-        if report.violations or report.cost != hyp.cost:
-            violations += 1
-            found = "; ".join(report.messages) or "the cost vector differs"
-            print(f"refimpl track: frame {problem.time}: {found}", file=sys.stderr)
-
-    result = track_sequence(seq, backend=args.backend, constants=constants, time_limit=args.time_limit,
-                            observer=observe, sink=sink, keep_records=bool(args.scene), **options.kwargs())
-    if result.not_optimal_frames:
-        print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
-              f"within the time limit (best answer found used)", file=sys.stderr)
-    if args.check:
-        print(f"check: {checked} answers checked, {violations} with violations", file=summary)
-        if violations:
-            raise CheckFailed(f"{violations} answers break a rule of the model")
-    if args.scene:
-        from ..scene import scene_from_result, scene_to_json
-        outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)), separators=(",", ":")) + "\n")
+    _warn_if_empty(seq, len(sink.track_ids), setup, args)
 
 
 def _prefix(seqs, seq) -> str:
@@ -199,7 +201,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
         if Path(args.gt).is_dir():
             raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
         gt = read_ground_truth(args.gt, args.format, args.cls)
-        results = io.read_results(args.results, args.format, args.cls)
+        results = io.read_results(args.results, args.format, args.cls, allow_empty=True)
+        if not len(results):  # as TrackEval scores a tracker that wrote nothing: every target missed
+            print(f"refimpl eval: note: {args.results} holds no rows: scored as no tracks (every target missed)",
+                  file=sys.stderr)
         refuse_misfit(gt, results, args.results)
         per_seq, overall = evaluate_many([(gt.name, gt, results)])
     print(format_table(per_seq, overall))

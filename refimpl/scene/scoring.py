@@ -148,7 +148,7 @@ def format_evaluation(rows: Sequence[tuple[str, str, str, dict]]) -> str:
 
 def _benchmark_scenes(name: str, data_root: str, cache: str | None, progress: bool) -> list[Scene]:
     from .. import io
-    from ..tracker import track_sequence
+    from ..pipeline import Setup, run_sequence
     out = []
     for s in io.benchmark_sequences(name, data_root):
         path = os.path.join(cache, f"{name}-{s.name}.scene.json") if cache else None
@@ -156,7 +156,7 @@ def _benchmark_scenes(name: str, data_root: str, cache: str | None, progress: bo
             out.append(load_scene(path))
         else:
             dets = io.load_detections(s)
-            scene = scene_from_result(dets, track_sequence(dets, backend=DEFAULT_BACKEND))
+            scene = scene_from_result(dets, run_sequence(dets, Setup(DEFAULT_BACKEND)))
             if path:
                 os.makedirs(cache, exist_ok=True)
                 save_scene(path, scene)
