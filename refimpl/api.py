@@ -1,7 +1,7 @@
 """The library interface in the shape trackers are used in: ``Tracker(...).update(dets) -> tracks``.
 
-One call per frame: detections in as an (N, 5) array ``x1, y1, x2, y2, score`` with scores in
-0..1, tracks out as an (M, 5) array ``x1, y1, x2, y2, track_id``.  Behind it is the paper's
+One call per frame: detections in as an (N, 5) array ``x1, y1, x2, y2, score`` (a score of
+any scale: the default rule ranks it among the scores seen so far), tracks out as an (M, 5) array ``x1, y1, x2, y2, track_id``.  Behind it is the paper's
 Algorithm 1 (refimpl.tracker.AbductionTracker), so the rows returned for a frame are exactly
 the rows ``refimpl track`` writes for that frame, with one documented exception: the boxes
 ``refimpl track`` interpolates inside a *bridged* gap (a confirmed track resumed after at most
@@ -11,8 +11,12 @@ confirmation writes and the filled frames of an occlusion episode;
 ``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has them after
 the fact.
 
-Scores map to the model's integer confidences 0..100 exactly as the MOTChallenge reader maps a
-file whose scores all lie in [0, 1] (refimpl.io): ``conf = floor(100 * score + 0.5)``.
+Scores map to the model's integer confidences 0..100 as the file readers map them
+(refimpl.confidence): by default their rank among every score seen so far in the sequence, so
+``update`` and ``refimpl track`` give the same rows for the same detections; ``scores="probability"``
+takes scores in 0..1 as ``floor(100 * score + 0.5)``.  The preset is chosen as ``refimpl track``
+chooses it (refimpl.pipeline.setup_for): ``Tracker(format="kitti", object_type="car")`` runs the
+KITTI Car preset, ``preset="none"`` none.
 """
 
 from __future__ import annotations
@@ -22,11 +26,15 @@ from typing import TYPE_CHECKING, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .confidence import RANK, OnlineRank
 from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
-from .solvers import BACKENDS, DEFAULT_BACKEND, get_solver
-from .spec import HistoryEvent
 from .options import TrackerOptions
-from .tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker, TrackingResult
+from .pipeline import AUTO, new_tracker, setup_for
+from .solvers import BACKENDS, DEFAULT_BACKEND
+from .spec import HistoryEvent
+from .tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
+
+API_SCORE_RULES = (RANK, "probability")
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -42,46 +50,76 @@ def confidences_from_scores(scores: ArrayLike) -> np.ndarray:
 class Tracker:
     """Online tracking by abduction, one ``update`` per frame.
 
-    backend: an abduction backend of refimpl.solvers.BACKENDS (default DEFAULT_BACKEND).
-    constants: model constant overrides (names of model/constants.lp), e.g. {"iou_thresh": 20000}.
+    backend: an abduction backend of refimpl.solvers.BACKENDS (default DEFAULT_BACKEND, as
+        ``refimpl track``).
+    format: "mot" or "kitti": the file format whose conventions the frames follow (frame numbering,
+        KITTI's image size and frame rate when ``img_size`` / ``fps`` are not given) and, with
+        ``object_type``, which preset applies.
+    preset: "auto" (default: the preset of (format, object_type) by the same rule as
+        ``refimpl track``, refimpl.pipeline.setup_for), "none" (model/constants.lp and the default
+        tracker options, as ``--no-preset``), or a preset's name ("kitti/car", "default").
+        ``tracker.setup`` says what was chosen.
+    constants: model constant overrides (names of model/constants.lp), e.g. {"iou_thresh": 20000},
+        on top of the preset.
     img_size: (width, height) of the images in pixels; sets img_width / img_height (the
-        field-of-view border).  Without it the border is not tested, as for a det.txt
-        without seqinfo.ini.
+        field-of-view border).  Without it the border is not tested (KITTI: 1242 x 375), as for a
+        det.txt without seqinfo.ini.
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
-    **options: the tracker options by name (refimpl.options.TRACKER_OPTIONS), e.g.
-        ``written_box="detection"`` (what the KITTI
-        Car preset of ``refimpl track`` chooses, docs/peers.md).  The API applies no preset.
+    **options: tracker option overrides by name (refimpl.options.TRACKER_OPTIONS), e.g.
+        ``written_box="detection"``, on top of the preset.
+    scores: how a score becomes the model's confidence (refimpl.confidence): "rank" (default, as
+        the file readers: its place among the scores seen so far, so any detector's scale works)
+        or "probability" (scores in 0..1, times 100).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
-    first_frame: the number of the first frame (1 as MOTChallenge, 0 as KITTI).
-    name, fps: carried into ``scene()``.
+    first_frame: the number of the first frame (default: 1 for MOTChallenge, 0 for KITTI).
+    name, fps: carried into ``scene()``; fps also sets the safety bound on halts (as for a file
+        whose seqinfo.ini gives its frame rate; KITTI: 10).
     """
 
-    def __init__(self, backend: str = DEFAULT_BACKEND, *, constants: Mapping[str, int] | None = None,
-                 img_size: tuple[int, int] | None = None, min_hits: int = DEFAULT_MIN_HITS,
-                 bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
-                 time_limit: float | None = None, object_type: str = "pedestrian", first_frame: int = 1,
-                 name: str = "sequence", fps: float | None = None, **options: object) -> None:
+    def __init__(self, backend: str = DEFAULT_BACKEND, *, format: str = "mot", preset: str | None = AUTO,
+                 constants: Mapping[str, int] | None = None, img_size: tuple[int, int] | None = None,
+                 min_hits: int = DEFAULT_MIN_HITS, bridge_gap: int = DEFAULT_BRIDGE_GAP,
+                 bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
+                 object_type: str = "pedestrian", first_frame: int | None = None, name: str = "sequence",
+                 fps: float | None = None, scores: str = RANK, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
-        merged = self._constants(constants)
+        from .io import FORMAT_NAMES, KITTI, KITTI_FPS, KITTI_IMAGE_SIZE, get_format
+        if format not in FORMAT_NAMES:
+            raise ValueError(f"format must be one of {', '.join(FORMAT_NAMES)}, got {format!r}")
+        if scores not in API_SCORE_RULES:
+            raise ValueError(f"scores must be one of {', '.join(API_SCORE_RULES)}, got {scores!r}")
+        self.object_type = self._type(object_type, "object_type")
+        overrides = self._constants(constants)
         if img_size is not None:
-            w, h = self._img_size(img_size)
-            merged.setdefault("img_width", w)
-            merged.setdefault("img_height", h)
-            img_size = (w, h)
+            img_size = self._img_size(img_size)
+        elif format == KITTI:
+            img_size = KITTI_IMAGE_SIZE
+        if fps is None and format == KITTI:
+            fps = KITTI_FPS
+        if first_frame is None:
+            first_frame = get_format(format).first_frame
         for label, value in (("min_hits", min_hits), ("bridge_gap", bridge_gap), ("bridge_conf", bridge_conf),
                              ("first_frame", first_frame)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
                 raise ValueError(f"{label} must be a non-negative integer, got {value!r}")
         if time_limit is not None and not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
-        chosen = TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
-        self.object_type = self._type(object_type, "object_type")
+        TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
+        self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit)
+        """What this tracker runs with (refimpl.pipeline.Setup): backend, constants, options, preset."""
         self.backend = backend
         self.name, self.fps, self.image_size = name, fps, img_size
         self.first_frame = int(first_frame)
-        self._tracker = AbductionTracker(get_solver(backend), merged, int(min_hits), time_limit,
-                                         int(bridge_gap), int(bridge_conf), **chosen.kwargs())
+        self.scores = scores
+        self._params = (int(min_hits), int(bridge_gap), int(bridge_conf))
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new sequence: forget every track, event and score seen (the same results as a
+        fresh Tracker with the same arguments)."""
+        self._tracker = new_tracker(self.setup, self.image_size, self.fps, *self._params)
+        self._rank = OnlineRank()
         self._frames: list[DetectionFrame] = []
         self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
 
@@ -133,7 +171,7 @@ class Tracker:
         if bad.any():
             raise ValueError(f"dets row {int(np.flatnonzero(bad)[0])}: a coordinate beyond {MAX_COORD:g} px")
         scores = a[:, 4]
-        bad = (scores < 0.0) | (scores > 1.0)
+        bad = ((scores < 0.0) | (scores > 1.0)) if self.scores == "probability" else np.zeros(len(a), bool)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             raise ValueError(f"dets row {k}: score {scores[k]:g} is outside 0..1")
@@ -163,7 +201,7 @@ class Tracker:
         """Track one frame; the (M, 5) rows x1, y1, x2, y2, track_id reported for it, by track id."""
         boxes, scores, types = self._check(dets, classes)
         frame = self.frame
-        conf = confidences_from_scores(scores)
+        conf = self._rank.confidences(scores) if self.scores == RANK else confidences_from_scores(scores)
         self._tracker.step(frame, boxes, conf, types)
         self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
         rows = []

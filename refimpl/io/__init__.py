@@ -102,7 +102,7 @@ from .errors import InputFormatError, InputFormatWarning
 from .lines import MAX_COORD, MAX_DET_AREA, MAX_FRAME, MIN_DET_SIZE, OBJECT_TYPES, data_line_numbers
 from .seqinfo import read_seqinfo
 from .ground_truth import GroundTruth, read_kitti_ground_truth, read_mot_ground_truth
-from .detections import (KITTI_FPS, KITTI_IMAGE_SIZE, SCORE_RULES, DetectionFrame, DetectionSequence,
+from .detections import (DEFAULT_SCORE_RULE, KITTI_FPS, KITTI_IMAGE_SIZE, SCORE_RULES, DetectionFrame, DetectionSequence,
                          read_kitti_detections, read_mot_detections)
 from .event_logs import event_json_line, event_line, write_event_log, write_event_log_json
 from .results import (ResultWriter, format_kitti_results, format_mot_results, read_kitti_results,
@@ -118,7 +118,7 @@ __all__ = [
     "MAX_COORD", "MAX_DET_AREA", "MAX_FRAME", "MIN_DET_SIZE", "OBJECT_TYPES", "data_line_numbers",
     "read_seqinfo",
     "GroundTruth", "read_kitti_ground_truth", "read_mot_ground_truth",
-    "KITTI_FPS", "KITTI_IMAGE_SIZE", "SCORE_RULES", "DetectionFrame", "DetectionSequence", "read_kitti_detections",
+    "DEFAULT_SCORE_RULE", "KITTI_FPS", "KITTI_IMAGE_SIZE", "SCORE_RULES", "DetectionFrame", "DetectionSequence", "read_kitti_detections",
     "read_mot_detections",
     "event_json_line", "event_line", "write_event_log", "write_event_log_json",
     "RESULT_FORMATS", "ResultWriter", "format_kitti_results", "format_mot_results", "read_kitti_results",

@@ -11,6 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..confidence import RANK, OnlineRank
 from .errors import InputFormatError, InputFormatWarning
 from .ground_truth import _kitti_label_num_frames
 from .lines import (MAX_DET_AREA, MIN_DET_SIZE, _check_coordinates, _check_integral, _check_max_frame,
@@ -87,13 +88,31 @@ def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, con
     return tuple(out)
 
 
-SCORE_RULES = ("auto", "probability", "raw")
+SCORE_RULES = (RANK, "auto", "probability", "raw", "sigmoid")
+"""How a file's scores become confidences (refimpl.confidence; the package doc): ``rank`` (the
+default, any detector's scale), or a rule that reads the numbers: ``auto`` (the file decides:
+MOTChallenge probability or raw by the share of scores in 0..1, KITTI sigmoid), ``probability``,
+``raw``, ``sigmoid`` (KITTI's logits)."""
+DEFAULT_SCORE_RULE = RANK
+
+
+def _check_rule(rule: str, allowed: Sequence[str]) -> None:
+    if rule not in allowed:
+        raise ValueError(f"scores must be one of {', '.join(allowed)}, got {rule!r}")
+
+
+def _ranked(seq: DetectionSequence) -> DetectionSequence:
+    """The rank rule (refimpl.confidence): each frame's confidences from the scores of frames <= it."""
+    from dataclasses import replace
+    ranker = OnlineRank()
+    return replace(seq, frames=tuple(replace(f, confidences=ranker.confidences(f.scores)) for f in seq.frames))
 
 
 def _mot_confidences(path: Path, linenos: Sequence[int], scores: np.ndarray, rule: str) -> np.ndarray:
     """The confidence rule of a MOTChallenge detection file (module doc), one rule for every row."""
-    if rule not in SCORE_RULES:
-        raise ValueError(f"scores must be one of {', '.join(SCORE_RULES)}, got {rule!r}")
+    _check_rule(rule, (RANK, "auto", "probability", "raw"))
+    if rule == RANK:
+        return np.zeros(len(scores), dtype=np.int64)  # set frame by frame once the frames are built (_ranked)
     inside = (scores >= 0.0) & (scores <= 1.0)
     if rule == "auto":
         share = float(inside.mean())
@@ -124,7 +143,7 @@ def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray
 
 
 def read_mot_detections(path: str | os.PathLike, seqinfo=None,
-                        object_type: str = "pedestrian", scores_rule: str = "auto") -> DetectionSequence:
+                        object_type: str = "pedestrian", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
     """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
     path = Path(path)
     otype = _object_type(object_type, path)
@@ -140,17 +159,18 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     scores = a[:, 6]
     conf = _mot_confidences(path, linenos, scores, scores_rule)
     count = int(info["seqLength"]) if info is not None else int(frames.max())
-    return DetectionSequence(
+    seq = DetectionSequence(
         name=_mot_sequence_name(path, info),
         frames=_build_frames(frames, boxes, scores, conf, [otype] * len(frames), 1, count),
         first_frame=1,
         image_size=(int(info["imWidth"]), int(info["imHeight"])) if info is not None else None,
         fps=float(info["frameRate"]) if info is not None else None,
     )
+    return _ranked(seq) if scores_rule == RANK else seq
 
 
 def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames: int | None = None,
-                          on_degenerate: str = "drop") -> DetectionSequence:
+                          on_degenerate: str = "drop", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
     """PointRCNN detections of one class as a DetectionSequence over frames 0..num_frames-1.
 
     num_frames defaults to the frame count of ``../../label_02/NNNN.txt`` (relative to the class
@@ -160,6 +180,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     otype = _object_type(object_class, path)
     if on_degenerate not in ("drop", "error"):
         raise ValueError("on_degenerate must be 'drop' or 'error'")
+    _check_rule(scores_rule, (RANK, "auto", "sigmoid"))
     a, linenos = _read_table(path, ",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
                              ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z",
                               "rot_y", "alpha"))
@@ -205,7 +226,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     boxes = np.column_stack([a[:, 2], a[:, 3], w, h])[keep]
     scores = a[keep, 6]
     conf = _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))  # sigmoid, overflow-free
-    return DetectionSequence(
+    seq = DetectionSequence(
         name=path.stem,
         frames=_build_frames(frames[keep], boxes, scores, conf, [otype] * int(keep.sum()), 0, num_frames),
         first_frame=0,
@@ -213,3 +234,4 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
         fps=KITTI_FPS,
         dropped=tuple(dropped),
     )
+    return _ranked(seq) if scores_rule == RANK else seq

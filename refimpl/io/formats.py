@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from .detections import DetectionSequence, read_kitti_detections, read_mot_detections
+from .detections import DEFAULT_SCORE_RULE, DetectionSequence, read_kitti_detections, read_mot_detections
 from .errors import InputFormatError
 from .ground_truth import GroundTruth, _kitti_label_num_frames, read_kitti_ground_truth, read_mot_ground_truth
 from .lines import _read_lines
@@ -49,7 +49,7 @@ class DataFormat:
     needs_class: bool
     """Its files hold several object classes: reading (and writing results) needs ``--class``."""
     read_detections: Callable[..., DetectionSequence]
-    """(path, object_class=None, seqinfo=None, num_frames=None, scores_rule="auto")."""
+    """(path, object_class=None, seqinfo=None, num_frames=None, scores_rule=DEFAULT_SCORE_RULE)."""
     read_ground_truth: Callable[..., GroundTruth]
     """(path, object_class=None, seqinfo=None)."""
     frames_from_gt: Callable[[Path], int] | None
@@ -87,7 +87,7 @@ def _read_kitti_results_any(path: Path, object_class: str | None, allow_empty: b
 FORMATS: dict[str, DataFormat] = {f.name: f for f in (
     DataFormat(
         MOT, "MOTChallenge", 1, False,
-        read_detections=lambda path, object_class=None, seqinfo=None, num_frames=None, scores_rule="auto":
+        read_detections=lambda path, object_class=None, seqinfo=None, num_frames=None, scores_rule=DEFAULT_SCORE_RULE:
             read_mot_detections(path, seqinfo=seqinfo, object_type=object_class or "pedestrian",
                                 scores_rule=scores_rule),
         read_ground_truth=lambda path, object_class=None, seqinfo=None: read_mot_ground_truth(path, seqinfo=seqinfo),
@@ -103,8 +103,9 @@ FORMATS: dict[str, DataFormat] = {f.name: f for f in (
     ),
     DataFormat(
         KITTI, "KITTI tracking", 0, True,
-        read_detections=lambda path, object_class=None, seqinfo=None, num_frames=None, scores_rule="auto":
-            read_kitti_detections(path, _need_class(KITTI, object_class), num_frames=num_frames),
+        read_detections=lambda path, object_class=None, seqinfo=None, num_frames=None, scores_rule=DEFAULT_SCORE_RULE:
+            read_kitti_detections(path, _need_class(KITTI, object_class), num_frames=num_frames,
+                                  scores_rule=scores_rule),
         read_ground_truth=lambda path, object_class=None, seqinfo=None:
             read_kitti_ground_truth(path, _need_class(KITTI, object_class)),
         frames_from_gt=_kitti_label_num_frames,
