@@ -19,8 +19,8 @@ def _xyxys(frame) -> np.ndarray:
     return np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], frame.scores]).reshape(-1, 5)
 
 
-def _online(seq):
-    tracker = refimpl.Tracker("cpsat", img_size=seq.image_size)
+def _online(seq, scores="rank"):
+    tracker = refimpl.Tracker("cpsat", img_size=seq.image_size, preset="none", fps=seq.fps, scores=scores)
     rows = []
     for fr in seq.frames:
         out = tracker.update(_xyxys(fr))
@@ -31,15 +31,16 @@ def _online(seq):
 
 
 def test_update_frame_by_frame_gives_the_rows_refimpl_track_writes(shared_data, tmp_path):
-    # KITTI-17 (145 frames, SORT's Faster R-CNN detections, scores 0.5..1 so the reader uses
-    # conf = round(100 * score), as the API does) has bridged gaps, so the one exception shows.
+    # KITTI-17 (145 frames, SORT's Faster R-CNN detections, scores 0.5..1 read as probabilities by
+    # the reader and the API alike) has bridged gaps, so the one exception shows.
     dets = shared_data / "MOT15" / "train" / "KITTI-17" / "det" / "det_sort_frcnn.txt"
     out = tmp_path / "KITTI-17.txt"
     # --no-preset: the API runs model/constants.lp as is; track would add the mot/pedestrian preset
-    assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(out), "--quiet", "--no-preset"]) == 0
+    assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(out), "--quiet", "--no-preset",
+                 "--scores", "probability"]) == 0
     written = io.read_mot_results(out)
-    seq = io.read_mot_detections(dets)
-    tracker, online = _online(seq)
+    seq = io.read_mot_detections(dets, scores_rule="probability")
+    tracker, online = _online(seq, "probability")
 
     on = {(int(r[0]), int(r[1])): r for r in online}
     filed = {(int(r[0]), int(r[1])): r for r in written}
@@ -92,9 +93,14 @@ def test_scores_map_to_confidences_as_the_mot_reader_does(tmp_path):
     scores = [0.005, 0.0049, 0.125, 0.5, 0.999, 1.0, 0.0]
     path = tmp_path / "det.txt"
     path.write_text("".join(f"1,-1,{10 * i},10,20,40,{s}\n" for i, s in enumerate(scores)))
-    read = io.read_mot_detections(path).frames[0].confidences
+    read = io.read_mot_detections(path, scores_rule="probability").frames[0].confidences
     assert list(confidences_from_scores(scores)) == [1, 0, 13, 50, 100, 100, 0]
     assert list(read) == list(confidences_from_scores(scores))
+    t = refimpl.Tracker(scores="probability", preset="none", min_hits=1)
+    t.update([[10 * i, 10, 10 * i + 20, 50, s] for i, s in enumerate(scores)])
+    # the probability rule in the API: the same integers (start needs conf > conf_thresh_new_track 40:
+    # 0.5, 0.999 and 1.0 start tracks, in detection order)
+    assert [t.type for t in t.result().tracks] == ["pedestrian"] * 3
 
 
 def test_empty_frames_and_an_empty_list():
@@ -116,7 +122,7 @@ def test_classes_name_the_type_in_any_case():
     (np.zeros((3, 4)), None, "(N, 5)"),
     ([[0, 0, 10, 10, np.nan]], None, "NaN or inf"),
     ([[0, 0, np.inf, 10, 0.5]], None, "NaN or inf"),
-    ([[0, 0, 10, 10, 1.5]], None, "outside 0..1"),
+    ([[0, 0, 10, 10, 1.5]], None, "outside 0..1"),  # with scores="probability" (below)
     ([[0, 0, 10, 10, -0.1]], None, "outside 0..1"),
     ([[0, 0, 10, 10, 50]], None, "outside 0..1"),  # a 0..100 confidence, not a score
     ([[10, 0, 10, 10, 0.5]], None, "x2 > x1"),
@@ -127,7 +133,7 @@ def test_classes_name_the_type_in_any_case():
     ("boxes", None, "numeric"),
 ])
 def test_bad_input_is_a_clear_error(dets, classes, message):
-    t = refimpl.Tracker()
+    t = refimpl.Tracker(scores="probability") if "0..1" in message else refimpl.Tracker()
     with pytest.raises(ValueError) as err:
         t.update(dets, classes)
     assert message in str(err.value)
@@ -142,6 +148,9 @@ def test_bad_input_is_a_clear_error(dets, classes, message):
     ({"img_size": (640, 0)}, "positive integers"),
     ({"min_hits": -1}, "non-negative integer"),
     ({"object_type": "Truck"}, "unknown object class"),
+    ({"preset": "kitti/truck"}, "unknown preset 'kitti/truck'"),
+    ({"format": "coco"}, "format must be one of"),
+    ({"scores": "logit"}, "scores must be one of"),
 ])
 def test_bad_options_are_a_clear_error(kwargs, message):
     with pytest.raises(ValueError) as err:
@@ -163,7 +172,28 @@ def test_the_readme_example_runs():
     out = stdio.StringIO()
     with contextlib.redirect_stdout(out):
         exec(compile(code, "README.md", "exec"), scope)
-    batch = track_sequence(seq, backend="cpsat")
-    # one printed line per written row (TUD-Campus has no bridged gap), then the first three events
-    assert len(out.getvalue().splitlines()) == len(batch.rows) + 1
+    tracker = scope["tracker"]
+    # one printed line per row update() returned: every row of the run but those only known after
+    # the fact (backfilled confirmations, filled episodes: interpolated_rows), then the events line
+    assert len(out.getvalue().splitlines()) == len(tracker.result().rows) - len(tracker.interpolated_rows()) + 1
+    assert tracker.setup.preset == "mot/pedestrian"  # the README's tracker runs the preset track runs
     assert scope["scene"].tracks
+
+
+def test_default_rows_equal_refimpl_track_on_a_kitti_car_sequence(shared_data, tmp_path):
+    # The user's two ways on one file, each with its defaults: `refimpl track` (the preset of
+    # kitti/car, the rank rule for the scores) and Tracker(format="kitti", object_type="car") fed
+    # the file's raw scores; the API's rows after the fact are the file's rows, byte for byte.
+    dets = shared_data / "KITTI" / "tracking" / "training" / "det_02_pointrcnn" / "Car" / "0001.txt"
+    out = tmp_path / "0001.txt"
+    assert main(["track", "--dets", str(dets), "--format", "kitti", "--class", "Car", "--out", str(out),
+                 "--quiet"]) == 0
+    seq = io.get_format("kitti").read_detections(dets, object_class="car")
+    tracker = refimpl.Tracker(format="kitti", object_type="car")
+    assert tracker.setup.preset == "kitti/car" and tracker.backend == "cpsat"
+    for fr in seq.frames:
+        tracker.update(_xyxys(fr))
+    online = tmp_path / "online.txt"
+    io.write_mot_results(online, tracker.result().rows, first_frame=0)
+    assert online.read_bytes() == out.read_bytes()
+    assert len(out.read_bytes()) > 0

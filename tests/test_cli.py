@@ -97,13 +97,14 @@ def test_track_check_verifies_every_frame_and_writes_the_scene(backend, tmp_path
 
 
 def test_baseline_refuses_abduction_only_options(capsys):
-    assert main(["track", "--dets", str(DEMO_DETS), "--check", "--out", "unused.txt"]) == 2
+    assert main(["track", "--dets", str(DEMO_DETS), "--backend", "baseline", "--check", "--out", "unused.txt"]) == 2
     assert "need an abduction backend" in capsys.readouterr().err
 
 
 def test_benchmark_command_reproduces_sorts_published_mota(shared_data, capsys, tmp_path):
     out = tmp_path / "b.json"
-    assert main(["benchmark", "mot15-sort6", "--data", str(shared_data), "--quiet", "--json", str(out)]) == 0
+    assert main(["benchmark", "mot15-sort6", "--backend", "baseline", "--data", str(shared_data), "--quiet",
+                 "--json", str(out)]) == 0
     # SORT's published overall MOTA on its six MOT15 sequences is 34.0 (FP 3311, FN 11660)
     row = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("| OVERALL |"))
     assert row.split("|")[5].strip() == "34.0"  # MOTA, after HOTA, DetA, AssA

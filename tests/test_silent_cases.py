@@ -1,0 +1,73 @@
+"""Runs that end with nothing say so: no track written, an empty results file scored, defaults a
+user expects (issue 24)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from refimpl import io
+from refimpl.cli import main
+
+REPO = Path(__file__).resolve().parent.parent
+DEMO_DETS = REPO / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
+
+
+def _kitti_car(shared_data, seq="0011"):
+    return shared_data / "KITTI" / "tracking" / "training" / "det_02_pointrcnn" / "Car" / f"{seq}.txt"
+
+
+def test_a_class_not_in_the_file_says_no_track_and_why(shared_data, tmp_path, capsys):
+    # the Car file of 0011 holds type-2 rows only: read as Cyclist it has no detection at all
+    out = tmp_path / "x.txt"
+    assert main(["track", "--dets", str(_kitti_car(shared_data)), "--format", "kitti", "--class", "Cyclist",
+                 "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "no track written" in err and "no detection of class cyclist" in err and "--class" in err
+    assert out.read_text() == ""
+
+
+def test_every_detection_under_the_start_threshold_names_the_range(tmp_path, capsys):
+    # --scores raw reads TUD-Campus's probabilities (SORT's detections, 0.5..1.0) as 0..100
+    # confidences: every one rounds half up to 1, none exceeds conf_thresh_new_track 40, so no track
+    # can start
+    out = tmp_path / "x.txt"
+    assert main(["track", "--dets", str(DEMO_DETS), "--scores", "raw", "--no-preset", "--out", str(out),
+                 "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "no track written" in err and "confidences 1..1" in err and "conf_thresh_new_track" in err
+
+
+def test_eval_scores_an_empty_results_file_as_every_target_missed(shared_data, tmp_path, capsys):
+    gt_path = shared_data / "KITTI" / "tracking" / "training" / "label_02" / "0011.txt"
+    empty = tmp_path / "empty.txt"
+    empty.write_text("")
+    assert main(["eval", str(empty), "--gt", str(gt_path), "--format", "kitti", "--class", "Car",
+                 "--json", str(tmp_path / "m.json")]) == 0
+    captured = capsys.readouterr()
+    assert "scored as no tracks" in captured.err
+    import json
+    overall = json.loads((tmp_path / "m.json").read_text())["overall"]
+    gt = io.read_kitti_ground_truth(gt_path, "car")
+    # no tracker row: nothing is a true or false positive, every considered ground-truth box is a miss
+    assert overall["FP"] == 0 and overall["IDs"] == 0
+    assert overall["FN"] == int(gt.considered.sum()) > 0
+    assert overall["MOTA"] == 0.0
+
+
+def test_track_and_benchmark_run_the_papers_method_by_default(tmp_path, capsys):
+    out = tmp_path / "x.txt"
+    assert main(["track", "--dets", str(DEMO_DETS), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    # the one line saying what ran: the abduction backend and the MOTChallenge preset
+    assert "refimpl track: cpsat, preset mot/pedestrian" in err
+
+
+def test_help_shows_the_defaults(capsys):
+    for command in ("track", "benchmark"):
+        try:
+            main([command, "--help"])
+        except SystemExit:
+            pass
+        text = " ".join(capsys.readouterr().out.split())
+        assert "(default: cpsat)" in text
+        assert command != "track" or "(default: mot)" in text
