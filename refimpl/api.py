@@ -35,11 +35,18 @@ from .spec import HistoryEvent
 from .tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
 
 API_SCORE_RULES = (RANK, "probability")
+DEFAULT_CLASS_TYPES = {0: "pedestrian", 1: "cyclist", 2: "car"}
+"""COCO's class ids (what YOLO-family detectors and supervision use): person, bicycle, car."""
 
 if TYPE_CHECKING:
     from .scene import Scene
 
 __all__ = ["Tracker", "confidences_from_scores"]
+
+
+def _is_detections(obj) -> bool:
+    """A supervision.Detections (duck-typed: supervision is an optional extra)."""
+    return all(hasattr(obj, a) for a in ("xyxy", "confidence", "class_id", "tracker_id"))
 
 
 def confidences_from_scores(scores: ArrayLike) -> np.ndarray:
@@ -71,6 +78,9 @@ class Tracker:
         the file readers: its place among the scores seen so far, so any detector's scale works)
         or "probability" (scores in 0..1, times 100).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
+    class_types: integer class id -> object type, for (N, 6) arrays and ``supervision.Detections``
+        (default DEFAULT_CLASS_TYPES: COCO's 0 person, 1 bicycle, 2 car).  Detections whose types
+        differ never share a track (the model's type match, refimpl/model.md 3.2).
     first_frame: the number of the first frame (default: 1 for MOTChallenge, 0 for KITTI).
     name, fps: carried into ``scene()``; fps also sets the safety bound on halts (as for a file
         whose seqinfo.ini gives its frame rate; KITTI: 10).
@@ -81,7 +91,8 @@ class Tracker:
                  min_hits: int = DEFAULT_MIN_HITS, bridge_gap: int = DEFAULT_BRIDGE_GAP,
                  bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
                  object_type: str = "pedestrian", first_frame: int | None = None, name: str = "sequence",
-                 fps: float | None = None, scores: str = RANK, **options: object) -> None:
+                 fps: float | None = None, scores: str = RANK,
+                 class_types: Mapping[int, str] | None = None, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         from .io import FORMAT_NAMES, KITTI, KITTI_FPS, KITTI_IMAGE_SIZE, get_format
@@ -90,6 +101,9 @@ class Tracker:
         if scores not in API_SCORE_RULES:
             raise ValueError(f"scores must be one of {', '.join(API_SCORE_RULES)}, got {scores!r}")
         self.object_type = self._type(object_type, "object_type")
+        self.class_types = {int(k): self._type(v, f"class_types[{k}]")
+                            for k, v in (DEFAULT_CLASS_TYPES if class_types is None else class_types).items()}
+        """Integer class id (column 6 of an (N, 6) array, ``Detections.class_id``) -> object type."""
         overrides = self._constants(constants)
         if img_size is not None:
             img_size = self._img_size(img_size)
@@ -162,8 +176,14 @@ class Tracker:
             raise ValueError("dets must be a numeric (N, 5) array x1,y1,x2,y2,score") from None
         if a.size == 0:
             a = a.reshape(0, 5)
-        if a.ndim != 2 or a.shape[1] != 5:
-            raise ValueError(f"dets must be an (N, 5) array x1,y1,x2,y2,score; got shape {a.shape}")
+        if a.ndim != 2 or a.shape[1] not in (5, 6):
+            raise ValueError(f"dets must be an (N, 5) array x1,y1,x2,y2,score or (N, 6) "
+                             f"x1,y1,x2,y2,score,class_id; got shape {a.shape}")
+        if a.shape[1] == 6:
+            if classes is not None:
+                raise ValueError("an (N, 6) array carries its classes in column 6: give no classes= too")
+            classes = self._class_names(a[:, 5])
+            a = a[:, :5]
         bad = ~np.isfinite(a).all(axis=1)
         if bad.any():
             raise ValueError(f"dets row {int(np.flatnonzero(bad)[0])} contains NaN or inf")
@@ -191,28 +211,84 @@ class Tracker:
             types = tuple(self._type(c, f"classes[{i}]") for i, c in enumerate(classes))
         return boxes, scores, types
 
+    def _class_names(self, ids) -> list[str]:
+        """Object types of integer class ids by ``class_types``; ValueError naming an unknown id."""
+        out = []
+        for k, v in enumerate(np.asarray(ids, dtype=float)):
+            if not np.isfinite(v) or v != int(v):
+                raise ValueError(f"dets row {k}: class id {v:g} is not an integer")
+            if int(v) not in self.class_types:
+                raise ValueError(f"dets row {k}: class id {int(v)} has no object type (class_types maps "
+                                 f"{', '.join(f'{c}: {t}' for c, t in sorted(self.class_types.items()))})")
+            out.append(self.class_types[int(v)])
+        return out
+
     # -- tracking ----------------------------------------------------------------------------
     @property
     def frame(self) -> int:
         """The number of the next frame ``update`` will process."""
         return self.first_frame + len(self._frames)
 
-    def update(self, dets: ArrayLike, classes: Sequence[str] | None = None) -> np.ndarray:
-        """Track one frame; the (M, 5) rows x1, y1, x2, y2, track_id reported for it, by track id."""
+    def update(self, dets, classes: Sequence[str] | None = None):
+        """Track one frame.
+
+        * an (N, 5) array x1, y1, x2, y2, score: the (M, 5) rows x1, y1, x2, y2, track_id reported
+          for this frame, by track id;
+        * an (N, 6) array x1, y1, x2, y2, score, class_id (BoxMOT's layout): (M, 6) rows with the
+          track's class id as column 6;
+        * a ``supervision.Detections`` (extra ``supervision``): the same Detections with
+          ``tracker_id`` set, as roboflow ``trackers`` returns them: the id of the track each
+          detection was assigned to, resumed or started, where that track's row is reported this
+          frame; -1 otherwise.  ``class_id`` (if any) gives each detection's type by ``class_types``.
+        """
+        if _is_detections(dets):
+            return self._update_detections(dets)
+        with_class = np.ndim(dets) == 2 and np.shape(dets)[1] == 6
+        rows, _ = self._step(dets, classes)
+        if not with_class:
+            return rows
+        numbers = {t: c for c, t in self.class_types.items()}  # type -> its (first) class id
+        kinds = {int(trk.id.rsplit("_", 1)[1]): trk.type for trk in self._everyone()}
+        cls = np.array([numbers.get(kinds[int(n)], -1) for n in rows[:, 4]], dtype=float)
+        return np.column_stack([rows, cls]).reshape(-1, 6)
+
+    def _step(self, dets, classes) -> tuple[np.ndarray, dict[int, str]]:
         boxes, scores, types = self._check(dets, classes)
         frame = self.frame
         conf = self._rank.confidences(scores) if self.scores == RANK else confidences_from_scores(scores)
         self._tracker.step(frame, boxes, conf, types)
         self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
         rows = []
-        everyone = list(self._tracker.tracks.values()) + self._tracker.finished
-        for trk in everyone:
+        for trk in self._everyone():
             if frame in trk.confirmed:
                 x, y, w, h = trk.observed[frame]
                 rows.append((x, y, x + w, y + h, float(trk.id.rsplit("_", 1)[1])))
         out = np.array(rows, dtype=float).reshape(-1, 5)
         self._reported.update((frame, int(n)) for n in out[:, 4])
-        return out[np.argsort(out[:, 4], kind="stable")]
+        return out[np.argsort(out[:, 4], kind="stable")], dict(self._tracker.owners)
+
+    def _everyone(self):
+        return list(self._tracker.tracks.values()) + self._tracker.finished
+
+    def _update_detections(self, detections):
+        xyxy = np.asarray(detections.xyxy, dtype=float).reshape(-1, 4)
+        if detections.confidence is None:
+            raise ValueError("Detections need a confidence per detection (the model's conf_obs)")
+        score = np.asarray(detections.confidence, dtype=float).reshape(-1, 1)
+        if detections.class_id is not None:
+            dets = np.column_stack([xyxy, score, np.asarray(detections.class_id, dtype=float)])
+        else:
+            dets = np.column_stack([xyxy, score])
+        rows, owners = self._step(dets, None)
+        reported = {int(n) for n in rows[:, 4]}
+        ids = np.full(len(xyxy), -1, dtype=int)
+        for j, trk_id in owners.items():
+            number = int(trk_id.rsplit("_", 1)[1])
+            if number in reported:
+                ids[j] = number
+        out = detections[np.arange(len(xyxy))] if len(xyxy) else detections
+        out.tracker_id = ids
+        return out
 
     @property
     def events(self) -> tuple[HistoryEvent, ...]:

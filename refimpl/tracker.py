@@ -167,6 +167,8 @@ class AbductionTracker:
         self.finished: list[_Track] = []
         self.next_number = 1
         self.events: list[HistoryEvent] = []
+        self.owners: dict[int, str] = {}
+        """The last frame's detection index -> the track it was assigned to, resumed or started."""
         self.frames = 0
         self.not_optimal = 0
         self.solve_ms = 0.0
@@ -277,6 +279,7 @@ class AbductionTracker:
     def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
                hyp: Hypothesis) -> None:
         index = {_det_id(j): j for j in range(len(boxes))}
+        self.owners = {index[d]: t for t, d in (*hyp.assignments, *hyp.resumes)}
         scene = self._scene_velocity(frame) if self.scene_velocity else None
         for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
             self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
@@ -310,6 +313,7 @@ class AbductionTracker:
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
+            self.owners[j] = trk_id
         frame_events: list[HistoryEvent] = []
         for name, args in hyp.event_terms:
             event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
