@@ -1,7 +1,6 @@
 """The library interface in the shape trackers are used in: ``Tracker(...).update(dets) -> tracks``.
 
-One call per frame: detections in as an (N, 5) array ``x1, y1, x2, y2, score`` (a score of
-any scale: the default rule ranks it among the scores seen so far), tracks out as an (M, 5) array ``x1, y1, x2, y2, track_id``.  Behind it is the paper's
+One call per frame: detections in as an (N, 5) array ``x1, y1, x2, y2, score``, tracks out as an (M, 5) array ``x1, y1, x2, y2, track_id``.  Behind it is the paper's
 Algorithm 1 (refimpl.tracker.AbductionTracker), so the rows returned for a frame are exactly
 the rows ``refimpl track`` writes for that frame, with one documented exception: the boxes
 ``refimpl track`` interpolates inside a *bridged* gap (a confirmed track resumed after at most
@@ -11,10 +10,10 @@ confirmation writes and the filled frames of an occlusion episode;
 ``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has them after
 the fact.
 
-Scores map to the model's integer confidences 0..100 as the file readers map them
-(refimpl.confidence): by default their rank among every score seen so far in the sequence, so
-``update`` and ``refimpl track`` give the same rows for the same detections; ``scores="probability"``
-takes scores in 0..1 as ``floor(100 * score + 0.5)``.  The preset is chosen as ``refimpl track``
+Scores map to the model's integer confidences 0..100 as the file readers map them: by default on
+the format's own scale (MOTChallenge probabilities: ``floor(100 * score + 0.5)``; KITTI logits
+through a sigmoid), or with ``scores="rank"`` by their place among the scores seen so far
+(refimpl.confidence), for a detector of any scale.  The preset is chosen as ``refimpl track``
 chooses it (refimpl.pipeline.setup_for): ``Tracker(format="kitti", object_type="car")`` runs the
 KITTI Car preset, ``preset="none"`` none.
 """
@@ -34,7 +33,7 @@ from .solvers import BACKENDS, DEFAULT_BACKEND
 from .spec import HistoryEvent
 from .tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
 
-API_SCORE_RULES = (RANK, "probability")
+API_SCORE_RULES = ("auto", RANK, "probability", "sigmoid")
 DEFAULT_CLASS_TYPES = {0: "pedestrian", 1: "cyclist", 2: "car"}
 """COCO's class ids (what YOLO-family detectors and supervision use): person, bicycle, car."""
 
@@ -74,9 +73,10 @@ class Tracker:
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
     **options: tracker option overrides by name (refimpl.options.TRACKER_OPTIONS), e.g.
         ``written_box="detection"``, on top of the preset.
-    scores: how a score becomes the model's confidence (refimpl.confidence): "rank" (default, as
-        the file readers: its place among the scores seen so far, so any detector's scale works)
-        or "probability" (scores in 0..1, times 100).
+    scores: how a score becomes the model's confidence, as the file readers do it: "auto" (default:
+        the format's own scale, "probability" for MOTChallenge, "sigmoid" for KITTI's logits),
+        "probability" (scores in 0..1, times 100), "sigmoid", or "rank" (refimpl.confidence: its
+        place among the scores seen so far, for a detector of any scale).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
     class_types: integer class id -> object type, for (N, 6) arrays and ``supervision.Detections``
         (default DEFAULT_CLASS_TYPES: COCO's 0 person, 1 bicycle, 2 car).  Detections whose types
@@ -91,7 +91,7 @@ class Tracker:
                  min_hits: int = DEFAULT_MIN_HITS, bridge_gap: int = DEFAULT_BRIDGE_GAP,
                  bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
                  object_type: str = "pedestrian", first_frame: int | None = None, name: str = "sequence",
-                 fps: float | None = None, scores: str = RANK,
+                 fps: float | None = None, scores: str = "auto",
                  class_types: Mapping[int, str] | None = None, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
@@ -125,7 +125,8 @@ class Tracker:
         self.backend = backend
         self.name, self.fps, self.image_size = name, fps, img_size
         self.first_frame = int(first_frame)
-        self.scores = scores
+        self.scores = scores if scores != "auto" else ("sigmoid" if format == KITTI else "probability")
+        """The score rule in use: ``auto`` is the format's own scale, as the file readers read it."""
         self._params = (int(min_hits), int(bridge_gap), int(bridge_conf))
         self.reset()
 
@@ -194,7 +195,8 @@ class Tracker:
         bad = ((scores < 0.0) | (scores > 1.0)) if self.scores == "probability" else np.zeros(len(a), bool)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"dets row {k}: score {scores[k]:g} is outside 0..1")
+            raise ValueError(f"dets row {k}: score {scores[k]:g} is outside 0..1 (scores=\"rank\" takes a "
+                             "detector's scores of any scale)")
         boxes = np.column_stack([a[:, 0], a[:, 1], a[:, 2] - a[:, 0], a[:, 3] - a[:, 1]])
         bad = (boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE)
         if bad.any():
@@ -255,7 +257,7 @@ class Tracker:
     def _step(self, dets, classes) -> tuple[np.ndarray, dict[int, str]]:
         boxes, scores, types = self._check(dets, classes)
         frame = self.frame
-        conf = self._rank.confidences(scores) if self.scores == RANK else confidences_from_scores(scores)
+        conf = self._confidences(scores)
         self._tracker.step(frame, boxes, conf, types)
         self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
         rows = []
@@ -266,6 +268,13 @@ class Tracker:
         out = np.array(rows, dtype=float).reshape(-1, 5)
         self._reported.update((frame, int(n)) for n in out[:, 4])
         return out[np.argsort(out[:, 4], kind="stable")], dict(self._tracker.owners)
+
+    def _confidences(self, scores: np.ndarray) -> np.ndarray:
+        if self.scores == RANK:
+            return self._rank.confidences(scores)
+        if self.scores == "sigmoid":
+            return np.floor(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)) + 0.5).astype(np.int64)  # as the KITTI reader
+        return confidences_from_scores(scores)
 
     def _everyone(self):
         return list(self._tracker.tracks.values()) + self._tracker.finished

@@ -57,7 +57,7 @@ def _rescaled_kitti(src, dst, f) -> None:
 @pytest.mark.parametrize("name", list(RESCALES))
 def test_track_and_the_api_write_the_same_rows_whatever_the_score_scale(name, shared_data, tmp_path):
     # KITTI Pedestrian 0010, a tuning sequence (not in evaluate_tracking.seqmap.val): its PointRCNN
-    # logits rescaled; `refimpl track` with its defaults writes the same bytes, and the API fed the
+    # logits rescaled; `refimpl track --scores rank` writes the same bytes, and the API fed the
     # rescaled scores gives those rows too.  The folder layout keeps the label file beside it.
     src = shared_data / "KITTI" / "tracking" / "training" / "det_02_pointrcnn" / "Pedestrian" / "0010.txt"
     scores = np.array([float(line.split(",")[6]) for line in src.read_text().splitlines()])
@@ -70,13 +70,13 @@ def test_track_and_the_api_write_the_same_rows_whatever_the_score_scale(name, sh
     (tmp_path / "training" / "label_02" / "0010.txt").symlink_to(src.parent.parent.parent / "label_02" / "0010.txt")
     rescaled = folder / "0010.txt"
     _rescaled_kitti(src, rescaled, f)
-    flags = ["--format", "kitti", "--class", "Pedestrian", "--quiet"]
+    flags = ["--format", "kitti", "--class", "Pedestrian", "--scores", "rank", "--quiet"]
     assert main(["track", "--dets", str(src), *flags, "--out", str(tmp_path / "orig.txt")]) == 0
     assert main(["track", "--dets", str(rescaled), *flags, "--out", str(tmp_path / "new.txt")]) == 0
     original = (tmp_path / "orig.txt").read_bytes()
     assert original and (tmp_path / "new.txt").read_bytes() == original
-    seq = io.read_kitti_detections(rescaled, "pedestrian")
-    tracker = refimpl.Tracker(format="kitti", object_type="pedestrian")
+    seq = io.read_kitti_detections(rescaled, "pedestrian", scores_rule="rank")
+    tracker = refimpl.Tracker(format="kitti", object_type="pedestrian", scores="rank")
     for fr in seq.frames:
         b = fr.boxes
         tracker.update(np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores]))

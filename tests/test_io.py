@@ -59,7 +59,7 @@ def test_tud_campus_sort_frcnn_detections_cover_all_71_frames():
 
 @needs_data
 def test_official_acf_detections_use_clipped_raw_scores():
-    seq = io.read_mot_detections(MOT15 / "TUD-Campus" / "det" / "det.txt")
+    seq = io.read_mot_detections(MOT15 / "TUD-Campus" / "det" / "det.txt", scores_rule="raw")
     assert seq.num_detections == 322  # PROVENANCE: official det.txt, 322 rows
     # first row score 42.848 (not all scores in [0,1]) -> clip(round(42.848), 0, 100) = 43
     assert seq.frames[0].confidences[0] == 43
@@ -234,9 +234,19 @@ def test_unit_interval_scores_map_to_round_100_times_score(tmp_path):
 def test_raw_scores_map_to_clipped_rounded_score(tmp_path):
     p = write(tmp_path / "det.txt", "1,-1,0,0,10,10,42.5,-1\n1,-1,0,0,10,10,-0.8\n1,-1,0,0,10,10,139\n"
               "1,-1,0,0,10,10,0.5,-1,-1\n")
-    # one score outside [0,1] -> the whole file is raw: round-half-up(42.5)=43, -0.8 -> -1 -> 0,
-    # 139 -> 100, 0.5 -> round-half-up(0.5) = 1 (not 50: the decision is per file)
-    assert io.read_mot_detections(p).frames[0].confidences.tolist() == [43, 0, 100, 1]
+    # --scores raw: round-half-up(42.5)=43, -0.8 -> -1 -> 0, 139 -> 100, 0.5 -> round-half-up(0.5) = 1
+    assert io.read_mot_detections(p, scores_rule="raw").frames[0].confidences.tolist() == [43, 0, 100, 1]
+
+
+def test_scores_that_are_not_probabilities_are_ranked_by_default(tmp_path):
+    p = write(tmp_path / "det.txt", "1,-1,0,0,10,10,42.5,-1\n1,-1,0,0,10,10,-0.8\n1,-1,0,0,10,10,139\n"
+              "1,-1,0,0,10,10,0.5,-1,-1\n2,-1,0,0,10,10,40\n")
+    # three of five scores outside [0,1]: auto ranks them (the file's scale says nothing), with a
+    # warning.  Frame 1 (n = 4, sorted -0.8 0.5 42.5 139): 42.5 has 3 <= it -> 75, -0.8 1 -> 25,
+    # 139 4 -> 100, 0.5 2 -> 50; frame 2 (n = 5): 40 has 3 <= it -> 60
+    with pytest.warns(io.InputFormatWarning, match="not probabilities"):
+        seq = io.read_mot_detections(p)
+    assert [f.confidences.tolist() for f in seq.frames] == [[75, 25, 100, 50], [60]]
 
 
 def test_kitti_scores_map_to_round_100_sigmoid(tmp_path):

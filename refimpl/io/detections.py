@@ -88,12 +88,13 @@ def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, con
     return tuple(out)
 
 
-SCORE_RULES = (RANK, "auto", "probability", "raw", "sigmoid")
-"""How a file's scores become confidences (refimpl.confidence; the package doc): ``rank`` (the
-default, any detector's scale), or a rule that reads the numbers: ``auto`` (the file decides:
-MOTChallenge probability or raw by the share of scores in 0..1, KITTI sigmoid), ``probability``,
-``raw``, ``sigmoid`` (KITTI's logits)."""
-DEFAULT_SCORE_RULE = RANK
+SCORE_RULES = ("auto", RANK, "probability", "raw", "sigmoid")
+"""How a file's scores become confidences (refimpl.confidence; the package doc): ``auto`` (the
+default: the format's own scale where the scores are on it, MOTChallenge probabilities in 0..1 and
+KITTI's logits through a sigmoid; a MOTChallenge file whose scores are not probabilities is ranked),
+``rank`` (any detector's scale: a score's place among those seen so far), ``probability``, ``raw``
+(0..100 as they are), ``sigmoid``."""
+DEFAULT_SCORE_RULE = "auto"
 
 
 def _check_rule(rule: str, allowed: Sequence[str]) -> None:
@@ -108,18 +109,23 @@ def _ranked(seq: DetectionSequence) -> DetectionSequence:
     return replace(seq, frames=tuple(replace(f, confidences=ranker.confidences(f.scores)) for f in seq.frames))
 
 
-def _mot_confidences(path: Path, linenos: Sequence[int], scores: np.ndarray, rule: str) -> np.ndarray:
-    """The confidence rule of a MOTChallenge detection file (module doc), one rule for every row."""
+def _mot_confidences(path: Path, linenos: Sequence[int], scores: np.ndarray, rule: str) -> np.ndarray | None:
+    """The confidence rule of a MOTChallenge detection file (module doc), one rule for every row;
+    None: the rank rule, applied frame by frame once the frames are built."""
     _check_rule(rule, (RANK, "auto", "probability", "raw"))
     if rule == RANK:
-        return np.zeros(len(scores), dtype=np.int64)  # set frame by frame once the frames are built (_ranked)
+        return None  # set frame by frame once the frames are built (_ranked)
     inside = (scores >= 0.0) & (scores <= 1.0)
     if rule == "auto":
         share = float(inside.mean())
         if share == 1.0:
             rule = "probability"
-        elif share <= 0.5:
-            rule = "raw"
+        elif share <= 0.5:  # not probabilities (ACF's 0..139, a logit, ...): their scale says nothing
+            warnings.warn(f"{path}: scores {scores.min():g}..{scores.max():g} are not probabilities in 0..1: "
+                          "each detection's confidence is its score's rank among those seen so far "
+                          "(--scores rank; refimpl/confidence.py); --scores raw reads them as 0..100",
+                          InputFormatWarning, stacklevel=3)
+            return None
         else:
             bad = _first_bad(~inside)
             raise InputFormatError(
@@ -158,6 +164,8 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     _check_area(path, linenos, boxes[:, 2], boxes[:, 3])
     scores = a[:, 6]
     conf = _mot_confidences(path, linenos, scores, scores_rule)
+    ranked = conf is None
+    conf = np.zeros(len(scores), dtype=np.int64) if ranked else conf
     count = int(info["seqLength"]) if info is not None else int(frames.max())
     seq = DetectionSequence(
         name=_mot_sequence_name(path, info),
@@ -166,7 +174,7 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
         image_size=(int(info["imWidth"]), int(info["imHeight"])) if info is not None else None,
         fps=float(info["frameRate"]) if info is not None else None,
     )
-    return _ranked(seq) if scores_rule == RANK else seq
+    return _ranked(seq) if ranked else seq
 
 
 def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames: int | None = None,
