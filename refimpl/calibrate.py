@@ -261,3 +261,90 @@ def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple]:
             raise ValueError(f"--grid {name} has no values")
         grid[name] = vals
     return grid
+
+
+# ---------------------------------------------------------------------------------------
+# The robust default: the preset a (format, class) without its own runs with
+
+
+@dataclass(frozen=True)
+class RobustChoice:
+    """Every candidate (each stored preset, and none) on every tuning benchmark, and the one chosen."""
+
+    benchmarks: tuple[str, ...]
+    candidates: tuple[str, ...]
+    """Preset names, "none" last."""
+    hota: tuple[tuple[float, ...], ...]
+    """hota[c][b]: candidate c's HOTA on benchmark b."""
+    chosen: int
+
+    def ranks(self) -> list[list[int]]:
+        """ranks[c][b]: 1 for the best HOTA on benchmark b (ties share the better rank)."""
+        return [[1 + sum(other[b] > mine[b] for other in self.hota) for b in range(len(self.benchmarks))]
+                for mine in self.hota]
+
+
+def choose_robust(benchmarks: Sequence[str], candidates: Sequence[str], hota) -> RobustChoice:
+    """The candidate with the best mean rank of HOTA over the benchmarks; ties: the higher
+    worst-case HOTA, then candidate order (deterministic)."""
+    choice = RobustChoice(tuple(benchmarks), tuple(candidates), tuple(tuple(float(v) for v in row) for row in hota), 0)
+    ranks = choice.ranks()
+    best = min(range(len(candidates)),
+               key=lambda c: (sum(ranks[c]) / len(benchmarks), -min(choice.hota[c]), c))
+    return RobustChoice(choice.benchmarks, choice.candidates, choice.hota, best)
+
+
+def robust_default(benchmarks: Sequence[str], data_root: str, backend: str = DEFAULT_BACKEND, plan=None,
+                   quiet: bool = True) -> RobustChoice:
+    """Run every stored preset (and none) on every tuning benchmark, each with its own reader's
+    score rule, and choose the default by :func:`choose_robust`."""
+    from .datasets import load_dataset
+    from .options import TrackerOptions
+    from .pipeline import NONE
+    from .presets import DEFAULT_KEY, load_presets
+    from .scaleout import Plan
+    from .tasks import RunRequest, run_requests
+    for name in benchmarks:
+        check_tunable(name, data_root)
+    presets = {k: p for k, p in sorted(load_presets().items()) if k != DEFAULT_KEY}
+    names = [*presets, NONE]
+    data = {name: load_dataset(name, data_root) for name in benchmarks}
+    requests = []
+    for cand in names:
+        p = presets.get(cand)
+        for name in benchmarks:
+            requests.append(RunRequest(name, data[name], backend, tuple(p.constants.items()) if p else (),
+                                       p.tracker if p else TrackerOptions(), cand))
+    runs = run_requests(requests, plan or Plan(), label="calibrate default", quiet=quiet)
+    hota = [[runs[c * len(benchmarks) + b].overall["hota"] for b in range(len(benchmarks))] for c in range(len(names))]
+    return choose_robust(benchmarks, names, hota)
+
+
+def robust_report(choice: RobustChoice, command: str) -> str:
+    ranks = choice.ranks()
+    head = "| candidate | " + " | ".join(f"{b} HOTA (rank)" for b in choice.benchmarks) + " | mean rank | worst HOTA |"
+    lines = [f"Command: `{command}`  ",
+             f"The default preset (model/presets.json `default`): what a (format, class) without a preset of its "
+             f"own runs with (refimpl.presets.resolve_preset). Every stored preset and none were run on every "
+             f"tuning benchmark ({', '.join(choice.benchmarks)}), each with its reader's score rule; the default "
+             f"is the candidate with the best mean rank of HOTA, ties broken by the higher worst-case HOTA.  ",
+             f"Chosen: {choice.candidates[choice.chosen]}.", "", head,
+             "|---|" + "---:|" * (len(choice.benchmarks) + 2)]
+    for c, name in enumerate(choice.candidates):
+        cells = [f"{100 * v:.1f} ({r})" for v, r in zip(choice.hota[c], ranks[c])]
+        mark = f"**{name}**" if c == choice.chosen else name
+        lines.append(f"| {mark} | " + " | ".join(cells) + f" | {sum(ranks[c]) / len(ranks[c]):.2f} | "
+                     f"{100 * min(choice.hota[c]):.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+def default_preset(choice: RobustChoice):
+    """The chosen candidate as the stored `default` preset (its values, the procedure said)."""
+    from .options import TrackerOptions
+    from .presets import Preset, load_presets
+    name = choice.candidates[choice.chosen]
+    source = load_presets().get(name)
+    procedure = (f"the stored preset with the best mean rank of HOTA over {', '.join(choice.benchmarks)} "
+                 f"(refimpl calibrate --default): {name}")
+    return Preset("*", "*", dict(source.constants) if source else {}, "+".join(choice.benchmarks), procedure,
+                  source.tracker if source else TrackerOptions())

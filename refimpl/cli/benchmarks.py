@@ -116,6 +116,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from ..benchmarks import format_command, write_section
     from ..calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
                             chosen_preset, parse_grid)
+    if args.default:
+        return _calibrate_default(args)
     try:
         grid = parse_grid(args.grid)
     except ValueError as exc:
@@ -135,6 +137,26 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         if args.write_presets:
             from ..presets import write_preset
             print(f"preset {cal.format}/{cal.object_class} written: {write_preset(chosen_preset(cal))}")
+    return EXIT_OK
+
+
+def _calibrate_default(args: argparse.Namespace) -> int:
+    """calibrate --default: the robust default preset over every named tuning benchmark at once."""
+    from ..benchmarks import format_command, write_section
+    from ..calibrate import check_tunable, default_preset, robust_default, robust_report
+    if args.grid:
+        raise UserError("--default chooses among the stored presets: give no --grid")
+    for name in args.benchmark:
+        check_tunable(name, args.data)
+    choice = robust_default(args.benchmark, args.data, args.backend, _plan(args), args.quiet)
+    text = robust_report(choice, format_command(sys.argv[1:]))
+    print(text)
+    if args.out:
+        write_section(args.out, "<!-- calibrate:default:begin -->", "<!-- calibrate:default:end -->", text)
+        print(f"written: {args.out}")
+    if args.write_presets:
+        from ..presets import write_preset
+        print(f"preset default written: {write_preset(default_preset(choice))}")
     return EXIT_OK
 
 

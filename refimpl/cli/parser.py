@@ -178,6 +178,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="replace (or add) one dimension of the search space (repeatable)")
     cb.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     cb.add_argument("--loso", action="store_true", help="also leave-one-sequence-out (default for MOT benchmarks)")
+    cb.add_argument("--default", action="store_true",
+                    help="choose the robust default preset instead: every stored preset (and none) on every named "
+                         "benchmark, the best mean rank of HOTA (what a format/class without a preset runs with)")
     cb.add_argument("--top", type=int, default=None, help="print only the best N points")
     cb.add_argument("--write-presets", action="store_true", help="store the best point as the preset (model/presets.json)")
     cb.add_argument("--out", help="write the report into this markdown file (between marker comments)")
