@@ -41,6 +41,10 @@ class Preset:
     procedure: str
     tracker: TrackerOptions = TrackerOptions()
     """The tracker options of the preset (the "tracker" entry; defaults where it is absent)."""
+    startable: float | None = None
+    """The share of the tuning set's detections whose confidence passes the preset's
+    conf_thresh_new_track (may start a track): what its thresholds were fitted on; a file far from
+    it gets a warning (:func:`score_warning`)."""
 
     @property
     def name(self) -> str:
@@ -67,8 +71,9 @@ def _parse(data: Mapping, source: Path) -> dict[str, Preset]:
         if unknown or not cls:
             raise ValueError(f"{source}: preset {key!r}: unknown constants {unknown} or key not FORMAT/CLASS")
         options = TrackerOptions.from_mapping(entry.get("tracker", {}), f"{source}: preset {key!r}")
+        share = entry.get("startable")
         out[key] = Preset(fmt, cls, consts, str(entry.get("tuned_on", "")), str(entry.get("procedure", "")),
-                          options)
+                          options, None if share is None else float(share))
     return out
 
 
@@ -146,6 +151,40 @@ def write_preset(preset: Preset, path: str | Path | None = None) -> Path:
     data = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
     data[preset.name] = {
         "constants": dict(sorted(preset.constants.items())), "tracker": preset.tracker.as_dict(),
-        "tuned_on": preset.tuned_on, "procedure": preset.procedure}
+        "tuned_on": preset.tuned_on, "procedure": preset.procedure,
+        **({"startable": round(preset.startable, 4)} if preset.startable is not None else {})}
     write_text_atomic(p, json.dumps(dict(sorted(data.items())), indent=2) + "\n")
     return p
+
+
+STARTABLE_FACTOR = 4.0
+"""A file is far from its preset's tuning set when the share of its detections that may start a
+track is more than this many times smaller or larger."""
+
+
+def startable_share(sequences, constants: Mapping[str, int]) -> float:
+    """The share of detections whose confidence exceeds conf_thresh_new_track (the preset's, else
+    model/constants.lp's) over DetectionSequences; NaN without detections."""
+    need = dict(default_constants(), **dict(constants))["conf_thresh_new_track"]
+    passed = total = 0
+    for seq in sequences:
+        for fr in seq.frames:
+            passed += int((fr.confidences > need).sum())
+            total += len(fr.confidences)
+    return passed / total if total else float("nan")
+
+
+def score_warning(preset: Preset | None, seq, constants: Mapping[str, int]) -> str | None:
+    """One line when the share of a sequence's detections that may start a track is far
+    (STARTABLE_FACTOR) from the preset's tuning set: its scores are likely on another scale."""
+    if preset is None or preset.startable is None or not seq.num_detections:
+        return None
+    share = startable_share([seq], constants)
+    low, high = preset.startable / STARTABLE_FACTOR, min(1.0, preset.startable * STARTABLE_FACTOR)
+    if low <= share <= high and not (share == 0.0 < preset.startable):
+        return None
+    need = dict(default_constants(), **dict(constants))["conf_thresh_new_track"]
+    return (f"{seq.name}: {100 * share:.1f} % of its detections pass conf_thresh_new_track {need}, against "
+            f"{100 * preset.startable:.1f} % on {preset.tuned_on}, where preset {preset.name} was fitted: its scores "
+            f"may be on another scale (--scores rank ranks them; --scores says how they were read)")
+

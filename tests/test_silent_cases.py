@@ -71,3 +71,25 @@ def test_help_shows_the_defaults(capsys):
         text = " ".join(capsys.readouterr().out.split())
         assert "(default: cpsat)" in text
         assert command != "track" or "(default: mot)" in text
+
+
+def test_scores_far_from_the_presets_tuning_set_get_one_warning(shared_data, tmp_path, capsys):
+    # KITTI Car 0020 (a tuning sequence) with every logit divided by 10: the largest logit of the
+    # file is below 21.97, so sigmoid(s / 10) < sigmoid(2.197) = 0.9 and no detection passes the
+    # Car preset's conf_thresh_new_track 90, against 63.9 % on kitti-car-train (presets.json)
+    src = _kitti_car(shared_data, "0020")
+    assert max(float(line.split(",")[6]) for line in src.read_text().splitlines()) < 21.97
+    folder = tmp_path / "training" / "det_02_pointrcnn" / "Car"
+    folder.mkdir(parents=True)
+    (folder / "0020.txt").write_text("".join(
+        ",".join(c[:6] + [repr(float(c[6]) / 10)] + c[7:]) + "\n"
+        for c in (line.split(",") for line in src.read_text().splitlines())))
+    assert main(["track", "--dets", str(folder / "0020.txt"), "--format", "kitti", "--class", "Car",
+                 "--out", str(tmp_path / "x.txt")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("may be on another scale") == 1
+    assert "0.0 % of its detections pass conf_thresh_new_track 90, against 63.9 % on kitti-car-train" in err
+    # the file's own scale: no warning
+    assert main(["track", "--dets", str(src), "--format", "kitti", "--class", "Car", "--out",
+                 str(tmp_path / "y.txt")]) == 0
+    assert "another scale" not in capsys.readouterr().err

@@ -136,7 +136,14 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             print(f"written: {args.out}")
         if args.write_presets:
             from ..presets import write_preset
-            print(f"preset {cal.format}/{cal.object_class} written: {write_preset(chosen_preset(cal))}")
+            from dataclasses import replace
+
+            from ..datasets import load_dataset
+            from ..presets import startable_share
+            preset = chosen_preset(cal)
+            share = startable_share([d for _, d, _ in load_dataset(name, args.data)], preset.constants)
+            print(f"preset {cal.format}/{cal.object_class} written: "
+                  f"{write_preset(replace(preset, startable=share))}")
     return EXIT_OK
 
 

@@ -127,6 +127,13 @@ def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
     file's scores lie far from what the preset was fitted on (refimpl.presets.score_warning)."""
     if not args.quiet:
         print(f"refimpl track: {setup.describe()}", file=sys.stderr)
+    if setup.baseline or setup.preset == "none":
+        return
+    from ..presets import preset_named, score_warning
+    for seq in seqs:
+        line = score_warning(preset_named(setup.preset), seq, dict(setup.constants))
+        if line:
+            print(f"refimpl track: warning: {line}", file=sys.stderr)
 
 
 def _warn_if_empty(seq, tracks: int, setup, args: argparse.Namespace) -> None:
