@@ -5,8 +5,10 @@ is also solved by the others, each with the same per-frame time limit.  On a fra
 proved optimal, the cost vectors must be equal (the same model), and so must the answers: under
 the canonical tie-break the optimum is unique (refimpl.solvers.common).  A frame some backend did
 not prove optimal within the limit is counted as "not proven" and left out of the comparison,
-never waited for.  Every answer passes through the independent checker; where answers differ,
-the checker says which rule or which cost level separates them.
+never waited for.  A frame with a component clingo cannot represent (its 32-bit sums,
+refimpl.ranges.clingo_overflow) is counted as "beyond clingo's range" and not compared either;
+the other backends' answers are still checked.  Every answer passes through the independent
+checker; where answers differ, the checker says which rule or which cost level separates them.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from typing import Sequence
 
 from .check import check_answer
 from .hypothesis import Hypothesis
+from .ranges import OutOfClingoRange
 from .solvers import ORACLE_PAIR, Solver, get_solver
 from .spec import FrameProblem
 from .pipeline import Setup, run_sequence
@@ -64,6 +67,10 @@ class DiffReport:
     """Proven frames whose answers differ with equal costs, every answer valid (a tie-break failure)."""
     not_proven: int = 0
     """Frames some backend did not prove optimal within the limit (not compared)."""
+    out_of_range: int = 0
+    """Frames a backend refused because some component is beyond clingo's 32-bit sums (not compared)."""
+    out_of_range_parts: int = 0
+    """The sub-problems of those frames clingo cannot represent."""
     violations: int = 0
     """Rule violations (or cost vectors the checker does not confirm) in any backend's answers."""
     checked: int = 0
@@ -72,24 +79,35 @@ class DiffReport:
     divergences: list[int] = field(default_factory=list)
     unproven_frames: list[tuple[int, tuple[str, ...]]] = field(default_factory=list)
     """(frame, the backends that did not prove it optimal in time)."""
+    out_of_range_frames: list[int] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
         return self.cost_equal == self.proven and self.answer_equal == self.proven and self.violations == 0
 
     def add(self, other: "DiffReport") -> None:
-        for name in ("frames", "proven", "cost_equal", "answer_equal", "ties", "not_proven", "violations", "checked"):
+        for name in ("frames", "proven", "cost_equal", "answer_equal", "ties", "not_proven", "out_of_range",
+                     "out_of_range_parts", "violations", "checked"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.divergences += other.divergences
         self.unproven_frames += other.unproven_frames
+        self.out_of_range_frames += other.out_of_range_frames
         self.first_divergence = self.first_divergence or other.first_divergence
 
     def summary(self) -> str:
         return (f"{' vs '.join(self.backends)}: {self.frames} frames, {self.proven} proven optimal by every "
                 f"backend: {self.cost_equal} equal cost vectors, {self.answer_equal} equal answers, "
                 f"{self.ties} ties (different answers, equal cost, all valid); {self.not_proven} not proven "
-                f"optimal within the time limit{self._unproven()}; {self.violations} rule violations in "
-                f"{self.checked} checked answers")
+                f"optimal within the time limit{self._unproven()};{self._out_of_range()} {self.violations} "
+                f"rule violations in {self.checked} checked answers")
+
+    def _out_of_range(self) -> str:
+        if not self.out_of_range:
+            return ""
+        shown = ", ".join(str(t) for t in self.out_of_range_frames[:5])
+        more = ", ..." if len(self.out_of_range_frames) > 5 else ""
+        return (f" {self.out_of_range} beyond clingo's 32-bit range, not compared ({self.out_of_range_parts} "
+                f"sub-problems; frame {shown}{more});")
 
     def _unproven(self) -> str:
         if not self.unproven_frames:
@@ -118,7 +136,13 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
     report = DiffReport(backends)
 
     def observe(problem: FrameProblem, hyp: Hypothesis) -> None:
-        answers = (hyp,) + tuple(s.solve(problem, time_limit=time_limit) for s in solvers[1:])
+        answers: tuple[Hypothesis, ...] = (hyp,)
+        refused = []
+        for s in solvers[1:]:
+            try:
+                answers += (s.solve(problem, time_limit=time_limit),)
+            except OutOfClingoRange as exc:
+                refused.append(exc)
         report.frames += 1
         checks = [check_answer(problem, h) for h in answers]
         report.checked += len(answers)
@@ -126,7 +150,11 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
                for c, h in zip(checks, answers) if c.violations or c.cost != h.cost]
         report.violations += sum(len(c.violations) + (c.cost != h.cost) for c, h in zip(checks, answers))
         explanation = "; ".join(bad) if bad else None
-        if not all(h.optimal for h in answers):
+        if refused:
+            report.out_of_range += 1
+            report.out_of_range_parts += sum(exc.components for exc in refused)
+            report.out_of_range_frames.append(problem.time)
+        elif not all(h.optimal for h in answers):
             report.not_proven += 1
             report.unproven_frames.append((problem.time, tuple(h.backend for h in answers if not h.optimal)))
         else:

@@ -1,11 +1,20 @@
-"""The integer range both backends compute in: a frame problem either fits it or is refused.
+"""The integer ranges the backends compute in: a frame problem either fits them or is refused.
 
 clingo computes with 32-bit integers (-2^31..2^31-1) and wraps silently beyond them; CP-SAT and
-Python compute exactly.  So an input whose arithmetic leaves the 32-bit range would make the two
-backends answer differently (issue 17: ``--const iou_thresh=2147483648``, boxes whose x+w or w*h
-exceed 2^31, a level-0 cost that wraps on large frames).  :func:`check_ranges` refuses such a
-problem with one line naming the value, before any backend sees it.  What the model computes
-(model/*.lp, the same in refimpl/relations.py and refimpl/solvers):
+Python compute in 64 bits or exactly.  So an input whose arithmetic leaves the 32-bit range would
+make the backends answer differently (issue 17: ``--const iou_thresh=2147483648``, boxes whose
+x+w or w*h exceed 2^31).  Two checks, each where it belongs (issue 26):
+
+* :func:`check_ranges`, for every backend, before any sees the problem: the *values* (constants,
+  boxes, times).  They define what a frame problem is, whatever solves it, and they do not grow
+  with the size of the frame.
+* :func:`clingo_overflow`, for the clingo backend only, on each sub-problem it hands to clingo
+  (after refimpl.solvers.decompose): the optimisation *sums*, which grow with the frame.  A
+  frame with a component too large for clingo's sums is solved by the CP-SAT backends (whose
+  objectives are exact, refimpl/solvers/cpsat_model.py: OBJECTIVE_BITS) and refused by clingo
+  with one line (:class:`OutOfClingoRange`); ``refimpl diff`` counts such frames.
+
+What the model computes (model/*.lp, the same in refimpl/relations.py and refimpl/solvers):
 
 * every ``#const`` value itself (compared with other integers);
 * box edges ``X + W``, ``Y + H`` and the overlap formulas of model/spatial.lp, which add two edges
@@ -22,11 +31,10 @@ problem with one line naming the value, before any backend sees it.  What the mo
   history-named pairs) would no longer make the optimum unique (the backends then chose
   different occluders at equal cost; a large negative value also overflowed ``hide_overlap * W
   * H``);
-* the optimisation sums, bounded from above over every possible answer: level 10 (IoU x 100000
-  per assignment plus one per assignment), level 3 (10 per ignored object), level 2, level 1
-  (the largest event cost times the number of events an answer can abduce) and level 0 (the
-  tie-break weights of refimpl/solvers/common.py: (k+1)^2 for the k-th IoU pair, so an answer's
-  sum is at most the sum of the largest min(tracks, detections) squares, plus track ranks).
+* (clingo only) the optimisation sums, bounded from above over every possible answer of a
+  sub-problem (``clingo_sum_bounds``).  Level 0 no longer needs a frame-wide bound: the
+  tie-break reaches clingo in chunks below 2^30 (docs/model.md 3.10, 3.11); an earlier bound
+  for weights (k+1)^2 refused whole frames of 200 tracks and 7,000 IoU pairs on every backend.
 """
 
 from __future__ import annotations
@@ -52,15 +60,9 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
                                  "every pair of tracks would count as overlapping)", source)
 
 
-def _sum_of_largest_squares(pairs: int, count: int) -> int:
-    """(pairs)^2 + (pairs-1)^2 + ... over the ``count`` largest of 1..pairs."""
-    def squares(n: int) -> int:
-        return n * (n + 1) * (2 * n + 1) // 6
-    return squares(pairs) - squares(max(pairs - count, 0))
-
-
 def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
-    """Raise ProblemFormatError (one line) if any value or sum of the problem leaves the range."""
+    """Raise ProblemFormatError (one line) if any value of the problem leaves the range (every
+    backend; the optimisation sums are clingo's alone: ``clingo_overflow``)."""
     from .constants import resolve_constants
     consts = resolve_constants(problem)
     for name, value in consts.items():
@@ -87,19 +89,53 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
         if problem.time - h.time > ASP_INT_MAX:
             raise ProblemFormatError(f"curr_time - {h.time} (history event {h}) = {problem.time - h.time} exceeds "
                                      f"{ASP_INT_MAX} (clingo's 32-bit integers)", source)
-    nt, nd, pairs = len(problem.tracks), len(problem.detections), len(problem.iou)
+
+
+class OutOfClingoRange(ProblemFormatError):
+    """Some sub-problem the clingo backend would hand to clingo has an optimisation sum beyond
+    its 32-bit integers.  The CP-SAT backends solve the same frame (they sum in 64 bits)."""
+
+    def __init__(self, message: str, source: str = "<problem>", components: int = 1):
+        super().__init__(message, source)
+        self.components = components
+
+
+EXPLANATION_LIMIT = 1 << 30
+"""The tie-break's explanation part must stay below this (one priority of clingo's sums;
+refimpl/solvers/common.py: tiebreak_levels)."""
+
+
+def clingo_sum_bounds(problem: FrameProblem, explanation_bits: int) -> dict[int, int]:
+    """Upper bounds of |sum| per priority over every answer of ``problem`` as clingo is given it
+    (one sub-problem of the clingo backend, refimpl.solvers.decompose): level 10 (IoU x 100000
+    plus one per assignment), level 5 (IoU x 100000 per resume), level 3 (10 per ignored
+    object), level 2 (5 per end or start, 1 per resume), level 1 (the largest event cost times
+    the number of events an answer can abduce, counted generously as one per ordered track pair
+    and three per track), and level 0: the pair part reaches clingo in chunks that are below 2^30
+    by construction (refimpl.solvers.common.tiebreak_levels), so only the explanation part's sum
+    of indices is bounded here, by 2^E - 1 where E = ``explanation_bits`` (the bit length of
+    its largest possible sum, refimpl.solvers.common.TiebreakWeights.shift)."""
+    from .constants import resolve_constants
+    consts = resolve_constants(problem)
+    nt, nd = len(problem.tracks), len(problem.detections)
     matched = min(nt, nd)
     costs = [abs(v) for k, v in consts.items() if k.startswith("cost_")]
     events = nt * nt + 3 * nt + nd  # hides/unhides per pair, one event per track, enters_fov per detection
-    bounds = {
+    return {
         10: (IOU_SCALE + 1) * matched,
+        5: IOU_SCALE * matched,
         3: 10 * (nt + nd),
         2: nt + 5 * (nt + nd),
         1: max(costs, default=0) * events,
-        0: _sum_of_largest_squares(pairs, matched) + 2 * nt * nt,
+        0: (1 << explanation_bits) - 1,
     }
-    for level, bound in bounds.items():
-        if bound > ASP_INT_MAX:
-            raise ProblemFormatError(
-                f"the level-{level} cost of this frame can reach {bound}, beyond clingo's 32-bit range "
-                f"({nt} tracks, {nd} detections, {pairs} IoU pairs): split the problem", source)
+
+
+def clingo_overflow(problem: FrameProblem, explanation_bits: int) -> str | None:
+    """Why clingo cannot represent this (sub-)problem's optimisation, or None if it can."""
+    for level, bound in clingo_sum_bounds(problem, explanation_bits).items():
+        if bound > (EXPLANATION_LIMIT - 1 if level == 0 else ASP_INT_MAX):
+            return (f"the level-{level} cost can reach {bound}, beyond clingo's 32-bit range "
+                    f"({len(problem.tracks)} tracks, {len(problem.detections)} detections, "
+                    f"{len(problem.iou)} IoU pairs)")
+    return None

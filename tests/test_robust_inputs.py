@@ -108,16 +108,29 @@ def test_boxes_whose_edges_or_areas_overflow_32_bits_are_refused(tmp_path, capsy
     assert cli.main(["solve", str(ok), "--backend", "clingo"]) == 0
 
 
-def test_a_frame_whose_level0_cost_can_wrap_is_refused():
-    # 1000 tracks, 981 detections, 2205 IoU pairs: the tie-break weights (k+1)^2 of the 981
-    # largest pairs sum to sum_{k=1225}^{2205} k^2 = 2205*2206*4411/6 - 1224*1225*2449/6
-    # = 3,576,019,755 - 612,005,100 = 2,964,014,655, plus 2 * 1000^2 for the track ranks:
-    # 2,966,014,655 > 2^31 - 1
+def test_a_large_crowd_fits_every_backend_since_the_tiebreak_reaches_clingo_in_chunks():
+    # 1000 tracks, 981 detections, 2205 IoU pairs: the old bound for tie-break weights (k+1)^2
+    # (sum of the 981 largest squares of 1..2205 = 2,964,014,655 > 2^31 - 1) refused this frame on
+    # every backend, although no backend ever sums those weights: the chunks clingo is given stay
+    # below 2^30 by construction, and CP-SAT sums in 64 bits
+    from refimpl.solvers.clingo_backend import check_representable
     p = synthetic_frame(1000, 0.5, seed=0)
-    expected = 2205 * 2206 * 4411 // 6 - 1224 * 1225 * 2449 // 6 + 2 * 1000 * 1000
-    with pytest.raises(ProblemFormatError, match=f"level-0 cost of this frame can reach {expected}"):
-        check_ranges(p)
-    check_ranges(synthetic_frame(200, 0.5, seed=0))  # the benchmark sizes fit
+    check_ranges(p)
+    check_representable(p)
+
+
+def test_clingo_alone_refuses_a_frame_whose_level1_sum_leaves_its_range(tmp_path, capsys):
+    # bus_t235: 6 tracks, 6 detections, one sub-problem.  Level 1's bound is the largest event
+    # cost times 6*6 + 3*6 + 6 = 60 events: cost_lost = 40,000,000 gives 2,400,000,000 > 2^31 - 1,
+    # 35,000,000 gives 2,100,000,000, which fits
+    refused = ["--const", "cost_lost=40000000"]
+    assert cli.main(["solve", str(BUS), "--backend", "clingo"] + refused) == 2
+    assert "clingo cannot represent the frame: the level-1 cost can reach 2400000000" in _err(capsys)
+    assert cli.main(["solve", str(BUS), "--backend", "clingo", "--const", "cost_lost=35000000"]) == 0
+    capsys.readouterr()
+    for backend in ("cpsat", "cpsat-full"):
+        assert cli.main(["solve", str(BUS), "--backend", backend, "--check"] + refused) == 0
+        assert "cost vector confirmed" in capsys.readouterr().out
 
 
 def test_a_detection_box_too_large_for_the_solvers_names_its_line(tmp_path):

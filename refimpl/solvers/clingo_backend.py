@@ -25,10 +25,11 @@ from pathlib import Path
 from typing import Sequence
 
 from ..constants import model_dir, resolve_constants
+from ..ranges import OutOfClingoRange, clingo_overflow
 from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..spec import FrameProblem
 from . import CLINGO, NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
-from .common import event_term, tiebreak_facts, tiebreak_level
+from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
 
@@ -69,6 +70,25 @@ def clingo_arguments(problem: FrameProblem, threads: int = 1) -> list[str]:
     return args
 
 
+PART_NODES = 16
+"""The clingo backend's default sub-problem size (own nodes, refimpl.solvers.decompose)."""
+
+
+def check_representable(problem: FrameProblem, parts: Sequence[Part] | None = None) -> None:
+    """OutOfClingoRange (one line) if any sub-problem clingo would be given (``parts``, by
+    default those of ``split(problem, PART_NODES)``) has an optimisation sum beyond its 32-bit
+    integers (refimpl.ranges.clingo_overflow); the others are not solved either: an answer for
+    part of a frame is no answer."""
+    if parts is None:
+        parts = split(problem, PART_NODES)
+    bad = [why for part in parts
+           if (why := clingo_overflow(part.problem, tiebreak_weights(part.problem).shift)) is not None]
+    if bad:
+        what = "the frame" if len(parts) == 1 else f"{len(bad)} of its {len(parts)} independent sub-problems"
+        raise OutOfClingoRange(f"clingo cannot represent {what}: {bad[0]}; the cpsat and cpsat-full "
+                               "backends solve it (64-bit sums)", f"t={problem.time}", len(bad))
+
+
 class _Best:
     """Keeps a copy of the last model clingo reports (the best so far); called from clingo's thread."""
 
@@ -97,7 +117,7 @@ class ClingoSolver:
     name = CLINGO
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
-                 decompose: bool = True, part_nodes: int = 16, isolate: bool = True,
+                 decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
                  recycle: int | None = None, inline_solves: int = INLINE_SOLVES):
         try:
             import clingo
@@ -157,6 +177,7 @@ class ClingoSolver:
         time_limit = check_time_limit(time_limit)
         deadline = None if time_limit is None else started + time_limit
         parts = split(problem, self.part_nodes) if self.decompose else [Part(problem, frozenset())]
+        check_representable(problem, parts)
         whole = len(parts) == 1
         actions: list[str] = []
         events: list[str] = []

@@ -52,6 +52,7 @@ from typing import Iterable, NamedTuple, Sequence
 import numpy as np
 
 from ..events import EFFECTS, EVENT_NAMES
+from ..ranges import EXPLANATION_LIMIT
 from ..spec import Box, FrameProblem, natural_key
 
 
@@ -250,8 +251,6 @@ def tiebreak_level(problem: FrameProblem, actions: Iterable[str], events: Iterab
     return (pairs << w.shift) + sum(w.event.get(event_term(a), 0) for a in events)
 
 
-EXPLANATION_LIMIT = 1 << 30
-"""The explanation part must stay below this (it is one level of clingo's 32-bit sums)."""
 
 
 def tiebreak_levels(w: TiebreakWeights, word_bits: int) -> tuple[list[dict[tuple[str, str], int]], dict[str, int]]:

@@ -67,9 +67,15 @@ def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: n
 EXPLANATION = -1
 """AbductionModel.objectives key of the tie-break's explanation part (solved after the pair part)."""
 
-TIEBREAK_WORD_BITS = 60
-"""CP-SAT's sums are 64-bit: the tie-break's pair part is solved in chunks that keep every sum
-below 2^59 (common.py, solve_lexicographic)."""
+OBJECTIVE_BITS = 52
+"""Every objective CP-SAT is asked to minimise takes fewer than 2^52 values in absolute value:
+CP-SAT compares objective values with its bounds in doubles (53-bit mantissa), so beyond that it
+can stop a few units above the optimum and report OPTIMAL (issue 26: with 57-61-bit objectives,
+27 of 1,500 small adversarial frames got a worse answer flagged optimal, at level 0 and once at
+level 1).  Below 2^52 every value and every difference of two values is an exact double.  Levels
+are packed into one objective only within this span (``_pack_levels``), the tie-break's pair part
+is cut into chunks that fit it (``_chunk_pairs``), and a single level that is larger on its own
+has its optimum certified in exact integer arithmetic (``_certify``)."""
 
 
 class CpSatFailure(RuntimeError):
@@ -283,7 +289,9 @@ class LexResult:
     optimal: bool
     statuses: tuple[str, ...]
     """CP-SAT's status name per level; SKIPPED: the level has no terms; NO_TIME: the time limit
-    was used up before the level; BOUND: the solution so far already has the level's lower bound 0 (all coefficients > 0)."""
+    was used up before the level; BOUND: the solution so far already has the level's lower bound 0 (all coefficients > 0);
+    CERTIFIED / UNCERTIFIED: a level too large for CP-SAT's doubles whose OPTIMAL was (or, out of
+    time, was not) confirmed in exact arithmetic (_certify)."""
 
 
 def _solution(solver: cp_model.CpSolver, indices: list[int]) -> dict[int, int]:
@@ -319,29 +327,35 @@ def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, in
 
 LevelTerms = list[tuple[int, cp_model.IntVar]]
 
-SCALAR_BITS = 62
-"""A group of consecutive levels is minimised as one weighted sum when its range fits in this many bits."""
-
-
 def _range(terms: LevelTerms) -> int:
     """max - min + 1 of a level's sum over 0/1 variables."""
     return sum(abs(c) for c, _ in terms) + 1
 
 
-def _pack_levels(levels: list[tuple[int, LevelTerms]]) -> list[list[tuple[int, LevelTerms]]]:
-    """Consecutive levels grouped so that each group's scalarised objective (below) fits in
-    SCALAR_BITS: one CP-SAT solve per group instead of per level."""
+def _pack_levels(levels: list[tuple[int, LevelTerms]],
+                 bits: int = OBJECTIVE_BITS) -> list[list[tuple[int, LevelTerms]]]:
+    """Consecutive levels grouped so that each group's scalarised objective (below) spans at most
+    2^bits values: one CP-SAT solve per group instead of per level.  A level whose own range
+    exceeds 2^bits is a group of its own (solved, then certified: ``_certify``)."""
     groups: list[list[tuple[int, LevelTerms]]] = []
     span = 0
     for prio, terms in levels:
         r = _range(terms)
-        if groups and span * r < (1 << SCALAR_BITS):
+        if groups and span * r <= (1 << bits):
             groups[-1].append((prio, terms))
             span *= r
         else:
             groups.append([(prio, terms)])
             span = r
     return groups
+
+
+def _span(group: list[tuple[int, LevelTerms]]) -> int:
+    """The product of the group's ranges: |scalarised objective| < this (telescoping sum)."""
+    out = 1
+    for _, terms in group:
+        out *= _range(terms)
+    return out
 
 
 def _scalarised(group: list[tuple[int, LevelTerms]]) -> LevelTerms:
@@ -355,6 +369,64 @@ def _scalarised(group: list[tuple[int, LevelTerms]]) -> LevelTerms:
     return out
 
 
+def _chunk_pairs(pair_terms: LevelTerms, bits: int = OBJECTIVE_BITS) -> list[LevelTerms]:
+    """The tie-break's pair part (coefficients 2^q) as levels, most significant first: 2^q goes to
+    chunk q // width with coefficient 2^(q % width).  With n terms and width = bits - bitlength(n),
+    a chunk's range is below n * 2^width < 2^bits.  Comparing the chunks one after another finds
+    the same optimum as comparing the integers (docs/model.md 2.7: within a component the powers
+    are distinct, so no chunk carries; components add up independently)."""
+    width = max(1, bits - max(len(pair_terms), 1).bit_length())
+    chunked: dict[int, LevelTerms] = {}
+    for c, v in pair_terms:
+        q = c.bit_length() - 1
+        chunked.setdefault(q // width, []).append((1 << (q % width), v))
+    return [chunked[j] for j in sorted(chunked, reverse=True)]
+
+
+def _new_solver(workers: int, seed: int, seconds: float | None) -> cp_model.CpSolver:
+    solver = cp_model.CpSolver()
+    solver.parameters.num_workers = workers
+    solver.parameters.random_seed = seed
+    solver.parameters.catch_sigint_signal = False  # Ctrl-C interrupts refimpl, not just this level
+    if seconds is not None:
+        solver.parameters.max_time_in_seconds = seconds
+    return solver
+
+
+def _hint(model: cp_model.CpModel, indices: list[int], solution: Mapping[int, int]) -> None:
+    """The solution as a complete hint (the same as add_hint per variable, in one go)."""
+    model.clear_hints()
+    hint = model.proto.solution_hint
+    hint.vars.extend(indices)
+    hint.values.extend(solution[i] for i in indices)
+
+
+def _certify(model: cp_model.CpModel, terms: LevelTerms, solution: dict[int, int], indices: list[int],
+             workers: int, seed: int, deadline: float | None) -> tuple[bool, dict[int, int]]:
+    """(proven, best solution) for an objective too large for CP-SAT's doubles after CP-SAT
+    reported ``solution`` OPTIMAL: ask, without any objective, for a solution strictly below it
+    (a pure integer feasibility question, exact in 64 bits) until there is none.  The constraint
+    added last is relaxed to ``<= best`` afterwards, so the model keeps only valid bounds."""
+    model.clear_objective()
+    expr = sum(c * v for c, v in terms)
+    while True:
+        best = _level_value(terms, solution)
+        model.add(expr <= best - 1)
+        bound = model.proto.constraints[len(model.proto.constraints) - 1].linear.domain
+        left = None if deadline is None else deadline - time.perf_counter()
+        status = cp_model.UNKNOWN
+        if left is None or left > 0:
+            _hint(model, indices, solution)
+            solver = _new_solver(workers, seed, left)
+            status = solver.solve(model)
+        bound[len(bound) - 1] = best
+        if status == cp_model.INFEASIBLE:
+            return True, solution
+        if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+            return False, solution
+        solution = _solution(solver, indices)
+
+
 def _fix_levels(model: cp_model.CpModel, group: list[tuple[int, LevelTerms]], solution: Mapping[int, int]) -> None:
     """Every level of a group solved to optimality, fixed at its value (as ``<=``, see below)."""
     for _, terms in group:
@@ -362,8 +434,17 @@ def _fix_levels(model: cp_model.CpModel, group: list[tuple[int, LevelTerms]], so
             model.add(sum(c * v for c, v in terms) <= _level_value(terms, solution))
 
 
+def objective_groups(am: AbductionModel, bits: int = OBJECTIVE_BITS) -> list[list[tuple[int, LevelTerms]]]:
+    """The objectives solve_lexicographic minimises one after another: levels 10..1, then the
+    tie-break's pair part in chunks (_chunk_pairs), then its explanation part, packed (_pack_levels)."""
+    levels: list[tuple[int, LevelTerms]] = [(p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
+    levels += [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(am.objectives[TIEBREAK_LEVEL], bits)]
+    levels.append((TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, [])))
+    return _pack_levels(levels, bits)
+
+
 def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: float | None = None,
-                        workers: int = 1, seed: int = 0) -> LexResult:
+                        workers: int = 1, seed: int = 0, objective_bits: int = OBJECTIVE_BITS) -> LexResult:
     """Minimise the objectives of PRIORITIES one after another (see the module docstring).
 
     Each level is solved with the previous level's solution as a complete hint.  A level proven
@@ -372,6 +453,10 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     over IoU-sized coefficients is a subset-sum constraint: on a 100-track frame the next levels
     took 1.8 s with ``==`` and 0.09 s with ``<=``).  A level whose coefficients are all positive and whose
     value in the solution so far is 0 is optimal without a solve (0 is its lower bound).
+
+    Every objective CP-SAT minimises spans at most 2^objective_bits values (OBJECTIVE_BITS: exact
+    in CP-SAT's doubles); a level larger on its own is certified exactly after CP-SAT's OPTIMAL
+    (``_certify``).  ``objective_bits`` exists for tests of that path.
 
     With a time limit, the remaining budget is split evenly over the levels still to solve.  A
     level that ends FEASIBLE, or UNKNOWN (no solution in its share), makes the answer not optimal
@@ -387,20 +472,8 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     optimal = True
     statuses: list[str] = []
 
-    # levels 10..1, then the tie-break: its pair part in chunks small enough for 64-bit sums
-    # (powers of two 2^q -> chunk q // width, coefficient 2^(q % width); comparing the chunks
-    # most significant first compares the integers), then its explanation part
-    levels: list[tuple[int, list[tuple[int, cp_model.IntVar]]]] = [
-        (p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
+    groups = objective_groups(am, objective_bits)
     pair_terms = am.objectives[TIEBREAK_LEVEL]
-    width = max(1, TIEBREAK_WORD_BITS - 1 - max(len(pair_terms), 1).bit_length())
-    chunked: dict[int, list[tuple[int, cp_model.IntVar]]] = {}
-    for c, v in pair_terms:
-        q = c.bit_length() - 1
-        chunked.setdefault(q // width, []).append((1 << (q % width), v))
-    levels += [(TIEBREAK_LEVEL, chunked[j]) for j in sorted(chunked, reverse=True)]
-    levels.append((TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, [])))
-    groups = _pack_levels(levels)
 
     for i, group in enumerate(groups):
         prio = group[0][0]
@@ -413,39 +486,39 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
             model.add(expr == 0)
             statuses.append("BOUND")
             continue
-        solver = cp_model.CpSolver()
-        solver.parameters.num_workers = workers
-        solver.parameters.random_seed = seed
-        solver.parameters.catch_sigint_signal = False  # Ctrl-C interrupts refimpl, not just this level
         status = None
+        share = None
         if deadline is not None:
             share = (deadline - time.perf_counter()) / (len(groups) - i)
-            if share > 0:
-                solver.parameters.max_time_in_seconds = share
-            else:
+            if share <= 0:
                 status = cp_model.UNKNOWN  # no time left for this level
         if status is None:
+            solver = _new_solver(workers, seed, share)
             model.clear_objective()
             if terms:
                 model.minimize(expr)
-            model.clear_hints()
-            if solution is not None:  # the same hints as add_hint per variable, in one go
-                hint = model.proto.solution_hint
-                hint.vars.extend(indices)
-                hint.values.extend(solution[i] for i in indices)
+            if solution is not None:
+                _hint(model, indices, solution)
+            else:
+                model.clear_hints()
             status = solver.solve(model)
-            statuses.append(solver.status_name(status))
+            name = solver.status_name(status)
+            if status == cp_model.OPTIMAL:
+                solution = _solution(solver, indices)
+                if _span(group) > (1 << objective_bits):  # CP-SAT's OPTIMAL is not exact here
+                    proven, solution = _certify(model, terms, solution, indices, workers, seed, deadline)
+                    status, name = (cp_model.OPTIMAL, "CERTIFIED") if proven else (cp_model.FEASIBLE, "UNCERTIFIED")
+            elif status == cp_model.FEASIBLE:
+                solution = _solution(solver, indices)
+            statuses.append(name)
         else:
             statuses.append("NO_TIME")
 
         if status == cp_model.OPTIMAL:
-            solution = _solution(solver, indices)
             _fix_levels(model, group, solution)
         elif status in (cp_model.FEASIBLE, cp_model.UNKNOWN):
             optimal = False
-            if status == cp_model.FEASIBLE:
-                solution = _solution(solver, indices)
-            elif solution is None:
+            if solution is None:
                 solution = _trivial_solution(am, problem)
             if solution is not None and terms:
                 model.add(expr <= _level_value(terms, solution))

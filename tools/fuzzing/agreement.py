@@ -24,7 +24,9 @@ Input ``i`` comes from ``random.Random(f"{seed}/{i}")`` (``--only i`` regenerate
   curr_time-1, mintime, +-2^30, repeated), plus now and then an unknown event; curr_time at 0,
   1, +-2^30; ``#const`` overrides at their edge values (0, +-1, the default +-1, +-2^30, the
   32-bit limits), each kept only when ``refimpl.ranges.check_constant`` accepts it.  An input
-  the range check refuses is drawn again (up to 20 times; counted as ``refused``).
+  the range check refuses, or one with a sub-problem beyond clingo's 32-bit sums (which only
+  the CP-SAT backends solve: refimpl.solvers.clingo_backend.check_representable), is drawn
+  again (up to 20 times; counted as ``refused``).
 * **sequence** (1 in 5): a short detection sequence (3-14 frames, 1-6 walking objects or 10-16, misses,
   crossings, confidences at the edges, a small image or none) tracked with the first backend
   while every frame is solved again by the others (refimpl.diff.diff_sequence: same history).
@@ -56,6 +58,7 @@ from refimpl.geometry import iou_matrix, scale_iou
 from refimpl.hypothesis import Hypothesis
 from refimpl.ranges import BOX_LIMIT, TIME_LIMIT, check_constant, check_ranges
 from refimpl.solvers import BACKENDS, NoAdmissibleHypothesis, get_solver
+from refimpl.solvers.clingo_backend import check_representable
 from refimpl.spec import (ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, Detection, FrameProblem, HistoryEvent,
                           ProblemFormatError, Term, TrackPrediction, parse_facts, write_facts)
 
@@ -225,6 +228,7 @@ def accepted_problem(rng: random.Random, tries: int = 20) -> tuple[FrameProblem 
             text = write_facts(p)
             back = parse_facts(text, "<fuzz>")
             check_ranges(back, "<fuzz>")
+            check_representable(back)  # OutOfClingoRange is a ProblemFormatError
         except ProblemFormatError:
             continue
         if back != p:
@@ -385,6 +389,7 @@ def minimise(problem: FrameProblem, fails: Callable[[FrameProblem], bool]) -> Fr
         for cand in variants(current):
             try:
                 check_ranges(cand, "<minimise>")
+                check_representable(cand)
             except ProblemFormatError:
                 continue
             if fails(cand):
