@@ -18,6 +18,7 @@ published tables measured.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from time import process_time
 from typing import Callable, Mapping
 
 import numpy as np
@@ -105,18 +106,20 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
 
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,
-                 solver=None, on_frame: FrameCallback | None = None):
+                 solver=None, on_frame: FrameCallback | None = None, frame_times: list | None = None):
     """Track one DetectionSequence with ``setup``: a refimpl.tracker.TrackingResult.
 
     ``observer(problem, hypothesis)`` sees every frame's answer (abduction only); ``on_frame()`` is
     called once per frame (progress); with a ``sink`` (refimpl.tracker.ResultSink) rows and events
     are handed over as they become final and the result's rows are empty (as for
-    refimpl.tracker.track_sequence); ``solver``: a solver instance to use instead of the backend's."""
+    refimpl.tracker.track_sequence); ``solver``: a solver instance to use instead of the backend's; ``frame_times``: a list that
+    receives each frame's CPU seconds of tracking (time.process_time around the frame's update:
+    latency, issue 27)."""
     from .tracker import TrackingResult
     if setup.baseline:
         from .baseline import stream_sequence
         kept = []
-        for rows in stream_sequence(seq):
+        for rows in _timed(stream_sequence(seq), frame_times):
             if sink is not None:
                 sink.rows(rows)
             elif len(rows):
@@ -136,10 +139,28 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
                           keep_records=keep_records)
     watch = observe if (observer is not None or on_frame is not None) else None
     for fr in seq.frames:
+        start = process_time() if frame_times is not None else 0.0
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, watch)
+        if frame_times is not None:
+            frame_times.append(process_time() - start)
     tracker.finish()
     if sink is None:
         return tracker.result()
     return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
                           tracker.track_records() if keep_records else (), tracker.frames, tracker.not_optimal,
                           tracker.solve_ms)
+
+
+def _timed(frames, frame_times: list | None):
+    """The items of an iterator, each one's CPU seconds of computing appended to frame_times."""
+    it = iter(frames)
+    while True:
+        start = process_time()
+        try:
+            item = next(it)
+        except StopIteration:
+            return
+        if frame_times is not None:
+            frame_times.append(process_time() - start)
+        yield item
+
