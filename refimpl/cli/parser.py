@@ -49,6 +49,12 @@ def _add_scaleout(p: argparse.ArgumentParser) -> None:
                    help="run the sequences as tasks on a local Dask cluster of N processes (docs/scale-out.md)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the tasks on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
+    p.add_argument("--connect-timeout", type=_time_limit, default=None, metavar="SECONDS",
+                   help="with --scheduler: give up when the scheduler does not answer for this long, at the "
+                        "start or during the run (default 10)")
+    p.add_argument("--worker-timeout", type=_time_limit, default=None, metavar="SECONDS",
+                   help="with --workers or --scheduler: give up when the cluster has had no worker for this "
+                        "long, none joined or every one lost (default 60)")
 
 
 def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
