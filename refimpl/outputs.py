@@ -47,12 +47,20 @@ class OutputError(Exception):
     """An output path that cannot or must not be written: one line, exit code 2."""
 
 
-class OutputWriteError(OutputError):
-    """An OS error writing one output (disk full, quota, I/O error): names the output; one line, exit 2."""
+class OutputWriteError(OutputError, OSError):
+    """An OS error writing one output (disk full, quota, I/O error), naming the output: one line,
+    exit 2 in the CLI; an OSError still (errno, strerror, filename) for a caller that catches those."""
 
     def __init__(self, shown: str, exc: OSError):
-        super().__init__(f"cannot write {shown}: {exc.strerror or exc}")
-        self.errno, self.path = exc.errno, shown
+        OSError.__init__(self, exc.errno, exc.strerror, shown)
+        self.path, self.message = shown, f"cannot write {shown}: {exc.strerror or exc}"
+        self.cause = exc
+
+    def __str__(self) -> str:
+        return self.message
+
+    def __reduce__(self):
+        return OutputWriteError, (self.path, self.cause)
 
 
 def _shown(path: str) -> str:

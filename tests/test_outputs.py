@@ -276,3 +276,15 @@ def test_a_write_error_while_streaming_names_the_output(tmp_path):
     from refimpl.outputs import _Handle
     with pytest.raises(OutputError, match=f"^cannot write out.txt: {os.strerror(errno.EDQUOT)}$"):
         _Handle(Full(), "out.txt").write("x")
+
+
+def test_a_write_error_is_an_os_error_too_and_pickles():
+    import errno
+    import pickle
+
+    from refimpl.outputs import OutputWriteError
+    exc = OutputWriteError("out.txt", OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)))
+    assert isinstance(exc, OSError) and isinstance(exc, OutputError)
+    assert (exc.errno, exc.filename, str(exc)) == (errno.ENOSPC, "out.txt", "cannot write out.txt: No space left on device")
+    back = pickle.loads(pickle.dumps(exc))
+    assert (type(back), back.errno, str(back)) == (OutputWriteError, errno.ENOSPC, str(exc))
