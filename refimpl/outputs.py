@@ -7,7 +7,9 @@ scene, plot and benchmark writers).  The rules (docs/robustness.md, "Outputs"):
   same file as an input or as another output of the command (compared by resolved real path,
   and by device and inode when both exist, so symlinks and hard links count), may not be a
   directory, and its folder must exist or be creatable (the nearest existing ancestor is a
-  writable directory).  A violation is an :class:`OutputError`: one line, exit 2.
+  writable directory).  A path that names a folder (ends in ``/``, or in ``/.``) is not a
+  file, whether that folder exists or not.  A violation is an :class:`OutputError`: one line,
+  exit 2.
 * **Atomic.**  A regular file is written to a temporary file beside its real target and renamed
   over it only when the command has succeeded; an interrupted or failed command leaves the old
   file (or nothing) and no temporary file.  :class:`OutputSet` stages several outputs and
@@ -18,6 +20,10 @@ scene, plot and benchmark writers).  The rules (docs/robustness.md, "Outputs"):
 * **Device nodes and FIFOs** (``/dev/null``, ``/dev/stdout``, a named pipe) are never
   replaced: the output is staged in an anonymous temporary file and copied into them when the
   command succeeds.  ``-`` is standard output, staged the same way.
+* **Write errors name the file.**  An OS error while staging, writing or committing an output
+  (a full disk, a quota, an I/O error, a read-only folder) is an :class:`OutputWriteError`
+  naming that output, e.g. ``cannot write out.txt: No space left on device`` (a closed pipe on
+  standard output stays a ``BrokenPipeError``: the reader went away).
 * **Modes.**  Replacing an existing file keeps its permission bits (and, as root, its owner);
   a new file gets ``0o666 & ~umask``, as ``open()`` would give it.
 """
@@ -39,6 +45,32 @@ STDOUT = "-"
 
 class OutputError(Exception):
     """An output path that cannot or must not be written: one line, exit code 2."""
+
+
+class OutputWriteError(OutputError, OSError):
+    """An OS error writing one output (disk full, quota, I/O error), naming the output: one line,
+    exit 2 in the CLI; an OSError still (errno, strerror, filename) for a caller that catches those."""
+
+    def __init__(self, shown: str, exc: OSError):
+        OSError.__init__(self, exc.errno, exc.strerror, shown)
+        self.path, self.message = shown, f"cannot write {shown}: {exc.strerror or exc}"
+        self.cause = exc
+
+    def __str__(self) -> str:
+        return self.message
+
+    def __reduce__(self):
+        return OutputWriteError, (self.path, self.cause)
+
+
+def _shown(path: str) -> str:
+    return "standard output" if path == STDOUT else path
+
+
+def _names_a_folder(path: str) -> bool:
+    """``dir/``, ``dir/.``, ``..``: a path whose last part is a folder whatever is on the disk."""
+    seps = os.sep + (os.altsep or "")
+    return path.endswith(tuple(seps)) or os.path.basename(path) in (".", "..") or path in (".", "..")
 
 
 def _umask() -> int:
@@ -79,6 +111,9 @@ def check_output(label: str, path: str) -> None:
         return
     if not path:
         raise OutputError(f"{label}: empty output path")
+    if _names_a_folder(path) and not os.path.isdir(path):
+        raise OutputError(f"{label} {path}: names a folder, not a file; give a file name "
+                          f"(e.g. {os.path.join(path, 'out.txt')})")
     real = os.path.realpath(path)
     try:
         st = os.stat(real)
@@ -140,6 +175,56 @@ class _Staged:
     handle: IO
     tmp: str | None       # temporary file beside the target (regular targets)
     binary: bool
+    shown: str            # the path as given, for messages
+
+
+class _Handle:
+    """A staged output's file, as callers see it: an OS error writing it names the output."""
+
+    def __init__(self, raw: IO, shown: str):
+        self._raw, self._shown = raw, shown
+
+    def _call(self, name: str, *args):
+        try:
+            return getattr(self._raw, name)(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OutputWriteError(self._shown, exc) from None
+
+    def write(self, data):
+        return self._call("write", data)
+
+    def writelines(self, lines) -> None:
+        self._call("writelines", lines)
+
+    def flush(self) -> None:
+        self._call("flush")
+
+    def close(self) -> None:
+        self._call("close")
+
+    def __getattr__(self, name: str):  # fileno, closed, tell, seek, ... as the file has them
+        return getattr(self._raw, name)
+
+    def __enter__(self) -> "_Handle":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+@contextmanager
+def _naming(shown: str) -> Iterator[None]:
+    """An OS error inside names the output ``shown`` (a closed pipe stays what it is)."""
+    try:
+        yield
+    except BrokenPipeError:
+        raise
+    except OutputError:
+        raise
+    except OSError as exc:
+        raise OutputWriteError(shown, exc) from None
 
 
 class OutputSet:
@@ -158,10 +243,15 @@ class OutputSet:
         """A writable file whose content lands at ``path`` on commit."""
         path = os.fspath(path)
         check_output("output", path)
+        with _naming(_shown(path)):
+            handle = self._open(path, binary)
+        return _Handle(handle, _shown(path))
+
+    def _open(self, path: str, binary: bool) -> IO:
         if path == STDOUT:
             handle = tempfile.TemporaryFile("w+b" if binary else "w+", **({} if binary else
                                                                          {"encoding": "utf-8", "newline": "\n"}))
-            self._staged.append(_Staged(STDOUT, handle, None, binary))
+            self._staged.append(_Staged(STDOUT, handle, None, binary, _shown(path)))
             return handle
         real = os.path.realpath(path)
         try:
@@ -171,7 +261,7 @@ class OutputSet:
         if special:
             handle = tempfile.TemporaryFile("w+b" if binary else "w+", **({} if binary else
                                                                          {"encoding": "utf-8", "newline": "\n"}))
-            self._staged.append(_Staged(real, handle, None, binary))
+            self._staged.append(_Staged(real, handle, None, binary, path))
             return handle
         folder = Path(real).parent
         missing = []
@@ -189,55 +279,68 @@ class OutputSet:
             os.close(fd)
             os.unlink(tmp)
             raise
-        self._staged.append(_Staged(real, handle, tmp, binary))
+        self._staged.append(_Staged(real, handle, tmp, binary, path))
         return handle
 
     def write(self, path: str | os.PathLike, data: str | bytes) -> None:
         """Stage the whole content of one output (its temporary file is closed at once, so a set
         of many outputs does not hold many open files)."""
         handle = self.open(path, binary=isinstance(data, bytes))
-        handle.write(data)
         staged = self._staged[-1]
-        if staged.tmp is not None:
-            handle.flush()
-            os.fsync(handle.fileno())
-            handle.close()
+        with _naming(staged.shown):
+            staged.handle.write(data)
+            if staged.tmp is not None:
+                staged.handle.flush()
+                os.fsync(staged.handle.fileno())
+                staged.handle.close()
 
     def commit(self) -> None:
         """Flush every staged output to disk, then put each in place."""
         umask = _umask()
         for s in self._staged:
-            if not s.handle.closed:
-                s.handle.flush()
-            if s.tmp is not None:
-                if not s.handle.closed:
-                    os.fsync(s.handle.fileno())
-                    s.handle.close()
-                try:
-                    st = os.stat(s.target)
-                    os.chmod(s.tmp, stat.S_IMODE(st.st_mode))
-                    if os.geteuid() == 0:
-                        os.chown(s.tmp, st.st_uid, st.st_gid)
-                except FileNotFoundError:
-                    os.chmod(s.tmp, 0o666 & ~umask)
+            with _naming(s.shown):
+                self._flush(s, umask)
         for s in self._staged:
-            if s.tmp is not None:
-                os.replace(s.tmp, s.target)
-                s.tmp = None
-            else:
-                s.handle.seek(0)
-                if s.target == STDOUT:
-                    sys.stdout.flush()
-                    out = sys.stdout.buffer if s.binary else sys.stdout
-                    shutil.copyfileobj(s.handle, out)
-                    out.flush()
-                else:
-                    with open(s.target, "wb" if s.binary else "w",
-                              **({} if s.binary else {"encoding": "utf-8", "newline": "\n"})) as fh:
-                        shutil.copyfileobj(s.handle, fh)
-                s.handle.close()
+            with _naming(s.shown):
+                self._land(s)
         self._done = True
         self._made_dirs.clear()
+
+    @staticmethod
+    def _flush(s: _Staged, umask: int) -> None:
+        """One staged output on disk in its temporary file, with the target's (or a new file's) mode."""
+        if not s.handle.closed:
+            s.handle.flush()
+        if s.tmp is not None:
+            if not s.handle.closed:
+                os.fsync(s.handle.fileno())
+                s.handle.close()
+            try:
+                st = os.stat(s.target)
+                os.chmod(s.tmp, stat.S_IMODE(st.st_mode))
+                if os.geteuid() == 0:
+                    os.chown(s.tmp, st.st_uid, st.st_gid)
+            except FileNotFoundError:
+                os.chmod(s.tmp, 0o666 & ~umask)
+
+    @staticmethod
+    def _land(s: _Staged) -> None:
+        """One staged output in place: renamed over its target, or copied into stdout / a device."""
+        if s.tmp is not None:
+            os.replace(s.tmp, s.target)
+            s.tmp = None
+        else:
+            s.handle.seek(0)
+            if s.target == STDOUT:
+                sys.stdout.flush()
+                out = sys.stdout.buffer if s.binary else sys.stdout
+                shutil.copyfileobj(s.handle, out)
+                out.flush()
+            else:
+                with open(s.target, "wb" if s.binary else "w",
+                          **({} if s.binary else {"encoding": "utf-8", "newline": "\n"})) as fh:
+                    shutil.copyfileobj(s.handle, fh)
+            s.handle.close()
 
     def abort(self) -> None:
         """Remove every temporary file (and the folders this set created); targets are untouched."""

@@ -12,20 +12,26 @@ from tqdm import tqdm
 
 
 class Progress:
-    """``step(what)`` once per unit of work; closes itself after ``total`` steps."""
+    """``step(what)`` once per unit of work (``step(n=k)`` for k units at once); closes itself
+    after ``total`` steps.  ``describe(what)`` names the work under way without a step (e.g. the
+    sequence whose frames are being counted)."""
 
     def __init__(self, total: int, label: str, enabled: bool = True, unit: str = "it"):
         self.total, self.label, self.done = total, label, 0
         self.bar = tqdm(total=total, desc=label, unit=unit, file=sys.stderr, dynamic_ncols=True,
                         disable=not enabled or not _stderr_is_terminal(), leave=True)
 
-    def step(self, what: str = "") -> None:
-        self.done += 1
+    def step(self, what: str = "", n: int = 1) -> None:
+        self.done += n
         if what:
             self.bar.set_postfix_str(what, refresh=False)
-        self.bar.update(1)
+        self.bar.update(n)
         if self.done >= self.total:
             self.close()
+
+    def describe(self, what: str) -> None:
+        if what:
+            self.bar.set_postfix_str(what, refresh=True)
 
     def close(self) -> None:
         self.bar.close()

@@ -4,7 +4,8 @@
 
 * ``Plan(workers=1)`` and no scheduler: a plain loop in this process;
 * ``Plan(workers=N)``, N > 1: an embedded ``distributed.LocalCluster`` on 127.0.0.1 with N
-  worker processes of one thread each, started for the call and closed after it;
+  worker processes of one thread each (at most one per task), started for the call and closed
+  after it;
 * ``Plan(scheduler="tcp://host:port")``: an existing cluster (``dask scheduler`` plus
   ``dask worker`` processes, dask-jobqueue, dask-kubernetes; docs/scale-out.md).
 
@@ -13,11 +14,21 @@ order in which they finish, so a caller that writes results in the order returne
 same bytes as a serial run.  Every task function must be a module-level function of refimpl
 (workers import it by name) whose result depends on its arguments only.  The first task that
 raises cancels the rest and its exception is raised here, as it would be in a serial run.
+
+A cluster that fails is a :class:`ClusterError` (one line, exit 2 in the CLI) within a bounded
+time, never a hang (docs/scale-out.md, "Faults"): a malformed address or an absurd number of
+local workers at once (:class:`Plan`); an address that does not answer after the connect timeout;
+a scheduler that goes away at once (its futures are cancelled) and one that stops answering after
+the connect timeout; no worker connected for the worker timeout; a task whose workers kept dying
+(Dask's ``KilledWorker``).  A worker lost while others remain costs only the time to re-run its
+task elsewhere: the results, and so the bytes written, are the same.
 """
 
 from __future__ import annotations
 
 import logging
+import os
+import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence, TypeVar
 
@@ -28,68 +39,241 @@ R = TypeVar("R")
 
 
 DEFAULT_CONNECT_TIMEOUT = 10.0
-"""Seconds to wait for a --scheduler address to answer before giving up."""
+"""Seconds to wait for a --scheduler address to answer (at the start, and for every check of a
+running cluster) before giving up."""
+
+DEFAULT_WORKER_TIMEOUT = 60.0
+"""Seconds a cluster may have no worker at all (none joined yet, or every one lost) before the
+run gives up."""
+
+WORKERS_PER_CPU = 4
+"""A local cluster of more than this many worker processes per CPU is refused: the solvers are
+single-threaded, so workers beyond one per CPU only share the CPUs (and each costs a process with
+the solvers imported, about 150 MB); 4x leaves room to oversubscribe on purpose."""
+
+SCHEMES = ("tcp", "tls", "ws", "wss")
+"""Dask address schemes a separate process can connect to (``inproc://`` lives inside one process)."""
+
+_POLL = 0.1  # seconds between looks at the futures while none has finished
+_CHECK_EVERY = 1.0  # seconds between asking the scheduler how many workers it has
 
 
 class ClusterError(RuntimeError):
-    """The Dask cluster could not be reached or started (a user's address or setup, exit 2)."""
+    """The Dask cluster could not be reached, started or kept (a user's address or setup, exit 2)."""
+
+
+def cpu_count() -> int:
+    """CPUs this process may run on (its affinity mask, where the system has one)."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def max_local_workers() -> int:
+    return WORKERS_PER_CPU * cpu_count()
+
+
+def check_address(address: str) -> str:
+    """A Dask scheduler address as ``scheme://host:port`` (``host:port`` means tcp); ClusterError
+    naming what is wrong with anything else."""
+    text = address.strip()
+    hint = "give the address the scheduler prints, e.g. tcp://10.0.0.5:8786"
+    if not text:
+        raise ClusterError(f"the scheduler address is empty: {hint}")
+    if any(c.isspace() for c in text):
+        raise ClusterError(f"scheduler {address!r}: not a Dask address (it has a space); {hint}")
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    if scheme == "inproc":
+        raise ClusterError(f"scheduler {address!r}: an inproc:// address exists only inside the Python process "
+                           f"that made it; {hint}")
+    if scheme not in SCHEMES:
+        raise ClusterError(f"scheduler {address!r}: not a Dask address (scheme {scheme!r}, known: "
+                           f"{', '.join(SCHEMES)}); {hint}")
+    host, colon, port = rest.rpartition(":")
+    if not colon:
+        raise ClusterError(f"scheduler {address!r}: no port; {hint}")
+    bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    if not bare or any(c in "/?#@" for c in bare) or "[" in bare or "]" in bare:
+        raise ClusterError(f"scheduler {address!r}: not a host name or IP address before the port; {hint}")
+    if not (port.isascii() and port.isdigit() and 0 < int(port) < 65536):
+        raise ClusterError(f"scheduler {address!r}: the port must be a number 1..65535, got {port!r}; {hint}")
+    return f"{scheme}://{host}:{int(port)}"
 
 
 @dataclass(frozen=True)
 class Plan:
-    """Where tasks run: ``workers`` local processes, or the cluster at ``scheduler``."""
+    """Where tasks run: ``workers`` local processes, or the cluster at ``scheduler``.
+
+    Checked when made: ``workers`` within 1 .. :func:`max_local_workers` (ValueError below 1,
+    ClusterError above), ``scheduler`` a well-formed address (:func:`check_address`)."""
 
     workers: int = 1
     scheduler: str | None = None
     connect_timeout: float | None = None
     """Seconds; None for DEFAULT_CONNECT_TIMEOUT."""
+    worker_timeout: float | None = None
+    """Seconds; None for DEFAULT_WORKER_TIMEOUT."""
 
     def __post_init__(self) -> None:
         if self.workers < 1:
             raise ValueError(f"workers must be >= 1, got {self.workers}")
-        if self.scheduler is not None and not self.scheduler.strip():
-            raise ValueError("the scheduler address is empty")
+        for name in ("connect_timeout", "worker_timeout"):
+            value = getattr(self, name)
+            if value is not None and not value > 0:
+                raise ValueError(f"{name} must be a positive number of seconds, got {value}")
+        if self.scheduler is not None:
+            check_address(self.scheduler)
+        elif self.workers > max_local_workers():
+            raise ClusterError(f"{self.workers} local workers: more than {max_local_workers()} "
+                               f"({WORKERS_PER_CPU} per CPU, {cpu_count()} CPUs here); for a bigger cluster start "
+                               "one and give its scheduler's address (docs/scale-out.md)")
 
     @property
     def distributed(self) -> bool:
         return self.scheduler is not None or self.workers > 1
 
+    @property
+    def connect_seconds(self) -> float:
+        return DEFAULT_CONNECT_TIMEOUT if self.connect_timeout is None else self.connect_timeout
 
-def run_tasks(fn: Callable[[T], R], items: Sequence[T], plan: Plan = Plan(), label: str = "tasks",
-              quiet: bool = False, describe: Callable[[T], str] | None = None) -> list[R]:
-    """``[fn(item) for item in items]``, in input order, on the plan's workers; a progress bar
-    on stderr (one step per finished task) unless quiet."""
+    @property
+    def worker_seconds(self) -> float:
+        return DEFAULT_WORKER_TIMEOUT if self.worker_timeout is None else self.worker_timeout
+
+    def where(self) -> str:
+        return f"the Dask scheduler at {self.scheduler}" if self.scheduler is not None else "the local Dask cluster"
+
+
+def no_tick() -> None:
+    """The tick a task gets where nobody listens (on a Dask worker): a module-level no-op, so it pickles."""
+
+
+def run_tasks(fn: Callable[..., R], items: Sequence[T], plan: Plan = Plan(), label: str = "tasks",
+              quiet: bool = False, describe: Callable[[T], str] | None = None,
+              steps: Callable[[T], int] | None = None) -> list[R]:
+    """``[fn(item) for item in items]``, in input order, on the plan's workers; a progress bar on
+    stderr unless quiet.
+
+    Without ``steps`` the bar counts tasks.  With ``steps`` (e.g. ``lambda job: len(job.seq.frames)``)
+    it counts steps (frames), ``fn`` is called as ``fn(item, tick)`` and should call ``tick()``
+    once per step: in a serial run every tick advances the bar (a long single sequence moves frame
+    by frame); on a cluster ``tick`` is :func:`no_tick` and the bar advances by ``steps(item)``
+    when the task finishes."""
     items = list(items)
-    progress = Progress(len(items), label, enabled=not quiet, unit="task")
+    sizes = [int(steps(item)) for item in items] if steps is not None else [1] * len(items)
+    progress = Progress(sum(sizes), label, enabled=not quiet, unit="task" if steps is None else "frame")
     try:
         if not plan.distributed or not items:
             out = []
-            for item in items:
-                out.append(fn(item))
-                progress.step(describe(item) if describe else "")
+            for item, size in zip(items, sizes):
+                if steps is None:
+                    out.append(fn(item))
+                    progress.step(describe(item) if describe else "")
+                    continue
+                progress.describe(describe(item) if describe else "")
+                ticked = _Ticks(progress, size)
+                out.append(fn(item, ticked.tick))
+                ticked.finish()  # a task that ticked fewer times than its steps still fills its share
             return out
-        return _run_on_cluster(fn, items, plan, progress, describe)
+        return _run_on_cluster(fn, items, plan, progress, describe, sizes, steps is not None)
     finally:
         progress.close()
 
 
-def _run_on_cluster(fn, items, plan: Plan, progress: Progress, describe) -> list:
-    from distributed import as_completed
-    with _client(plan) as client:
-        index = {}
-        futures = []
-        for i, item in enumerate(items):  # submitted in input order
-            fut = client.submit(fn, item, pure=False)
-            index[fut.key] = i
-            futures.append(fut)
+class _Ticks:
+    """One task's ticks, at most ``size`` of them reach the bar."""
+
+    def __init__(self, progress: Progress, size: int):
+        self.progress, self.left = progress, size
+
+    def tick(self) -> None:
+        if self.left > 0:
+            self.left -= 1
+            self.progress.step()
+
+    def finish(self) -> None:
+        if self.left > 0:
+            self.progress.step(n=self.left)
+            self.left = 0
+
+
+def _run_on_cluster(fn, items, plan: Plan, progress: Progress, describe, sizes, with_tick: bool) -> list:
+    with _client(plan, len(items)) as client:
+        # submitted in input order; pure=False: two equal items are still two tasks.  No cancel on
+        # the way out: closing the client (bounded by the connect timeout; a cancel call to a hung
+        # scheduler is not) releases every task it submitted.
+        futures = [client.submit(fn, item, *((no_tick,) if with_tick else ()), pure=False) for item in items]
+        watchdog = _Watchdog(client, plan)
+        results: list = [None] * len(items)
+        pending = dict(enumerate(futures))
+        while pending:
+            finished = [i for i, fut in pending.items() if fut.done()]
+            for i in finished:  # in input order, whichever finished first
+                what = describe(items[i]) if describe else f"task {i + 1}"
+                fetched, results[i] = _fetch(pending[i], what, plan)
+                if fetched:
+                    del pending[i]
+                    progress.step(what if describe else "", n=sizes[i])
+            if pending and not finished:
+                watchdog.check()
+                time.sleep(_POLL)
+        return results
+
+
+def _fetch(fut, what: str, plan: Plan) -> tuple[bool, Any]:
+    """(True, result) of a finished future; (False, None) when it could not be fetched in time (its
+    worker lost since? the scheduler re-runs it: look again).  A task's own exception is raised as
+    it is (as a serial run would); a cancelled future or KilledWorker is a ClusterError."""
+    from distributed.client import FutureCancelledError
+    from distributed.scheduler import KilledWorker
+    if fut.status == "error":
+        exc = fut.exception()
+        if isinstance(exc, KilledWorker):
+            tries = exc.allowed_failures + 1
+            raise ClusterError(f"{what}: every worker that ran it died ({tries} {'try' if tries == 1 else 'tries'} "
+                               f"on {plan.where()}): crashed or killed, e.g. out of memory") from None
+        fut.result()
+    try:
+        return True, fut.result(timeout=plan.connect_seconds)
+    except FutureCancelledError:
+        raise ClusterError(f"lost {plan.where()} while running {what}: its tasks were cancelled") from None
+    except TimeoutError:
+        return False, None
+
+
+class _Watchdog:
+    """Bounds the wait for a cluster that cannot finish: no worker for the worker timeout, or a
+    scheduler that does not answer for the connect timeout, is a ClusterError."""
+
+    def __init__(self, client: Any, plan: Plan):
+        self.client, self.plan = client, plan
+        now = time.monotonic()
+        self.last_worker = self.last_answer = now
+        self.next_check = now
+
+    def check(self) -> None:
+        now = time.monotonic()
+        if now < self.next_check:
+            return
+        self.next_check = now + _CHECK_EVERY
+        if self.client.status == "closed":
+            raise ClusterError(f"lost {self.plan.where()}: the connection is closed")
         try:
-            for fut in as_completed(futures):
-                if fut.status == "error":
-                    fut.result()  # raises the task's own exception
-                progress.step(describe(items[index[fut.key]]) if describe else "")
-            return client.gather(futures)  # a list in submission (= input) order
-        finally:
-            client.cancel(futures)
+            workers = len(self.client.nthreads(callback_timeout=self.plan.connect_seconds))
+        except (OSError, TimeoutError):
+            if time.monotonic() - self.last_answer >= self.plan.connect_seconds:
+                raise ClusterError(f"lost {self.plan.where()}: no answer for {self.plan.connect_seconds:g} s") \
+                    from None
+            return
+        now = self.last_answer = time.monotonic()
+        if workers:
+            self.last_worker = now
+        elif now - self.last_worker >= self.plan.worker_seconds:
+            raise ClusterError(f"{self.plan.where()} has had no worker for {self.plan.worker_seconds:g} s "
+                               "(none joined, or every one was lost); the tasks cannot run")
 
 
 LOCAL_CLUSTER_CONFIG = {
@@ -105,49 +289,62 @@ LOCAL_CLUSTER_CONFIG = {
 """Dask settings of the embedded cluster only (an existing cluster keeps its own)."""
 
 
-class _client:
-    """A distributed.Client for the plan, with its embedded LocalCluster when there is one."""
+def _quietly(call: Callable, *args, **kwargs) -> None:
+    """Tear-down of a cluster that may be gone already: its errors add nothing to the one reported."""
+    try:
+        call(*args, **kwargs)
+    except Exception:  # noqa: BLE001 - cancelling or closing a lost cluster; the run's own error is raised
+        pass
 
-    def __init__(self, plan: Plan):
-        self.plan = plan
+
+class _client:
+    """A distributed.Client for the plan, with its embedded LocalCluster when there is one; Dask's
+    own log lines are silenced while it lives (a fault is reported once, as a ClusterError)."""
+
+    def __init__(self, plan: Plan, tasks: int):
+        self.plan, self.tasks = plan, tasks
         self.cluster: Any = None
         self.client: Any = None
         self.config: Any = None
+        self.quiet: Any = None
 
     def __enter__(self):
         import dask
         from distributed import Client, LocalCluster
+        from distributed.utils import silence_logging_cmgr
+        self.quiet = silence_logging_cmgr(logging.CRITICAL)  # Dask's stderr handlers, restored on exit
+        self.quiet.__enter__()
         if self.plan.scheduler is None:
             self.config = dask.config.set(LOCAL_CLUSTER_CONFIG)  # for this cluster's lifetime, then undone
         try:
             if self.plan.scheduler is not None:
-                timeout = self.plan.connect_timeout
-                if timeout is None:
-                    timeout = DEFAULT_CONNECT_TIMEOUT
-                self.client = Client(self.plan.scheduler, timeout=timeout)
+                self.client = Client(check_address(self.plan.scheduler), timeout=self.plan.connect_seconds)
             else:
                 # silence_logs: workers log connection errors while the cluster shuts down (a task's
                 # own error reaches us as its exception); no dashboard, and the scheduler's HTTP
                 # endpoint on a free port rather than a warning when 8787 is taken
-                self.cluster = LocalCluster(n_workers=self.plan.workers, threads_per_worker=1, processes=True,
-                                            host="127.0.0.1", dashboard_address=None,
+                self.cluster = LocalCluster(n_workers=min(self.plan.workers, self.tasks), threads_per_worker=1,
+                                            processes=True, host="127.0.0.1", dashboard_address=None,
                                             scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                                             silence_logs=logging.CRITICAL)
                 self.client = Client(self.cluster)
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:
             self.__exit__(None, None, None)
-            where = self.plan.scheduler or f"a local cluster of {self.plan.workers} workers"
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            where = self.plan.scheduler or f"a local cluster of {self.plan.workers} workers"
             raise ClusterError(f"cannot reach {where}: {reason}") from None
         return self.client
 
     def __exit__(self, *exc) -> None:
         try:
             if self.client is not None:
-                self.client.close()
+                _quietly(self.client.close, timeout=self.plan.connect_seconds)
             if self.cluster is not None:
-                self.cluster.close()
+                _quietly(self.cluster.close, timeout=self.plan.connect_seconds)
         finally:
             if self.config is not None:
                 self.config.__exit__(None, None, None)
                 self.config = None
+            if self.quiet is not None:
+                self.quiet.__exit__(None, None, None)
+                self.quiet = None

@@ -332,7 +332,8 @@ def test_cli_track_write_failure_leaves_no_partial_file(tmp_path, monkeypatch):
     monkeypatch.setattr(os, "fsync", broken_fsync)
     code, _, err = run_cli(["track", "--dets", str(d), "--backend", "baseline", "--out", str(out)])
     errors = [line for line in err.splitlines() if not line.startswith("refimpl: warning:")]
-    assert code == 2 and errors == ["refimpl track: error: No space left on device"]  # (+ the no-seqinfo warning)
+    # the message names the output (it used to say only "No space left on device"); + the no-seqinfo warning
+    assert code == 2 and errors == [f"refimpl track: error: cannot write {out}: No space left on device"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["det.txt"]
 
 

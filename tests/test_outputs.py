@@ -49,7 +49,7 @@ def test_an_output_equal_to_an_input_or_another_output_is_refused_before_any_wor
             "out=hardlink-to-dets": _track(seq, "--out", link),
             "events=out": _track(seq, "--out", out, "--events", out),
             "events-json=dets": _track(seq, "--out", out, "--events-json", seq),
-            "scene=out": _track(seq, "--out", out, "--scene", out) + ["--backend", "cpsat"]}[case]
+            "scene=out": ["track", "--dets", str(seq), "--backend", "cpsat", "--out", str(out), "--scene", str(out)]}[case]
     if case == "out=symlink-to-dets":
         link.symlink_to(seq)
     if case == "out=hardlink-to-dets":
@@ -181,3 +181,110 @@ def test_bench_scale_writes_nothing_when_its_json_input_is_malformed(tmp_path, c
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.json"]
     assert main(["bench-scale", "--from-json", str(bad), "--json", str(bad), "--out", "-"]) == 2
     assert "same file" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("given", ["new/", "new/.", "new//"])
+def test_an_output_naming_a_missing_folder_is_refused_and_nothing_is_made(seq, tmp_path, capsys, given):
+    # "new/" used to be written as a regular file named "new"
+    out = str(tmp_path) + "/" + given
+    assert main(_track(seq, "--out", out)) == 2
+    line = _one_error_line(capsys)
+    assert f"--out {out}: names a folder, not a file" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["TUD-Campus"]  # no file "new", no folder either
+
+
+def test_an_existing_folder_with_a_slash_is_a_directory_not_a_file(seq, tmp_path, capsys):
+    assert main(_track(seq, "--out", str(tmp_path) + "/")) == 2
+    assert "is a directory, not a file" in _one_error_line(capsys)
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full")
+def test_a_full_device_is_named_in_one_line(seq, capsys):
+    # /dev/full answers every write with ENOSPC: the staged output is copied into it at the end
+    assert main(_track(seq, "--out", "/dev/full")) == 2
+    assert _one_error_line(capsys) == "refimpl track: error: cannot write /dev/full: No space left on device"
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full")
+def test_standard_output_on_a_full_device_is_named_in_one_line(seq):
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run([sys.executable, "-m", "refimpl", *_track(seq, "--out", "-")], cwd=REPO,
+                              stdout=full, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.splitlines()[-1] == "refimpl track: error: cannot write standard output: No space left on device"
+    assert "Traceback" not in proc.stderr
+
+
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 4 KiB tmpfs (root only; skipped where mounting is not allowed)."""
+    mnt = tmp_path / "tiny"
+    mnt.mkdir()
+    if os.geteuid() != 0 or shutil.which("mount") is None:
+        pytest.skip("mounting a tmpfs needs root")
+    made = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4k", "tmpfs", str(mnt)], capture_output=True)
+    if made.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {made.stderr.decode().strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", str(mnt)], check=True)
+
+
+def test_a_full_disk_names_the_output_and_leaves_nothing(seq, tiny_disk, tmp_path, capsys):
+    # the demo's results (about 12 KB with SORT) do not fit in 4 KiB: ENOSPC while the streamed
+    # lines are written or flushed; the error names the output and no temporary file is left
+    ref = tmp_path / "ref.txt"
+    assert main(_track(seq, "--out", ref)) == 0 and ref.stat().st_size > 4096
+    capsys.readouterr()
+    out = tiny_disk / "r.txt"
+    assert main(_track(seq, "--out", out)) == 2
+    assert _one_error_line(capsys) == f"refimpl track: error: cannot write {out}: No space left on device"
+    assert list(tiny_disk.iterdir()) == []
+
+
+def test_an_os_error_on_commit_names_the_output(tmp_path, monkeypatch):
+    # a fake I/O error from fsync (the commit's flush to disk): the message names the output, the
+    # target keeps its old content and the temporary file is removed
+    import errno
+    target = tmp_path / "a.txt"
+    target.write_text("old\n")
+
+    def fsync(fd):
+        raise OSError(errno.EIO, os.strerror(errno.EIO))
+    monkeypatch.setattr(os, "fsync", fsync)
+    with pytest.raises(OutputError, match=f"^cannot write {target}: Input/output error$"):
+        with OutputSet() as outs:
+            outs.open(target).write("new\n")
+    assert target.read_text() == "old\n" and sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+    with pytest.raises(OutputError, match=f"^cannot write {tmp_path / 'b.txt'}: Input/output error$"):
+        with OutputSet() as outs:
+            outs.write(tmp_path / "b.txt", "whole\n")  # write() syncs at once
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+
+
+def test_a_write_error_while_streaming_names_the_output(tmp_path):
+    # the handle a writer gets wraps the file: an OS error of its write() names the output
+    import errno
+
+    class Full:
+        closed = False
+
+        def write(self, data):
+            raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT))
+
+    from refimpl.outputs import _Handle
+    with pytest.raises(OutputError, match=f"^cannot write out.txt: {os.strerror(errno.EDQUOT)}$"):
+        _Handle(Full(), "out.txt").write("x")
+
+
+def test_a_write_error_is_an_os_error_too_and_pickles():
+    import errno
+    import pickle
+
+    from refimpl.outputs import OutputWriteError
+    exc = OutputWriteError("out.txt", OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)))
+    assert isinstance(exc, OSError) and isinstance(exc, OutputError)
+    assert (exc.errno, exc.filename, str(exc)) == (errno.ENOSPC, "out.txt", "cannot write out.txt: No space left on device")
+    back = pickle.loads(pickle.dumps(exc))
+    assert (type(back), back.errno, str(back)) == (OutputWriteError, errno.ENOSPC, str(exc))

@@ -121,6 +121,8 @@ def _recheck_choices(parser: argparse.ArgumentParser, args: argparse.Namespace) 
             continue
         if action.nargs is None and isinstance(value, list):
             sub.error(f"argument {name}: expected one value, got '--'")
+        if action.nargs == "+" and value == []:
+            sub.error(f"argument {name}: expected at least one value, got '--'")
         if action.choices is None or value is action.default:
             continue
         values = value if isinstance(value, list) else [value]

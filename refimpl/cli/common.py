@@ -91,7 +91,11 @@ def _plan(args: argparse.Namespace):
         raise UserError(f"--workers must be >= 1, got {args.workers}")
     if args.workers is not None and args.scheduler is not None:
         raise UserError("give --workers N (a local cluster) or --scheduler ADDRESS (an existing one), not both")
-    return Plan(workers=args.workers or 1, scheduler=args.scheduler)
+    if args.workers is None and args.scheduler is None and (args.connect_timeout or args.worker_timeout):
+        raise UserError("--connect-timeout and --worker-timeout are for a Dask run: give --workers N or "
+                        "--scheduler ADDRESS")
+    return Plan(workers=args.workers or 1, scheduler=args.scheduler, connect_timeout=args.connect_timeout,
+                worker_timeout=args.worker_timeout)
 
 
 class CheckFailed(Exception):
