@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from refimpl import cli
-from refimpl.io import InputFormatError, read_mot_detections
+from refimpl.io import InputFormatError, InputFormatWarning, read_mot_detections
 from refimpl.ranges import check_ranges
 from refimpl.scene import save_scene, scene_to_json
 from refimpl.spec import ProblemFormatError, parse_facts
@@ -56,14 +56,20 @@ def test_one_score_above_one_among_probabilities_is_an_error_naming_its_line(seq
     assert ":3: score 1.01" in _err(capsys)
 
 
-def test_a_raw_score_file_keeps_the_raw_rule_whatever_one_score_is(tmp_path):
-    # 10 raw ACF-like scores, one of them 0.5 (in 0..1): at most half in 0..1 -> raw rule for all
+def test_a_raw_score_file_keeps_one_rule_whatever_one_score_is(tmp_path):
+    # 10 raw ACF-like scores, one of them 0.5 (in 0..1): at most half in 0..1 -> one rule for all
     f = tmp_path / "det.txt"
     scores = [12.0, 40.5, 0.5, 99.0, 3.2, 7.0, 55.0, 130.0, -0.4, 20.0]
     f.write_text("".join(f"{i + 1},-1,10,10,20,40,{s},-1,-1,-1\n" for i, s in enumerate(scores)))
-    conf = [int(fr.confidences[0]) for fr in read_mot_detections(f).frames]
-    # clip(round(s), 0, 100) with round half up
+    conf = [int(fr.confidences[0]) for fr in read_mot_detections(f, scores_rule="raw").frames]
+    # --scores raw: clip(round(s), 0, 100) with round half up
     assert conf == [12, 41, 1, 99, 3, 7, 55, 100, 0, 20]
+    with pytest.warns(InputFormatWarning, match="not probabilities"):
+        ranked = [int(fr.confidences[0]) for fr in read_mot_detections(f).frames]
+    # auto ranks them, the 0.5 too, one detection a frame: frame i's score among the first i, e.g.
+    # frame 3: 0.5 lowest of 3 -> floor(100/3 + 1/2) = 33; frame 7: 55 sixth of 7 -> 86; frame 10:
+    # 20 sixth of 10 -> 60
+    assert ranked == [100, 100, 33, 100, 40, 50, 86, 100, 11, 60]
 
 
 # -- names clingo reads differently -------------------------------------------------------

@@ -125,9 +125,11 @@ def cmd_track(args: argparse.Namespace) -> int:
 def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
     """One line on stderr: which tracker and preset run (unless --quiet), and a warning when the
     file's scores lie far from what the preset was fitted on (refimpl.presets.score_warning)."""
+    if setup.baseline:
+        return  # SORT: no preset, nothing to say
     if not args.quiet:
         print(f"refimpl track: {setup.describe()}", file=sys.stderr)
-    if setup.baseline or setup.preset == "none":
+    if setup.preset == "none":
         return
     from ..presets import preset_named, score_warning
     for seq in seqs:
