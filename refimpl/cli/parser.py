@@ -11,7 +11,7 @@ from ..devkits import DEVKITS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
-from .scenes import cmd_explain, cmd_plot, cmd_query
+from .scenes import cmd_explain, cmd_plot, cmd_query, cmd_report
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
 from ..options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
@@ -313,5 +313,12 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--tracks", help="comma-separated tracks to draw (default: those observed in 3+ frames)")
     pl.add_argument("--frames", metavar="FROM:TO", help="frame range of the space-time picture")
     pl.set_defaults(func=cmd_plot)
+
+    rp = sub.add_parser("report", help="one self-contained HTML page of a scene: the chosen frame's boxes and their "
+                                       "state, the space-time picture, the events per track, the explanations")
+    rp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    rp.add_argument("--out", required=True, help="HTML file to write (- for standard output)")
+    rp.add_argument("--frame", type=int, help="the frame shown first (default: the one with the most hidden tracks)")
+    rp.set_defaults(func=cmd_report)
 
     return p
