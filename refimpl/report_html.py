@@ -8,7 +8,7 @@ Sections: the chosen frame (its boxes drawn by state -- active solid, hidden / m
 dashed -- with a slider to move through the frames, the table of its boxes and the relations
 that hold), the space-time picture (one row per track; a click picks the frame), the events per
 track (a click on an event picks its frame) and the explanations.  A filter field keeps one
-track's rows.  When the script has drawn the page it sets ``data-report="rendered"`` on the
+track's rows; ``report.html#frame=274&track=129`` opens the page at that frame with that filter.  When the script has drawn the page it sets ``data-report="rendered"`` on the
 ``<html>`` element and fills ``#report-status`` (a script error sets ``data-report="error: ..."``):
 what a headless browser test reads.
 """
@@ -377,6 +377,16 @@ SCRIPT = r"""
     });
   }
 
+  // a link may name the frame and the track to show: report.html#frame=274&track=129
+  location.hash.replace(/^#/, "").split("&").forEach(function (kv) {
+    var m = /^(frame|track)=(.+)$/.exec(kv);
+    if (m && m[1] === "frame" && /^-?\d+$/.test(m[2])) { frame = Math.max(D.first, Math.min(D.last, Number(m[2]))); }
+    if (m && m[1] === "track") {
+      var v = decodeURIComponent(m[2]);
+      document.getElementById("filter").value = v;
+      filterId = /^\d+$/.test(v) ? "trk_" + v : v;
+    }
+  });
   var boxes = drawFrame();
   var bars = document.querySelectorAll("#spacetime-svg .bar").length;
   document.getElementById("report-status").textContent = "rendered: frame " + frame + " with " + boxes +

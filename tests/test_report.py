@@ -123,7 +123,34 @@ def test_report_command_writes_the_page_and_refuses_mistakes_in_one_line(tmp_pat
 
 
 # ---------------------------------------------------------------------------------------
-# the real thing: KITTI Car 0011 in headless Chromium
+# in a real browser: headless Chromium (a link's frame and track; KITTI Car 0011)
+
+
+def _headless(url: str, profile: Path, *extra: str) -> subprocess.CompletedProcess:
+    """/usr/bin/chromium --headless on url: the DOM after the scripts ran on stdout, console lines on stderr."""
+    run = subprocess.run(
+        [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--enable-logging=stderr", "--v=0", f"--user-data-dir={profile}", "--window-size=1200,900", *extra,
+         "--dump-dom", url], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert not [line for line in run.stderr.splitlines() if ":CONSOLE" in line]  # the page logs nothing
+    return run
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (apt-get install chromium)")
+def test_a_link_opens_the_page_at_its_frame_and_track(tmp_path):
+    page = tmp_path / "bus.html"
+    page.write_text(render_html(build_report(bus_scene())), encoding="utf-8")
+    dom = _headless(page.resolve().as_uri() + "#frame=210&track=5", tmp_path / "profile").stdout
+    assert 'data-report="rendered"' in dom
+    # frame 210: the bus and trk_5, which the detector missed (210, 211); only trk_5's rows stay shown
+    assert 'id="frame-number">210 (2 boxes)<' in dom
+    frame_row = r'<tr data-tracks="([^"]*)"( class="hide")?><td>\d+</td><td>\w+</td><td class="state"'
+    rows = dict(re.findall(frame_row, dom))
+    assert rows == {"trk_5": "", "trk_12": ' class="hide"'}
+    assert "halted: missed by the detector" in dom
+    assert len(re.findall(r'<g class="box missing halted-kind" data-track="trk_5">', dom)) == 1
 
 
 @pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (apt-get install chromium)")
@@ -140,21 +167,13 @@ def test_kitti_car_0011_report_renders_in_headless_chromium(kitti_car_0011, tmp_
 
     # one headless run: the DOM after the page's script ran (stdout), a screenshot, console messages (stderr)
     shot = tmp_path / "shot.png"
-    run = subprocess.run(
-        [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--enable-logging=stderr", "--v=0", f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={shot}",
-         "--window-size=1200,900", "--dump-dom", page.resolve().as_uri()],
-        capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0, run.stderr[-3000:]
+    run = _headless(page.resolve().as_uri(), tmp_path / "profile", f"--screenshot={shot}")
 
     # the script ran to its end and drew every box of the chosen frame
     assert 'data-report="rendered"' in run.stdout, re.findall(r'data-report="[^"]*"', run.stdout)
     boxes = len(report.states_at(report.frame))
     assert boxes > 0 and len(re.findall(r'<g class="box (active|hidden|missing|halted)', run.stdout)) == boxes
     assert f"rendered: frame {report.frame} with {boxes} boxes" in run.stdout
-    # the page logs nothing: any console line is a script error or warning
-    assert not [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
 
     # the screenshot is not blank: many colours, among them the active (blue) and hidden (red) boxes'
     imread = pytest.importorskip("matplotlib.image").imread
