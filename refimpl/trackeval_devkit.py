@@ -101,7 +101,7 @@ def mot_rules(benchmarks: Sequence[str]) -> str:
     return "MOTChallenge, TrackEval MotChallenge2DBox " + " | ".join(parts)
 
 
-def _lines_or_none(path: Path) -> list[str]:
+def _lines_or_empty(path: Path) -> list[str]:
     try:
         return io.data_lines(path)
     except io.InputFormatError as exc:
@@ -117,7 +117,7 @@ def _write(path: Path, lines: Sequence[str]) -> None:
 
 def _kitti_result_lines(seq: LoadedSequence, object_class: str) -> list[str]:
     """The results file as KITTI tracking lines: as is if it is one, else from the rows read."""
-    lines = _lines_or_none(seq.results_path)
+    lines = _lines_or_empty(seq.results_path)
     if lines and "," not in lines[0]:
         return lines  # KITTI tracking format (refimpl.io reads it the same way)
     kind = object_class.capitalize()
