@@ -24,6 +24,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from . import io
 from .evaluate import evaluate_many, refuse_misfit
 
@@ -81,17 +83,41 @@ def read_ground_truth(path: str | Path, data_format: str, object_class: str | No
     return io.get_format(data_format).read_ground_truth(path, object_class=object_class)
 
 
+@dataclass(frozen=True)
+class LoadedSequence:
+    """One sequence to score: its files and what refimpl's readers read from them (checked to fit)."""
+
+    name: str
+    results_path: Path
+    gt_path: Path
+    gt: io.GroundTruth
+    results: np.ndarray
+    """(n, 6) ``frame, id, x, y, w, h`` rows of the results file (for KITTI: the rows of the class)."""
+
+
+def load_sequence(name: str | None, results: str | Path, gt: str | Path, data_format: str,
+                  object_class: str | None, allow_empty: bool = False) -> LoadedSequence:
+    """Read one results file and its ground truth (``name`` None: the ground truth's sequence name); refuse
+    results that do not fit it (refuse_misfit)."""
+    truth = read_ground_truth(gt, data_format, object_class)
+    rows = io.read_results(results, data_format, object_class, allow_empty=allow_empty)
+    refuse_misfit(truth, rows, results)  # rows past the last frame, or another sequence's results
+    return LoadedSequence(name or truth.name, Path(results), Path(gt), truth, rows)
+
+
+def load_folder(results_dir: str | Path, gt_root: str | Path, data_format: str,
+                object_class: str | None = None) -> tuple[list[LoadedSequence], tuple[str, ...]]:
+    """Every results file of a folder with its ground truth (module doc), and the gt sequences left unscored."""
+    pairs, unscored = pair_folder(results_dir, gt_root, data_format)
+    loaded = [load_sequence(p.name, p.results, p.gt, data_format, object_class, allow_empty=True) for p in pairs]
+    return loaded, unscored
+
+
 def evaluate_folder(results_dir: str | Path, gt_root: str | Path, data_format: str,
                     object_class: str | None = None, iou_threshold: float = 0.5) -> FolderEvaluation:
     """Score every results file of a folder against its ground truth (module doc for the layouts)."""
-    pairs, unscored = pair_folder(results_dir, gt_root, data_format)
-    triples = []
-    for p in pairs:
-        gt = read_ground_truth(p.gt, data_format, object_class)
-        results = io.read_results(p.results, data_format, object_class, allow_empty=True)
-        refuse_misfit(gt, results, p.results)  # rows past the last frame, or another sequence's results
-        triples.append((p.name, gt, results))
-    per_sequence, overall = evaluate_many(triples, iou_threshold)
+    loaded, unscored = load_folder(results_dir, gt_root, data_format, object_class)
+    per_sequence, overall = evaluate_many([(s.name, s.gt, s.results) for s in loaded], iou_threshold)
     return FolderEvaluation(per_sequence, overall, unscored)
 
 

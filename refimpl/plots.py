@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os
 
-from .scene import (EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, holds_at, load_scene)
+from .scene import EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, load_scene
 from .events import EVENT_TABLE
 from .spec import natural_key
 
@@ -234,13 +234,23 @@ def plot_frame(scene: Scene, frame: int, out: str, tracks: list[SceneTrack] | No
 
 
 def frame_relation_lines(scene: Scene, frame: int, tracks: list[SceneTrack]) -> list[str]:
-    """The fluents that hold at the frame (hidden_by true, clipped true), then for each pair of
-    tracks in contact or near each other its relations (observed or predicted boxes)."""
+    """The fluents that hold at the frame (clipped true, hidden_by true), then for each pair of
+    tracks in contact or near each other its relations (observed or predicted boxes).
+
+    The fluents are read from the scene's timelines, which hold ``holds_at`` of every frame
+    (refimpl.scene.fluent_timelines), instead of replaying the event log for each track."""
+    order = {t.id: i for i, t in enumerate(scene.tracks)}
+    hiders: dict[str, list[str]] = {}  # T1 -> every T2 of a recorded hidden_by(T1,T2), in scene order
+    for atom, _ in scene.timelines:
+        if atom.startswith("hidden_by("):
+            t1, t2 = atom[len("hidden_by("):-1].split(",")
+            hiders.setdefault(t1, []).append(t2)
     lines = []
     for t in tracks:
-        for k, v in holds_at(scene, t.id, frame).items():
-            if (k.startswith("hidden_by") or k.startswith("clipped")) and "true" in v:
-                lines.append(k)
+        candidates = [f"clipped({t.id})"] + [f"hidden_by({t.id},{x})" for x in
+                                             sorted(hiders.get(t.id, ()), key=lambda x: order.get(x, len(order)))]
+        lines += [atom for atom in candidates
+                  if any(a <= frame <= b and v == "true" for a, b, v in scene.timeline(atom))]
     ordered = sorted(tracks, key=lambda t: natural_key(t.id))
     for i, a in enumerate(ordered):
         for b in ordered[i + 1:]:

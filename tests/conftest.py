@@ -32,3 +32,22 @@ def backend(request) -> str:
     backend's library is not installed."""
     pytest.importorskip(LIBRARIES[request.param])
     return request.param
+
+
+@pytest.fixture(scope="session")
+def kitti_car_0011(tmp_path_factory) -> dict[str, Path]:
+    """KITTI Car 0011 tracked once per session with the abduction tracker, as the issue's command
+    does (cpsat, the KITTI Car preset): {"results": KITTI tracking-format results, "scene": the
+    scene file, "label": the ground truth}; skipped without the shared data."""
+    training = SHARED_DATA / "KITTI" / "tracking" / "training"
+    dets = training / "det_02_pointrcnn" / "Car" / "0011.txt"
+    if not dets.is_file():
+        pytest.skip(f"benchmark data not found at {SHARED_DATA} (clone with ../shared beside it)")
+    from refimpl.cli import main
+    out = tmp_path_factory.mktemp("kitti_car_0011")
+    files = {"results": out / "trackers" / "refimpl" / "data" / "0011.txt", "scene": out / "0011.scene.json",
+             "label": training / "label_02" / "0011.txt"}
+    assert main(["track", "--dets", str(dets), "--format", "kitti", "--class", "Car", "--backend", "cpsat",
+                 "--out", str(files["results"]), "--out-format", "kitti", "--scene", str(files["scene"]),
+                 "--quiet"]) == 0
+    return files

@@ -36,9 +36,13 @@ def test_folder_eval_prints_and_writes_json_equal_to_the_single_file_scores(tmp_
     report = tmp_path / "scores.json"
     assert main(["eval", str(res), "--gt", str(root), "--json", str(report)]) == 0
     out = capsys.readouterr().out
-    assert out.splitlines()[0].startswith("| Sequence | HOTA | DetA | AssA | MOTA |")
+    # the convention first (MOT15 ground truth: no distractors, nothing removed), then the table
+    assert out.splitlines()[0].startswith("convention: MOTChallenge, simplified devkit (refimpl): MOT15 ground truth")
+    assert out.splitlines()[1].startswith("| Sequence | HOTA | DetA | AssA | MOTA |")
     data = json.loads(report.read_text())
-    assert set(data) == {"sequences", "overall"} and list(data["sequences"]) == ["TUD-Campus"]
+    assert set(data) == {"devkit", "convention", "sequences", "overall"} and list(data["sequences"]) == ["TUD-Campus"]
+    rows = len((res / "TUD-Campus.txt").read_text().splitlines())
+    assert data["devkit"] == "refimpl" and data["convention"].endswith(f"; 0 of {rows} hypotheses removed")
     names = {"HOTA", "DetA", "AssA", "MOTA", "MOTP", "IDF1", "IDs", "Frag", "FP", "FN"}
     assert names <= set(data["overall"])
     # the same numbers as evaluating the one file directly

@@ -203,12 +203,13 @@ SCENE_CASES = {
 
 
 @pytest.mark.parametrize("case", sorted(SCENE_CASES))
-@pytest.mark.parametrize("command", ["query", "explain", "plot"])
+@pytest.mark.parametrize("command", ["query", "explain", "plot", "report"])
 def test_malformed_scenes_end_in_one_line(tmp_path, capsys, case, command):
     edit, message = SCENE_CASES[case]
     path = _scene(tmp_path, edit)
     argv = {"query": ["query", path, "tracks"], "explain": ["explain", path],
-            "plot": ["plot", path, "--out", str(tmp_path / "p.png")]}[command]
+            "plot": ["plot", path, "--out", str(tmp_path / "p.png")],
+            "report": ["report", path, "--out", str(tmp_path / "p.png")]}[command]
     assert cli.main(argv) == 2
     line = _err(capsys)
     assert line.startswith(f"refimpl {command}: error: {path}: ") and message in line

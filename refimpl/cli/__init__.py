@@ -4,7 +4,7 @@ This package holds the entry points (``main``, ``run``) and the error handling; 
 the argument parser, ``common`` holds what the commands share (exit codes, ``UserError``), and one
 module per command group holds the commands: ``solving`` (solve, diff), ``tracking`` (track,
 eval), ``benchmarks`` (benchmark, calibrate, table6, sweep, bench-scale, detectors,
-occlusion-suite, bench-occlusion), ``scenes`` (query, explain, plot) and ``demo``.  Every name
+occlusion-suite, bench-occlusion), ``scenes`` (query, explain, plot, report) and ``demo``.  Every name
 that refimpl/cli.py had is importable from here."""
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ from .common import (  # noqa: F401  (the public names of refimpl.cli)
 )
 from .demo import _run_tracker, cmd_demo  # noqa: F401
 from .parser import _add_scaleout, _class_name, _parse_grid, build_parser  # noqa: F401
-from .scenes import cmd_explain, cmd_plot, cmd_query  # noqa: F401
+from .scenes import cmd_explain, cmd_plot, cmd_query, cmd_report  # noqa: F401
 from .solving import cmd_diff, cmd_solve  # noqa: F401
 from .tracking import (  # noqa: F401
     _prefix,

@@ -7,10 +7,11 @@ import argparse
 from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
                          cmd_occlusion_suite, cmd_sweep, cmd_table6)
 from ..datasets import REAL_DETECTORS
+from ..devkits import DEVKITS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
-from .scenes import cmd_explain, cmd_plot, cmd_query
+from .scenes import cmd_explain, cmd_plot, cmd_query, cmd_report
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
 from ..options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
@@ -216,8 +217,13 @@ def build_parser() -> argparse.ArgumentParser:
                    "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
     e.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
-    e.add_argument("--json", help="also write {\"sequences\": {...}, \"overall\": {...}} (HOTA, DetA, AssA, MOTA, "
-                                  "MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to this file")
+    e.add_argument("--json", help="also write {\"devkit\", \"convention\", \"sequences\": {...}, \"overall\": {...}} "
+                                  "(HOTA, DetA, AssA, MOTA, MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to "
+                                  "this file")
+    e.add_argument("--devkit", choices=DEVKITS, default=DEVKITS[0],
+                   help="refimpl (default): refimpl's simplified devkit (no KITTI truncation/occlusion/height filter; "
+                        "docs/evaluation.md); trackeval: TrackEval's own Kitti2DBox / MotChallenge2DBox pipeline on "
+                        "the same files, the numbers a TrackEval leaderboard gives")
     e.set_defaults(func=cmd_eval)
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
@@ -403,6 +409,13 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--tracks", help="comma-separated tracks to draw (default: those observed in 3+ frames)")
     pl.add_argument("--frames", metavar="FROM:TO", help="frame range of the space-time picture")
     pl.set_defaults(func=cmd_plot)
+
+    rp = sub.add_parser("report", help="one self-contained HTML page of a scene: the chosen frame's boxes and their "
+                                       "state, the space-time picture, the events per track, the explanations")
+    rp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    rp.add_argument("--out", required=True, help="HTML file to write (- for standard output)")
+    rp.add_argument("--frame", type=int, help="the frame shown first (default: the one with the most hidden tracks)")
+    rp.set_defaults(func=cmd_report)
     for command in sub.choices.values():
         _show_defaults(command)
     return p

@@ -1,4 +1,4 @@
-"""The commands on a scene file: `query`, `explain` and `plot`."""
+"""The commands on a scene file: `query`, `explain`, `plot` and `report`."""
 
 from __future__ import annotations
 
@@ -24,4 +24,14 @@ def cmd_explain(args: argparse.Namespace) -> int:
 def cmd_plot(args: argparse.Namespace) -> int:
     from ..plots import plot_scene_file
     print(plot_scene_file(args.scene, args.out, frame=args.frame, tracks=args.tracks, frames=args.frames))
+    return EXIT_OK
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    import sys
+
+    from ..outputs import STDOUT
+    from ..report import write_report
+    summary = write_report(args.scene, args.out, frame=args.frame)
+    print(summary, file=sys.stderr if args.out == STDOUT else sys.stdout)  # the page itself may be stdout
     return EXIT_OK

@@ -194,29 +194,34 @@ def _prefix(seqs, seq) -> str:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from .. import io
-    from ..evaluate import evaluate_many, format_table, refuse_misfit
-    from ..folder_eval import evaluate_folder, metrics_json, read_ground_truth
+    from ..devkits import check_devkit, evaluate_sequences
+    from ..evaluate import format_table
+    from ..folder_eval import load_folder, load_sequence, metrics_json
     from ..outputs import check_outputs
     check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
     if io.get_format(args.format).needs_class and args.cls is None:
         raise UserError(f"--format {args.format} needs --class Car|Pedestrian")
+    try:
+        check_devkit(args.devkit, args.format, args.cls)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
     if Path(args.results).is_dir():
-        run = evaluate_folder(args.results, args.gt, args.format, args.cls)
-        per_seq, overall = run.per_sequence, run.overall
-        if run.unscored:
-            print(f"refimpl eval: note: {len(run.unscored)} ground-truth sequence(s) without a results file "
-                  f"not scored: {', '.join(run.unscored)}", file=sys.stderr)
+        sequences, unscored = load_folder(args.results, args.gt, args.format, args.cls)
+        if unscored:
+            print(f"refimpl eval: note: {len(unscored)} ground-truth sequence(s) without a results file "
+                  f"not scored: {', '.join(unscored)}", file=sys.stderr)
     else:
         if Path(args.gt).is_dir():
             raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
-        gt = read_ground_truth(args.gt, args.format, args.cls)
-        results = io.read_results(args.results, args.format, args.cls, allow_empty=True)
-        if not len(results):  # as TrackEval scores a tracker that wrote nothing: every target missed
+        sequences = [load_sequence(None, args.results, args.gt, args.format, args.cls, allow_empty=True)]
+        if not len(sequences[0].results):  # as TrackEval scores a tracker that wrote nothing: every target missed
             print(f"refimpl eval: note: {args.results} holds no rows: scored as no tracks (every target missed)",
                   file=sys.stderr)
-        refuse_misfit(gt, results, args.results)
-        per_seq, overall = evaluate_many([(gt.name, gt, results)])
-    print(format_table(per_seq, overall))
+    scores = evaluate_sequences(sequences, args.format, args.cls, args.devkit)
+    print(scores.header)
+    print(format_table(scores.per_sequence, scores.overall))
     if args.json:
-        io.write_text_atomic(args.json, json.dumps(metrics_json(per_seq, overall), indent=2) + "\n")
+        report = {"devkit": scores.devkit, "convention": scores.convention,
+                  **metrics_json(scores.per_sequence, scores.overall)}
+        io.write_text_atomic(args.json, json.dumps(report, indent=2) + "\n")
     return EXIT_OK

@@ -99,7 +99,8 @@ zero-area box) in KITTI files: the trackers' boxes could not be written back.
 from __future__ import annotations
 
 from .errors import InputFormatError, InputFormatWarning
-from .lines import MAX_COORD, MAX_DET_AREA, MAX_FRAME, MIN_DET_SIZE, OBJECT_TYPES, data_line_numbers
+from .lines import (MAX_COORD, MAX_DET_AREA, MAX_FRAME, MIN_DET_SIZE, OBJECT_TYPES, data_line_numbers,
+                    data_lines)
 from .seqinfo import read_seqinfo
 from .ground_truth import GroundTruth, read_kitti_ground_truth, read_mot_ground_truth
 from .detections import (DEFAULT_SCORE_RULE, KITTI_FPS, KITTI_IMAGE_SIZE, SCORE_RULES, DetectionFrame, DetectionSequence,
@@ -115,7 +116,7 @@ from .catalogue import (BENCHMARKS, KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_SORT6, 
 
 __all__ = [
     "InputFormatError", "InputFormatWarning",
-    "MAX_COORD", "MAX_DET_AREA", "MAX_FRAME", "MIN_DET_SIZE", "OBJECT_TYPES", "data_line_numbers",
+    "MAX_COORD", "MAX_DET_AREA", "MAX_FRAME", "MIN_DET_SIZE", "OBJECT_TYPES", "data_line_numbers", "data_lines",
     "read_seqinfo",
     "GroundTruth", "read_kitti_ground_truth", "read_mot_ground_truth",
     "DEFAULT_SCORE_RULE", "KITTI_FPS", "KITTI_IMAGE_SIZE", "SCORE_RULES", "DetectionFrame", "DetectionSequence", "read_kitti_detections",

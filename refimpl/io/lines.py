@@ -63,6 +63,11 @@ def _read_lines(path: Path) -> list[tuple[int, str]]:
     return [line for chunk in _line_chunks(path, 1 << 62) for line in chunk]
 
 
+def data_lines(path: str | os.PathLike) -> list[str]:
+    """A file's data (non-blank) lines, stripped (no BOM, no \\r), as every reader of this package sees them."""
+    return [text for _, text in _read_lines(Path(path))]
+
+
 def data_line_numbers(path: str | os.PathLike) -> list[int]:
     """The line numbers of a file's data (non-blank) lines: row k of a reader's array is on line [k]."""
     return [n for n, _ in _read_lines(Path(path))]

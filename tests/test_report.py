@@ -1,0 +1,186 @@
+"""`refimpl report`: the box states, timelines and explanations it shows, the self-contained page,
+its one-line errors, and the page rendered by a real headless Chromium.
+
+The states are checked on the hand-made BUS scene of test_scene.py, whose numbers are derived
+there: trk_13 hides behind the bus trk_12 at 235 and unhides at 268 (halted 235..267), trk_5 is
+missed at 210 and recovered at 212 (halted 210, 211) and leaves at 250, trk_7 is noise at 207.
+The browser test takes KITTI Car 0011 tracked as the issue says (conftest.py), writes its report, opens it
+in /usr/bin/chromium (skipped without it): the page's script must have drawn every box of the
+chosen frame, no console error, and a screenshot that shows the figures in their colours.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from refimpl import cli
+from refimpl.report import ACTIVE, HIDDEN, MISSING, build_report, default_frame, frame_states
+from refimpl.report_html import STATE_COLOURS, frame_data, render_html
+from refimpl.scene import load_scene, save_scene
+
+from test_scene import bus_scene
+
+REPO = Path(__file__).resolve().parent.parent
+CHROMIUM = Path("/usr/bin/chromium")
+
+
+def _states(scene, frame) -> dict[str, tuple[str, str | None]]:
+    return {b.track: (b.state, b.hidden_by) for b in frame_states(scene)[frame]}
+
+
+# ---------------------------------------------------------------------------------------
+# what the report says
+
+
+def test_box_states_follow_the_halts_and_their_explaining_events():
+    s = bus_scene()
+    # 234: the car is still observed; 235..267 halted behind the bus; 268 observed again (resumed)
+    assert _states(s, 234)["trk_13"] == (ACTIVE, None)
+    assert _states(s, 235)["trk_13"] == (HIDDEN, "trk_12")
+    assert _states(s, 267)["trk_13"] == (HIDDEN, "trk_12")
+    assert _states(s, 268)["trk_13"] == (ACTIVE, None)
+    # trk_5 missed by the detector at 210 and 211, recovered at 212
+    assert _states(s, 210)["trk_5"] == (MISSING, None) and _states(s, 211)["trk_5"] == (MISSING, None)
+    assert _states(s, 212)["trk_5"] == (ACTIVE, None)
+    # 245: the bus, the hidden car (its predicted box x = 100 + 5 (245 - 234) = 155) and trk_5
+    at = frame_states(s)[245]
+    assert [b.track for b in at] == ["trk_5", "trk_12", "trk_13"]
+    assert at[2].box == (155.0, 120.0, 40.0, 60.0)
+    # nothing before 200 or after the car's and the bus's last frame 280 is left out: 81 frames
+    assert sorted(frame_states(s)) == list(range(200, 281))
+
+
+def test_default_frame_is_the_first_with_the_most_hidden_tracks():
+    s = bus_scene()
+    # only trk_13 is ever hidden, at 235..267: one hidden box each, the earliest is 235
+    assert default_frame(s, frame_states(s)) == 235
+    assert build_report(s).frame == 235 and build_report(s, 245).frame == 245
+
+
+def test_timelines_and_explanations_name_their_tracks():
+    r = build_report(bus_scene())
+    by = {t.track: t for t in r.tracks}
+    t5 = by["trk_5"]
+    assert [(e.time, e.name) for e in t5.events] == [(200, "enters_fov"), (210, "missing_detections"),
+                                                     (212, "recover"), (250, "leaves_fov")]
+    assert t5.observed_runs == ((200, 209), (212, 250)) and t5.halted_runs == ((210, 211, True),)
+    assert t5.ended_by == "leaves_fov" and by["trk_7"].ended_by == "noise" and by["trk_12"].ended_by is None
+    assert not by["trk_7"].drawn  # 2 observed frames: below the space-time picture's cut of 3, as in `plot`
+    hiding = next(x for x in r.explanations if "went out of sight behind" in x.sentence)
+    assert hiding.tracks == ("trk_13", "trk_12") and hiding.frame == 235
+    # by first frame, then id in number order: trk_5 and trk_12 start at 200, trk_7 at 205, trk_13 at 220
+    assert [t.track for t in r.tracks] == ["trk_5", "trk_12", "trk_7", "trk_13"]
+
+
+def test_the_page_is_self_contained_and_carries_every_frame():
+    page = render_html(build_report(bus_scene(), 245))
+    # no URL, no external file: no src / href / url(...) / @import at all, no http(s)
+    assert not re.search(r"https?:|\bsrc=|\bhref=|url\(|@import", page)
+    data = json.loads(re.search(r'<script type="application/json" id="report-data">(.*?)</script>', page).group(1))
+    assert data["frame"] == 245 and len(data["frames"]) == 81
+    tracks = [t[0] for t in data["tracks"]]
+    rows = data["frames"][245 - 200]
+    # trk_13 at 245: its predicted box, state hidden, behind trk_12
+    car = next(r for r in rows if tracks[r[0]] == "trk_13")
+    assert car[1:5] == [155.0, 120.0, 40.0, 60.0] and data["states"][car[5]] == HIDDEN and tracks[car[6]] == "trk_12"
+    assert data["stateColours"][car[5]] == STATE_COLOURS[HIDDEN]
+    assert "hidden_by(trk_13,trk_12)" in data["relations"][245 - 200]
+    # the space-time picture: observed runs of the three drawn tracks (trk_12 1, trk_5 2, trk_13 2) and
+    # the halted runs (trk_5 1, trk_13 1) are 7 bars
+    assert page.count('<rect class="bar"') == 7
+    assert frame_data(build_report(bus_scene(), 245)) == data
+
+
+def test_report_command_writes_the_page_and_refuses_mistakes_in_one_line(tmp_path, capsys):
+    scene = tmp_path / "bus.json"
+    save_scene(scene, bus_scene())
+    out = tmp_path / "bus.html"
+    assert cli.main(["report", str(scene), "--out", str(out), "--frame", "245"]) == 0
+    assert capsys.readouterr().out == f"BUS: 4 tracks, 10 events, frame 245 (3 boxes) -> {out}\n"
+    first = out.read_bytes()
+    assert first.startswith(b"<!DOCTYPE html>") and b"data-report=\"loading\"" in first
+    assert cli.main(["report", str(scene), "--out", str(out), "--frame", "245"]) == 0
+    assert out.read_bytes() == first  # deterministic
+    other = str(tmp_path / "x.html")
+    for argv, message in ((["--out", other, "--frame", "281"], "frame 281 is outside the scene (200-280)"),
+                          (["--out", str(scene)], "refusing to overwrite an input"),
+                          (["--out", str(tmp_path)], "is a directory")):
+        assert cli.main(["report", str(scene), *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("refimpl report: error: ") and message in err, err
+    assert not (tmp_path / "x.html").exists()
+    assert cli.main(["report", str(tmp_path / "missing.json"), "--out", str(tmp_path / "x.html")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1 and not (tmp_path / "x.html").exists()
+    # standard output: the page alone on stdout, the summary on stderr
+    assert cli.main(["report", str(scene), "--out", "-", "--frame", "245"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.encode() == first and captured.err.startswith("BUS: 4 tracks")
+
+
+# ---------------------------------------------------------------------------------------
+# in a real browser: headless Chromium (a link's frame and track; KITTI Car 0011)
+
+
+def _headless(url: str, profile: Path, *extra: str) -> subprocess.CompletedProcess:
+    """/usr/bin/chromium --headless on url: the DOM after the scripts ran on stdout, console lines on stderr."""
+    run = subprocess.run(
+        [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--enable-logging=stderr", "--v=0", f"--user-data-dir={profile}", "--window-size=1200,900", *extra,
+         "--dump-dom", url], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert not [line for line in run.stderr.splitlines() if ":CONSOLE" in line]  # the page logs nothing
+    return run
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (apt-get install chromium)")
+def test_a_link_opens_the_page_at_its_frame_and_track(tmp_path):
+    page = tmp_path / "bus.html"
+    page.write_text(render_html(build_report(bus_scene())), encoding="utf-8")
+    dom = _headless(page.resolve().as_uri() + "#frame=210&track=5", tmp_path / "profile").stdout
+    assert 'data-report="rendered"' in dom
+    # frame 210: the bus and trk_5, which the detector missed (210, 211); only trk_5's rows stay shown
+    assert 'id="frame-number">210 (2 boxes)<' in dom
+    frame_row = r'<tr data-tracks="([^"]*)"( class="hide")?><td>\d+</td><td>\w+</td><td class="state"'
+    rows = dict(re.findall(frame_row, dom))
+    assert rows == {"trk_5": "", "trk_12": ' class="hide"'}
+    assert "halted: missed by the detector" in dom
+    assert len(re.findall(r'<g class="box missing halted-kind" data-track="trk_5">', dom)) == 1
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (apt-get install chromium)")
+def test_kitti_car_0011_report_renders_in_headless_chromium(kitti_car_0011, tmp_path, capsys):
+    scene_file, page = kitti_car_0011["scene"], tmp_path / "report.html"
+    assert cli.main(["report", str(scene_file), "--out", str(page)]) == 0
+    capsys.readouterr()
+    scene = load_scene(scene_file)
+    report = build_report(scene)
+    # the first hiding of the event log: its track is shown hidden behind its occluder at that frame
+    hide = next(e for e in scene.events if e.event.name == "hides_behind")
+    t1, t2 = (str(a) for a in hide.event.args)
+    assert any(b.track == t1 and b.state == HIDDEN and b.hidden_by == t2 for b in report.states_at(hide.time))
+
+    # one headless run: the DOM after the page's script ran (stdout), a screenshot, console messages (stderr)
+    shot = tmp_path / "shot.png"
+    run = _headless(page.resolve().as_uri(), tmp_path / "profile", f"--screenshot={shot}")
+
+    # the script ran to its end and drew every box of the chosen frame
+    assert 'data-report="rendered"' in run.stdout, re.findall(r'data-report="[^"]*"', run.stdout)
+    boxes = len(report.states_at(report.frame))
+    assert boxes > 0 and len(re.findall(r'<g class="box (active|hidden|missing|halted)', run.stdout)) == boxes
+    assert f"rendered: frame {report.frame} with {boxes} boxes" in run.stdout
+
+    # the screenshot is not blank: many colours, among them the active (blue) and hidden (red) boxes'
+    imread = pytest.importorskip("matplotlib.image").imread
+    image = imread(str(shot))
+    assert image.shape[:2] == (900, 1200)
+    pixels = {tuple(p) for p in (image[:, :, :3].reshape(-1, 3) * 255).round().astype(int).tolist()}
+    assert len(pixels) > 200
+    for colour in (STATE_COLOURS[ACTIVE], STATE_COLOURS[HIDDEN]):
+        rgb = tuple(int(colour[i:i + 2], 16) for i in (1, 3, 5))
+        assert rgb in pixels, colour
