@@ -31,7 +31,8 @@ def _demo_root(tmp_path: Path) -> Path:
 def test_folder_eval_prints_and_writes_json_equal_to_the_single_file_scores(tmp_path, capsys):
     root = _demo_root(tmp_path)
     res = tmp_path / "res"
-    assert main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(res / "TUD-Campus.txt")]) == 0
+    assert main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--backend", "baseline", "--out",
+                 str(res / "TUD-Campus.txt")]) == 0
     capsys.readouterr()
     report = tmp_path / "scores.json"
     assert main(["eval", str(res), "--gt", str(root), "--json", str(report)]) == 0
