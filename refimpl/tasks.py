@@ -111,11 +111,12 @@ class BenchmarkOutput:
     """The results rows scored (only when the request keeps them: ``benchmark --results-dir``)."""
 
 
-def benchmark_job(job: BenchmarkJob) -> BenchmarkOutput:
-    """Track one sequence with job.tracker and score it against its ground truth."""
+def benchmark_job(job: BenchmarkJob, on_frame: Callable[[], None] | None = None) -> BenchmarkOutput:
+    """Track one sequence with job.tracker and score it against its ground truth (``on_frame``:
+    called once per frame, progress)."""
     from .evaluate import evaluate_sequence
     start = time.perf_counter()
-    result = run_sequence(job.dets, job.request.setup)
+    result = run_sequence(job.dets, job.request.setup, on_frame=on_frame)
     rows, events = result.rows, result.events
     seconds = time.perf_counter() - start  # tracking only: scoring is not the tracker's time
     metrics = evaluate_sequence(job.gt, rows)
@@ -165,7 +166,8 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
     jobs = [BenchmarkJob(name, dets, gt, replace(r, sequences=()))
             for r in requests for name, dets, gt in r.sequences]
     outs = run_tasks(benchmark_job, jobs, plan, label=label, quiet=quiet,
-                     describe=lambda j: f"{j.request.dataset}/{j.request.tracker}/{j.name}")
+                     describe=lambda j: f"{j.request.dataset}/{j.request.tracker}/{j.name}",
+                     steps=lambda j: len(j.dets.frames))
     summaries, k = [], 0
     for i, r in enumerate(requests):
         mine = outs[k:k + len(r.sequences)]

@@ -98,7 +98,8 @@ def cmd_track(args: argparse.Namespace) -> int:
         _track_streaming(seqs[0], args, outs[0], setup, summary)
         return EXIT_OK
     jobs = [TrackJob(seq, setup, args.check) for seq in seqs]
-    results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name)
+    results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name,
+                        steps=lambda job: len(job.seq.frames))
     failed = 0
     with OutputSet() as files:  # every results file lands together, after the last sequence
         for seq, out, path in zip(seqs, results, outs):  # input order: the same bytes however tasks ran
