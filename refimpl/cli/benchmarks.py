@@ -94,12 +94,14 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
     from ..benchmarks import format_command, write_section
     from ..calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
-                            chosen_preset, parse_grid)
+                            chosen_preset, parse_grid, refuse_held_out)
     try:
         grid = parse_grid(args.grid)
     except ValueError as exc:
         raise UserError(str(exc)) from None
     plan = _plan(args)
+    for name in args.benchmark:
+        refuse_held_out(name)  # whatever the data root holds
     for name in args.benchmark:
         check_tunable(name, args.data)  # refuse before hours of tracking, not after
     command = format_command(sys.argv[1:])
