@@ -14,6 +14,7 @@ from .scenes import cmd_explain, cmd_plot, cmd_query
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
 from ..options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
+from ..peers import PEERS
 
 
 def _class_name(text: str) -> str:
@@ -142,8 +143,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--json", help="also write the metrics as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     b.add_argument("--peers", metavar="LIST",
-                   help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
-                        f"baseline, abduction (--backend, {DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
+                   help=f"compare with peer trackers, 'all' or a comma-separated list out of {','.join(PEERS)} "
+                        "(sort, bytetrack, ocsort: the 'trackers' package, extra 'peers'; boxmot-*: BoxMOT's "
+                        "motion-only trackers, extra 'peers-boxmot'): baseline, abduction (--backend, "
+                        f"{DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
     b.add_argument("--per-sequence", action="store_true",
                    help="with --peers: also a table per dataset of every sequence (HOTA / IDF1 / IDs per tracker)")
