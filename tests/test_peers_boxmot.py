@@ -102,3 +102,20 @@ def test_boxmot_parameters_are_the_constructor_defaults_listed_under_the_table(b
     assert text.endswith("use_embeddings=False, use_cmc=False)")
     with pytest.raises(ValueError, match="HybridSort has no parameter 'nosuch'"):
         peers.peer_parameters("boxmot-hybridsort", nosuch=1)
+
+
+def test_the_comparison_table_has_ids_and_frag_apart_and_every_trackers_id_switches_against_the_baseline():
+    def score(label, idsw, frag, params=""):
+        o = {"hota": 0.5, "deta": 0.5, "assa": 0.5, "mota": 0.6, "idf1": 0.7, "idsw": idsw, "frag": frag,
+             "fp": 10, "fn": 20}
+        return peers.TrackerScore(label, o, {}, 100, 1.0, params)
+    c = peers.Comparison("kitti-cyc", "t", (score("refimpl baseline (SORT)", 80, 120),
+                                            score("refimpl abduction (cpsat)", 30, 90),
+                                            score("boxmot-ocsort (boxmot 25.0.0)", 100, 60, "OcSort(delta_t=3)")), {})
+    lines = peers.comparison_table(c).splitlines()
+    assert lines[0] == "| tracker | HOTA | DetA | AssA | MOTA | IDF1 | IDs | Frag | FP | FN | fps |"
+    assert lines[3] == "| refimpl abduction (cpsat) | 50.0 | 50.0 | 50.0 | 60.0 | 70.0 | 30 | 90 | 10 | 20 | 100 |"
+    # 80 -> 30: -50 / 80 = -62.5 %; 80 -> 100: +25.0 %
+    assert ("- ID switches against refimpl baseline (SORT) (the paper's headline metric): refimpl abduction "
+            "(cpsat) 80 -> 30 (-62.5 %); boxmot-ocsort (boxmot 25.0.0) 80 -> 100 (+25.0 %)") in lines
+    assert "- boxmot-ocsort (boxmot 25.0.0): `OcSort(delta_t=3)`" in lines
