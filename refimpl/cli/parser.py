@@ -6,7 +6,7 @@ import argparse
 
 from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
                          cmd_occlusion_suite, cmd_sweep, cmd_table6)
-from ..datasets import REAL_DETECTORS
+from ..datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
@@ -137,7 +137,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
     b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
-                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate)")
+                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate); "
+                        f"{', '.join(HELD_OUT_DATASETS)} are held out (never tuned on)")
     b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     b.add_argument("--backend", choices=TRACKERS, default=BASELINE)
     b.add_argument("--json", help="also write the metrics as JSON")
