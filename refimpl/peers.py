@@ -59,7 +59,8 @@ class Package:
 PACKAGES = {
     "trackers": Package("trackers", "trackers==2.6.1", "peers"),
     "boxmot": Package("boxmot", "boxmot==25.0.0", "peers-boxmot",
-                      "; it brings torch: install a CPU build of torch first, or pip takes a CUDA build of several GB"),
+                      "; it brings torch: install a CPU torch and its torchvision first (docs/peers.md), "
+                      "or pip takes a CUDA build of several GB"),
 }
 
 
