@@ -39,6 +39,7 @@ import logging
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
@@ -80,6 +81,9 @@ class Peer:
     shown: tuple[str, ...] = ()
     """The parameters listed under a comparison table (the ones that shape the result)."""
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "settings", MappingProxyType(dict(self.settings)))  # read-only
+
 
 _TRACKERS_SHOWN = ("lost_track_buffer", "frame_rate", "track_activation_threshold", "minimum_consecutive_frames",
                    "minimum_iou_threshold", "high_conf_det_threshold", "direction_consistency_weight", "delta_t",
@@ -109,7 +113,6 @@ _ROWS = (
 PEERS: dict[str, Peer] = {p.name: p for p in _ROWS}
 """Peer name (as on the command line) -> Peer; ``--peers all`` runs every one."""
 
-PEERS_REQUIREMENT = PACKAGES["trackers"].requirement
 DEFAULT_FRAME_RATE = 30.0
 """The packages' own default, used for a sequence without a frame rate."""
 _UNSET_NAMES = ("self", "args", "kwargs", "reid_model", "reid_weights", "device", "half", "reid_preprocess")
