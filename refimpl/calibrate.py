@@ -10,6 +10,8 @@ Rules (docs/peers.md says them to the reader):
 
 * KITTI: tuned on the 10 training sequences outside the val seqmap only (``kitti-*-train``);
   calibrating on a benchmark holding a val sequence is refused.
+* The held-out datasets (``kitti-cyc``, ``mot15-acf``: refimpl.datasets ``held_out``) are never
+  tuned on: calibrating on them is refused (and so is a sweep, refimpl.sweep).
 * MOT15 (11 sequences, no separate split): leave-one-sequence-out is computed from the same grid
   runs: for every sequence, the point best on the other 10 is scored on it, and those held-out
   scores are combined into the LOSO row, the honest estimate for the preset, which is the point
@@ -105,9 +107,21 @@ def rank_key(overall: Mapping, use_hota: bool) -> tuple[float, ...]:
     return (f("hota"), f("idf1"), f("mota")) if use_hota else (f("idf1"), f("mota"))
 
 
+def refuse_held_out(benchmark: str) -> None:
+    """Refuse a held-out dataset (refimpl.datasets.Dataset.held_out: KITTI Cyclist, MOT15 with ACF):
+    it is run only to report, never tuned on."""
+    from .datasets import CATALOGUE
+    entry = CATALOGUE.get(benchmark)
+    if entry is not None and entry.held_out:
+        raise CalibrationRefused(f"{benchmark} is held out: never used for tuning (run it only to report: "
+                                 f"refimpl benchmark {benchmark})")
+
+
 def check_tunable(benchmark: str, data_root: str) -> None:
-    """Refuse a KITTI benchmark holding a sequence of the val split (it is reported, never tuned on)."""
+    """Refuse a held-out dataset, and a KITTI benchmark holding a sequence of the val split (they are
+    reported, never tuned on)."""
     from . import io
+    refuse_held_out(benchmark)
     seqs = io.benchmark_sequences(benchmark, data_root) if benchmark in io.BENCHMARKS else []
     if seqs and seqs[0].format == io.KITTI:  # KITTI has a held-out val split
         held_out = sorted(set(s.name for s in seqs) & set(io.kitti_val_sequences(data_root)))

@@ -1,10 +1,12 @@
 """The dataset catalogue: every named dataset a command can run, in one registry.
 
 Each entry says what the dataset is (a title for tables), whether its detections are public
-files (``refimpl.io``'s benchmark catalogue: MOT15 with SORT's Faster R-CNN detections, KITTI
-tracking train with PointRCNN detections and its val/train splits) or SIMULATED from ground truth
-(``refimpl.simulate``: MOT17 train and MOT20-01, whose public detections do not ship here; always
-labelled as such), and how to load it as ``[(sequence name, DetectionSequence, GroundTruth)]``.
+files (``refimpl.io``'s benchmark catalogue: MOT15 with SORT's Faster R-CNN detections or the
+official ACF ones, KITTI tracking train with PointRCNN detections and its val/train splits) or
+SIMULATED from ground truth (``refimpl.simulate``: MOT17 train and MOT20-01, whose public
+detections do not ship here; always labelled as such), whether it is HELD OUT (never tuned on:
+KITTI Cyclist, MOT15 with ACF; labelled as such too), and how to load it as
+``[(sequence name, DetectionSequence, GroundTruth)]``.
 The CLI's choices, the benchmarks, Table 6, the sweeps, the calibration and the peer comparison
 all read it; adding a dataset is one ``Dataset`` row here (plus its files in ``refimpl.io``).
 """
@@ -14,6 +16,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from . import io
+
+
+HELD_OUT = "held out: never used for tuning"
+"""What the title of a held-out dataset says (Dataset.held_out)."""
 
 
 @dataclass(frozen=True)
@@ -30,6 +36,9 @@ class Dataset:
     detectors: tuple[tuple[str, str | None, str], ...] = ()
     """Real detectors side by side (refimpl detectors): (key, file name beside the dataset's detection
     file or None for that file itself, label)."""
+    held_out: bool = False
+    """Never used for tuning or for designing a rule: run only to report (issue 25's rule; refimpl
+    calibrate and refimpl sweep refuse it).  Its title says so."""
 
 
 _ROWS = (
@@ -46,6 +55,11 @@ _ROWS = (
             "KITTI tracking train, Car, the 10 sequences outside the val split (PointRCNN detections)"),
     Dataset("kitti-ped-train",
             "KITTI tracking train, Pedestrian, the 10 sequences outside the val split (PointRCNN detections)"),
+    Dataset("kitti-cyc", f"KITTI tracking train, Cyclist, 21 sequences (PointRCNN detections; {HELD_OUT})",
+            held_out=True),
+    Dataset("mot15-acf",
+            f"MOT15 train, the 7 sequences with the official ACF detections (det/det.txt; {HELD_OUT})",
+            held_out=True),
     Dataset("mot17-sim", "MOT17 train, 7 sequences (SIMULATED detections, seed 0)", simulated=True, table6=True),
     Dataset("mot20-01-sim", "MOT20-01 (SIMULATED detections, seed 0)", simulated=True, table6=True),
 )
@@ -59,6 +73,8 @@ TITLES = {d.name: d.title for d in _ROWS}
 TABLE6_DATASETS = tuple(d.name for d in _ROWS if d.table6)
 """The datasets of the paper's Table 6 on our data (refimpl table6)."""
 THROUGHPUT_DATASETS = tuple(d.name for d in _ROWS if d.throughput)
+HELD_OUT_DATASETS = tuple(d.name for d in _ROWS if d.held_out)
+"""The datasets run only to report, never tuned on (Dataset.held_out)."""
 REAL_DETECTORS: dict[str, tuple[tuple[str, str | None, str], ...]] = {d.name: d.detectors for d in _ROWS if d.detectors}
 """dataset -> its real detectors side by side (Dataset.detectors)."""
 SIMULATED_SUFFIX = "-sim"

@@ -5,7 +5,8 @@ over a Dask cluster like any many-sequence command (refimpl.scaleout); the table
 settings in grid order (the first constant varies slowest), whatever order tasks finish in.
 
 Tuning on KITTI uses ``split="tune"``: the 10 training sequences outside
-``evaluate_tracking.seqmap.val``; ``split="val"`` reports on the 11 in it.
+``evaluate_tracking.seqmap.val``; ``split="val"`` reports on the 11 in it.  A held-out dataset
+(refimpl.datasets ``held_out``: ``kitti-cyc``, ``mot15-acf``) is refused.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from pathlib import Path
 from typing import Sequence
 
 from . import io
+from .calibrate import refuse_held_out
 from .tasks import RunRequest, RunSummary, run_requests
 
 SPLITS = ("all", "tune", "val")
@@ -91,6 +93,7 @@ def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tupl
                split: str = "all") -> SweepPlan:
     """Check the grid and read the data: ValueError (or io.InputFormatError) for a user's mistake."""
     from .datasets import load_dataset
+    refuse_held_out(benchmark)  # a held-out dataset is never tuned on (CalibrationRefused, a ValueError)
     names, settings = grid_settings(grid)
     split_dataset(benchmark, [], data_root, split)  # a split that does not apply, before reading the data
     dataset = split_dataset(benchmark, load_dataset(benchmark, data_root), data_root, split)

@@ -156,6 +156,28 @@ def test_benchmark_sequences_list_the_documented_sequences():
 
 
 @needs_data
+def test_the_held_out_benchmarks_list_the_documented_sequences():
+    # PROVENANCE.md: the official ACF det/det.txt is there for 7 of the 11 MOT15 training sequences
+    acf = io.benchmark_sequences("mot15-acf", DATA)
+    assert [s.name for s in acf] == ["ETH-Sunnyday", "KITTI-13", "KITTI-17", "PETS09-S2L1", "TUD-Campus",
+                                     "TUD-Stadtmitte", "Venice-2"]
+    assert all(s.dets_path.name == "det.txt" and s.object_class == "pedestrian" for s in acf)
+    kitti17 = io.load_detections(acf[2])  # det.txt of KITTI-17: 552 lines (PROVENANCE.md)
+    assert kitti17.num_detections == 552 and kitti17.num_frames == 145
+    cyc = io.benchmark_sequences("kitti-cyc", DATA)
+    assert [s.name for s in cyc] == [f"{i:04d}" for i in range(21)]
+    assert all(s.object_class == "cyclist" and s.dets_path.parent.name == "Cyclist" for s in cyc)
+    # 0012: 78 frames; det_02_pointrcnn/Cyclist/0012.txt has 56 rows, all of type 3; label_02/0012.txt
+    # has 41 Cyclist rows (one object) and no distractor class for cyclists (only Cyclist rows load)
+    dets, gt = io.load_detections(cyc[12]), io.load_ground_truth(cyc[12])
+    assert (dets.num_frames, dets.num_detections) == (78, 56)
+    assert (gt.num_targets, len(gt.frames), int(gt.distractor.sum()), len(set(gt.ids))) == (41, 41, 0, 1)
+    # nothing is tuned on them: no split to tune on instead, unlike a KITTI benchmark holding val sequences
+    assert io.tuning_split("kitti-cyc") is None and io.tuning_split("mot15-acf") is None
+    assert io.tuning_split("kitti-car-val") == "kitti-car-train"
+
+
+@needs_data
 def test_load_detections_and_ground_truth_of_a_benchmark_sequence():
     seq = io.benchmark_sequences("kitti-ped", DATA)[12]
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)

@@ -74,12 +74,15 @@ def _write_results(args: argparse.Namespace, runs) -> None:
 def _benchmark_peers(args: argparse.Namespace) -> int:
     """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
     from ..benchmarks import format_command, machine_note, write_section
-    from ..peers import PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, per_sequence_table
+    from ..peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
+                         peer_class, per_sequence_table)
     from ..datasets import dataset_kind, load_dataset
-    peers = [p.strip() for p in args.peers.split(",") if p.strip()]
-    unknown = [p for p in peers if p not in PEERS]
-    if unknown:
-        raise UserError(f"--peers takes a comma-separated list out of {','.join(PEERS)}, got {args.peers!r}")
+    try:
+        peers = list(parse_peers(args.peers))
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    for p in peers:
+        peer_class(p)  # a missing package (PeersUnavailable, one line) before any data is read
     backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
     comparisons, report = [], {}
     for name in args.names:
@@ -115,7 +118,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
     from ..benchmarks import format_command, write_section
     from ..calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
-                            chosen_preset, parse_grid)
+                            chosen_preset, parse_grid, refuse_held_out)
     if args.default:
         return _calibrate_default(args)
     try:
@@ -123,6 +126,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     plan = _plan(args)
+    for name in args.benchmark:
+        refuse_held_out(name)  # whatever the data root holds
     for name in args.benchmark:
         check_tunable(name, args.data)  # refuse before hours of tracking, not after
     command = format_command(sys.argv[1:])

@@ -6,7 +6,7 @@ import argparse
 
 from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
                          cmd_occlusion_suite, cmd_sweep, cmd_table6)
-from ..datasets import REAL_DETECTORS
+from ..datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..devkits import DEVKITS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
@@ -15,6 +15,7 @@ from .scenes import cmd_explain, cmd_plot, cmd_query, cmd_report
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
 from ..options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
+from ..peers import PEERS
 
 
 _SEEN = "_refimpl_options_seen"
@@ -228,7 +229,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
     b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
-                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate)")
+                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate); "
+                        f"{', '.join(HELD_OUT_DATASETS)} are held out (never tuned on)")
     b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     b.add_argument("--backend", choices=TRACKERS, default=DEFAULT_BACKEND,
                    help=f"the paper's method by abduction ({', '.join(BACKENDS)}) or {BASELINE} (SORT)")
@@ -238,8 +240,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "lines refimpl track writes)")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     b.add_argument("--peers", metavar="LIST",
-                   help="compare with peer trackers (sort,bytetrack,ocsort; the 'trackers' package, extra 'peers'): "
-                        f"baseline, abduction (--backend, {DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
+                   help=f"compare with peer trackers, 'all' or a comma-separated list out of {','.join(PEERS)} "
+                        "(sort, bytetrack, ocsort: the 'trackers' package, extra 'peers'; boxmot-*: BoxMOT's "
+                        "motion-only trackers, extra 'peers-boxmot'): baseline, abduction (--backend, "
+                        f"{DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
     b.add_argument("--per-sequence", action="store_true",
                    help="with --peers: also a table per dataset of every sequence (HOTA / IDF1 / IDs per tracker)")

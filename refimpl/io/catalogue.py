@@ -1,12 +1,12 @@
-"""The dataset catalogue: named benchmarks (MOT15, KITTI tracking and its val / train splits)
-under a data root, reading a catalogued sequence, and the bundled demo sequence."""
+"""The dataset catalogue: named benchmarks (MOT15 with two detectors, KITTI tracking and its val /
+train splits; one row each in a table) under a data root, reading a catalogued sequence, and the
+bundled demo sequence."""
 
 from __future__ import annotations
 
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 from .detections import DetectionSequence
 from .errors import InputFormatError
@@ -32,22 +32,47 @@ MOT15_TRAIN = (
     "KITTI-17", "PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "Venice-2",
 )
 MOT15_SORT6 = ("TUD-Campus", "ETH-Sunnyday", "ETH-Pedcross2", "ADL-Rundle-8", "Venice-2", "KITTI-17")
+MOT15_ACF = ("ETH-Sunnyday", "KITTI-13", "KITTI-17", "PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "Venice-2")
+"""The MOT15 training sequences whose official (ACF) ``det/det.txt`` is on the data root: the files of
+ADL-Rundle-6, ADL-Rundle-8, ETH-Bahnhof and ETH-Pedcross2 were not fetched (shared/data/PROVENANCE.md)."""
 KITTI_TRAIN = tuple(f"{i:04d}" for i in range(21))
 KITTI_VAL_SEQMAP = Path("KITTI") / "tracking" / "training" / "evaluate_tracking.seqmap.val"
 """The val split (AB3DMOT's): the sequences it lists are held out; the other training sequences
 are the split tuned on (``kitti-*-train``)."""
-BENCHMARKS = ("mot15", "mot15-sort6", "kitti-car", "kitti-ped",
-              "kitti-car-val", "kitti-ped-val", "kitti-car-train", "kitti-ped-train")
 
 
-def _mot15(root: Path, names: Sequence[str]) -> list[BenchmarkSequence]:
-    out = []
-    for name in names:
-        seq = root / "MOT15" / "train" / name
-        out.append(BenchmarkSequence(
-            name=name, dets_path=seq / "det" / "det_sort_frcnn.txt", gt_path=seq / "gt" / "gt.txt",
-            format=MOT, object_class="pedestrian", seqinfo_path=seq / "seqinfo.ini"))
-    return out
+@dataclass(frozen=True)
+class _Benchmark:
+    """Where a named benchmark's files are under the data root."""
+
+    format: str
+    """MOT: MOT15/train/<sequence>/{det/<detections>, gt/gt.txt, seqinfo.ini}; KITTI:
+    KITTI/tracking/training/{det_02_pointrcnn/<detections>/<sequence>.txt, label_02/<sequence>.txt}."""
+    object_class: str
+    detections: str
+    """MOT: the detection file's name in det/; KITTI: the class folder in det_02_pointrcnn/."""
+    sequences: tuple[str, ...]
+    split: str = "all"
+    """KITTI: all the listed sequences, or those in the val seqmap (val) or not in it (train)."""
+    tune_on: str | None = None
+    """The benchmark anything tuned for this one is tuned on instead (a KITTI benchmark holding val
+    sequences); None where there is none."""
+
+
+_TABLE: dict[str, _Benchmark] = {
+    "mot15": _Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_TRAIN),
+    "mot15-sort6": _Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_SORT6),
+    "kitti-car": _Benchmark(KITTI, "car", "Car", KITTI_TRAIN, tune_on="kitti-car-train"),
+    "kitti-ped": _Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, tune_on="kitti-ped-train"),
+    "kitti-car-val": _Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "val", tune_on="kitti-car-train"),
+    "kitti-ped-val": _Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "val", tune_on="kitti-ped-train"),
+    "kitti-car-train": _Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "train", tune_on="kitti-car-train"),
+    "kitti-ped-train": _Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "train",
+                                  tune_on="kitti-ped-train"),
+    "kitti-cyc": _Benchmark(KITTI, "cyclist", "Cyclist", KITTI_TRAIN),
+    "mot15-acf": _Benchmark(MOT, "pedestrian", "det.txt", MOT15_ACF),
+}
+BENCHMARKS = tuple(_TABLE)
 
 
 def kitti_val_sequences(root: str | os.PathLike) -> tuple[str, ...]:
@@ -68,32 +93,41 @@ def kitti_val_sequences(root: str | os.PathLike) -> tuple[str, ...]:
     return tuple(names)
 
 
-def _kitti(root: Path, object_class: str, split: str = "all") -> list[BenchmarkSequence]:
+def _mot15(root: Path, b: _Benchmark) -> list[BenchmarkSequence]:
+    out = []
+    for name in b.sequences:
+        seq = root / "MOT15" / "train" / name
+        out.append(BenchmarkSequence(
+            name=name, dets_path=seq / "det" / b.detections, gt_path=seq / "gt" / "gt.txt",
+            format=MOT, object_class=b.object_class, seqinfo_path=seq / "seqinfo.ini"))
+    return out
+
+
+def _kitti(root: Path, b: _Benchmark) -> list[BenchmarkSequence]:
     base = root / "KITTI" / "tracking" / "training"
-    det_dir = base / "det_02_pointrcnn" / {"car": "Car", "pedestrian": "Pedestrian"}[object_class]
-    names = KITTI_TRAIN
-    if split != "all":
+    names = b.sequences
+    if b.split != "all":
         val = set(kitti_val_sequences(root))
-        names = tuple(n for n in KITTI_TRAIN if (n in val) == (split == "val"))
+        names = tuple(n for n in names if (n in val) == (b.split == "val"))
     return [BenchmarkSequence(
-        name=name, dets_path=det_dir / f"{name}.txt", gt_path=base / "label_02" / f"{name}.txt",
-        format=KITTI, object_class=object_class, seqinfo_path=None) for name in names]
+        name=name, dets_path=base / "det_02_pointrcnn" / b.detections / f"{name}.txt",
+        gt_path=base / "label_02" / f"{name}.txt", format=KITTI, object_class=b.object_class, seqinfo_path=None)
+        for name in names]
 
 
 def tuning_split(name: str) -> str | None:
     """The benchmark to tune on instead of a KITTI benchmark holding val sequences
     (``kitti-car`` / ``kitti-car-val`` -> ``kitti-car-train``); None for any other benchmark."""
-    parts = name.strip().lower().split("-")
-    if name not in BENCHMARKS or parts[0] != "kitti":
-        return None
-    return f"kitti-{parts[1]}-train"
+    b = _TABLE.get(name.strip().lower())
+    return b.tune_on if b is not None else None
 
 
 def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
     """The sequences of a named benchmark under data_root (layout of /work/shared/data).
 
     ``mot15`` (11 MOT15 train sequences, SORT Faster R-CNN dets), ``mot15-sort6`` (the six
-    sequences of the SORT paper's comparison), ``kitti-car`` / ``kitti-ped`` (KITTI tracking
+    sequences of the SORT paper's comparison), ``mot15-acf`` (the 7 MOT15 train sequences with the
+    official ACF ``det/det.txt``), ``kitti-car`` / ``kitti-ped`` / ``kitti-cyc`` (KITTI tracking
     train 0000-0020, PointRCNN dets, label_02 ground truth), ``kitti-car-val`` / ``kitti-ped-val``
     (the sequences listed in ``KITTI/tracking/training/evaluate_tracking.seqmap.val``: 11) and
     ``kitti-car-train`` / ``kitti-ped-train`` (the other training sequences: 10), the split that
@@ -101,19 +135,12 @@ def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[Benchma
     """
     root = Path(data_root)
     key = name.strip().lower()
-    if key == "mot15":
-        seqs = _mot15(root, MOT15_TRAIN)
-    elif key == "mot15-sort6":
-        seqs = _mot15(root, MOT15_SORT6)
-    elif key.startswith("kitti-") and key in BENCHMARKS:
-        _, cls, *split = key.split("-")
-        if not root.is_dir():
-            raise InputFormatError(f"data root for benchmark {key!r} not found", root)
-        seqs = _kitti(root, {"car": "car", "ped": "pedestrian"}[cls], split[0] if split else "all")
-    else:
+    b = _TABLE.get(key)
+    if b is None:
         raise ValueError(f"unknown benchmark {name!r} (known: {', '.join(BENCHMARKS)})")
     if not root.is_dir():
         raise InputFormatError(f"data root for benchmark {key!r} not found", root)
+    seqs = _mot15(root, b) if b.format == MOT else _kitti(root, b)
     for s in seqs:
         for p in (s.dets_path, s.gt_path, s.seqinfo_path):
             if p is not None and not p.is_file():
