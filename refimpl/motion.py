@@ -24,7 +24,8 @@ everywhere in refimpl.  A prediction can never leak a non-finite box or one with
 from __future__ import annotations
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
+
+from .kalman import LinearKalman
 
 DIM_X = 7
 """State size: [u, v, s, r, du, dv, ds]."""
@@ -133,6 +134,14 @@ def process_noise(velocity_noise: float = 1.0, area_noise: float = 1.0) -> np.nd
     return q
 
 
+_F = transition_matrix()
+_H = measurement_matrix()
+_R = measurement_noise()
+# shared by every track's filter, never written (LinearKalman only reads its model matrices)
+for _m in (_F, _H, _R):
+    _m.flags.writeable = False
+
+
 class BoxKalman:
     """The motion model of one track: a Kalman filter over [u, v, s, r, du, dv, ds] plus SORT's counters.
 
@@ -157,21 +166,16 @@ class BoxKalman:
         for name, value in (("velocity_noise", velocity_noise), ("area_noise", area_noise)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-        kf = KalmanFilter(dim_x=DIM_X, dim_z=DIM_Z)
-        kf.F = transition_matrix()
-        kf.H = measurement_matrix()
-        kf.P = initial_covariance()
-        kf.R = measurement_noise()
-        kf.Q = process_noise(velocity_noise, area_noise)
         self.velocity_noise = float(velocity_noise)
         self.area_noise = float(area_noise)
-        kf.x = np.zeros((DIM_X, 1))
-        kf.x[:DIM_Z, 0] = xywh_to_z(box_xywh)
+        x = np.zeros((DIM_X, 1))
+        x[:DIM_Z, 0] = xywh_to_z(box_xywh)
         if velocity is not None:
             v = np.asarray(velocity, dtype=float).reshape(-1)
             if v.shape != (2,) or not np.all(np.isfinite(v)):
                 raise ValueError(f"velocity must be a finite (du, dv), got {velocity!r}")
-            kf.x[4:6, 0] = v
+            x[4:6, 0] = v
+        kf = LinearKalman(x, initial_covariance(), _F, _H, process_noise(velocity_noise, area_noise), _R)
         self.kf = kf
         self._last_obs = (kf.x.copy(), kf.P.copy(), np.asarray(box_xywh, dtype=float).reshape(4).copy())
         self.age = 0
