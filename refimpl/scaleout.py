@@ -17,7 +17,6 @@ raises cancels the rest and its exception is raised here, as it would be in a se
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence, TypeVar
 
@@ -115,6 +114,8 @@ class _client:
         self.config: Any = None
 
     def __enter__(self):
+        import logging  # here, with Dask: the serial path (every one-sequence `track`) needs neither
+
         import dask
         from distributed import Client, LocalCluster
         if self.plan.scheduler is None:
