@@ -6,6 +6,7 @@ bit for bit (``tobytes``: -0.0 and 0.0 differ, NaNs compare), after every call:
 
 * on dense random models (every entry of F, H, P, Q, R non-zero: with SORT's sparse F and H many
   different operation orders round alike, a dense model tells them apart);
+* the boxes BoxKalman computes on Python floats against x_to_xywh's numpy arithmetic;
 * through refimpl.motion.BoxKalman on random box sequences (gaps, hold mode, re-updates, every
   noise factor the presets use) and on the real tracks of KITTI 0011 and MOT15 TUD-Campus: the
   reference is a BoxKalman whose ``kf`` is a filterpy KalmanFilter set up with the same matrices
@@ -19,7 +20,7 @@ import pytest
 
 from refimpl import io
 from refimpl.kalman import LinearKalman
-from refimpl.motion import BoxKalman, InvalidPrediction
+from refimpl.motion import BoxKalman, InvalidPrediction, x_to_xywh, xywh_to_z
 
 filterpy_kalman = pytest.importorskip("filterpy.kalman")  # the reference (the test extra)
 
@@ -206,3 +207,32 @@ def test_real_mot15_tracks_match_filterpy_bit_for_bit(shared_data):
     # gt.txt: 359 boxes of 8 pedestrians
     assert len(tracks) == 8
     assert _real_tracks(tracks, every=5) > 250
+
+
+def test_boxes_on_python_floats_are_numpys_bit_for_bit():
+    # BoxKalman.box and xywh_to_z compute on Python floats (motion.py); x_to_xywh keeps the numpy
+    # scalar arithmetic they replaced: the same IEEE operations must give the same bits, and the
+    # validity rule (state and box finite, w > 0, h > 0) the same verdict
+    rng = np.random.default_rng(7)
+    k = BoxKalman(np.array([1.0, 2.0, 3.0, 4.0]))
+    verdicts = set()
+    for i in range(3000):
+        x = rng.normal(size=(7, 1)) * 10.0 ** rng.integers(-6, 8, size=(7, 1))
+        if i % 10 == 0:
+            x[rng.integers(0, 7), 0] = [np.inf, -np.inf, np.nan, 0.0, -0.0][i % 5]
+        k.kf.x = x
+        with np.errstate(all="ignore"):
+            box = x_to_xywh(x[:, 0])
+            valid = bool(np.all(np.isfinite(x)) and np.all(np.isfinite(box)) and box[2] > 0 and box[3] > 0)
+        assert k.is_valid == valid
+        verdicts.add(valid)
+        if valid:
+            assert _bits(k.box) == _bits(box)
+        else:
+            with pytest.raises(InvalidPrediction):
+                k.box
+        b = np.abs(x[:4, 0]) + 1e-3
+        if np.all(np.isfinite(b)):
+            ref = np.array([b[0] + b[2] / 2.0, b[1] + b[3] / 2.0, b[2] * b[3], b[2] / b[3]])  # numpy scalars
+            assert _bits(xywh_to_z(b)) == _bits(ref)
+    assert verdicts == {True, False}
