@@ -7,8 +7,8 @@ bit for bit (``tobytes``: -0.0 and 0.0 differ, NaNs compare), after every call:
 * on dense random models (every entry of F, H, P, Q, R non-zero: with SORT's sparse F and H many
   different operation orders round alike, a dense model tells them apart);
 * the boxes BoxKalman computes on Python floats against x_to_xywh's numpy arithmetic;
-* through refimpl.motion.BoxKalman on random box sequences (gaps, hold mode, re-updates, every
-  noise factor the presets use) and on the real tracks of KITTI 0011 and MOT15 TUD-Campus: the
+* through refimpl.motion.BoxKalman on random box sequences (gaps, hold mode, re-updates, the
+  presets' noise factors) and on the real tracks of KITTI 0011 and MOT15 TUD-Campus: the
   reference is a BoxKalman whose ``kf`` is a filterpy KalmanFilter set up with the same matrices
   (BoxKalman uses only x, P, predict() and update(z) of its filter, which both classes have).
 """
@@ -119,8 +119,9 @@ class _Pair:
         return self._both("reupdate", box)
 
 
-# the factors the presets use (model/presets.json: velocity_noise, area_noise) and SORT's 1
-NOISE = [(1.0, 1.0), (10.0, 1.0), (1.0, 100.0), (3.0, 10000.0), (0.5, 1.0)]
+# (velocity_noise, area_noise): the presets' (model/presets.json: KITTI Car 10, 100; KITTI
+# Pedestrian 10, 1; MOT15 and SORT 1, 1) and two others of the calibration grids' range
+NOISE = [(1.0, 1.0), (10.0, 1.0), (10.0, 100.0), (3.0, 10000.0), (0.5, 1.0)]
 
 
 @pytest.mark.parametrize("seed", range(8))
