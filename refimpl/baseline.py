@@ -44,15 +44,22 @@ def associate(predicted_xywh: np.ndarray, detections_xywh: np.ndarray, iou_thres
     predicted = np.asarray(predicted_xywh, dtype=float).reshape(-1, 4)
     detections = np.asarray(detections_xywh, dtype=float).reshape(-1, 4)
     n, m = len(predicted), len(detections)
-    pairs = []
+    matches = np.zeros((0, 2), dtype=int)
     if n and m:
         iou = iou_matrix(predicted, detections)
-        rows, cols = linear_sum_assignment(iou, maximize=True)
-        pairs = [(int(r), int(c)) for r, c in zip(rows, cols) if iou[r, c] >= iou_threshold]
-    matches = np.array(sorted(pairs), dtype=int).reshape(-1, 2)
-    unmatched_tracks = np.setdiff1d(np.arange(n), matches[:, 0]).astype(int)
-    unmatched_detections = np.setdiff1d(np.arange(m), matches[:, 1]).astype(int)
+        rows, cols = linear_sum_assignment(iou, maximize=True)  # rows come sorted (scipy's contract)
+        keep = iou[rows, cols] >= iou_threshold
+        matches = np.stack([rows[keep], cols[keep]], axis=1).astype(int)
+    unmatched_tracks = _others(n, matches[:, 0])
+    unmatched_detections = _others(m, matches[:, 1])
     return matches, unmatched_tracks, unmatched_detections
+
+
+def _others(n: int, taken: np.ndarray) -> np.ndarray:
+    """The sorted indices 0..n-1 not in ``taken`` (np.setdiff1d(np.arange(n), taken), without its sort)."""
+    free = np.ones(n, dtype=bool)
+    free[taken] = False
+    return np.flatnonzero(free).astype(int)
 
 
 @dataclass
@@ -123,7 +130,10 @@ def stream_sequence(seq, max_age: int = SORT_MAX_AGE, min_hits: int = SORT_MIN_H
     tracker = SortTracker(max_age=max_age, min_hits=min_hits, iou_threshold=iou_threshold)
     for fr in seq.frames:
         rows = tracker.update(fr.boxes)
-        yield np.column_stack([np.full(len(rows), float(fr.frame)), rows]) if len(rows) else np.zeros((0, 6))
+        out = np.empty((len(rows), 6))
+        out[:, 0] = fr.frame
+        out[:, 1:] = rows
+        yield out
 
 
 def track_sequence(seq, max_age: int = SORT_MAX_AGE, min_hits: int = SORT_MIN_HITS, iou_threshold: float = SORT_IOU_THRESHOLD) -> np.ndarray:

@@ -23,8 +23,11 @@ everywhere in refimpl.  A prediction can never leak a non-finite box or one with
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from filterpy.kalman import KalmanFilter
+
+from .kalman import LinearKalman
 
 DIM_X = 7
 """State size: [u, v, s, r, du, dv, ds]."""
@@ -69,8 +72,13 @@ class InvalidPrediction(ValueError):
     """A Kalman prediction that is not a finite box with positive width and height."""
 
 
-def _valid_box(box: np.ndarray) -> bool:
-    return bool(np.all(np.isfinite(box)) and box[2] > 0 and box[3] > 0)
+# The per-box arithmetic below runs on Python floats: the same IEEE double operations as on numpy
+# float64 scalars (+, -, *, / and sqrt are correctly rounded either way), so the same bits, at a
+# fraction of numpy's per-call cost on four numbers.
+
+def _valid_box(box) -> bool:
+    x, y, w, h = box
+    return math.isfinite(x) and math.isfinite(y) and math.isfinite(w) and math.isfinite(h) and w > 0 and h > 0
 
 
 def xywh_to_z(box_xywh) -> np.ndarray:
@@ -81,10 +89,27 @@ def xywh_to_z(box_xywh) -> np.ndarray:
     b = np.asarray(box_xywh, dtype=float).reshape(-1)
     if b.shape != (4,):
         raise ValueError(f"expected one (x, y, w, h) box, got shape {np.shape(box_xywh)}")
-    if not _valid_box(b):
-        raise ValueError(f"box {b.tolist()} must be finite with w > 0 and h > 0")
-    x, y, w, h = b
+    values = b.tolist()
+    if not _valid_box(values):
+        raise ValueError(f"box {values} must be finite with w > 0 and h > 0")
+    x, y, w, h = values
     return np.array([x + w / 2.0, y + h / 2.0, w * h, w / h])
+
+
+def _state_box(x: np.ndarray) -> np.ndarray | None:
+    """x_to_xywh of a (7, 1) state if every component of the state and of the box is finite and the
+    box has w, h > 0 (BoxKalman.box's test), else None."""
+    v = x[:, 0].tolist()
+    if not all(map(math.isfinite, v)):
+        return None
+    u, c, s, r = v[0], v[1], v[2], v[3]
+    sr = s * r
+    if not sr > 0:  # w = sqrt(s * r) would be NaN (s * r < 0) or 0: not w > 0
+        return None
+    w = math.sqrt(sr)
+    h = s / w
+    box = (u - w / 2.0, c - h / 2.0, w, h)
+    return np.array(box) if _valid_box(box) else None
 
 
 def x_to_xywh(x) -> np.ndarray:
@@ -133,6 +158,14 @@ def process_noise(velocity_noise: float = 1.0, area_noise: float = 1.0) -> np.nd
     return q
 
 
+_F = transition_matrix()
+_H = measurement_matrix()
+_R = measurement_noise()
+# shared by every track's filter, never written (LinearKalman only reads its model matrices)
+for _m in (_F, _H, _R):
+    _m.flags.writeable = False
+
+
 class BoxKalman:
     """The motion model of one track: a Kalman filter over [u, v, s, r, du, dv, ds] plus SORT's counters.
 
@@ -157,21 +190,16 @@ class BoxKalman:
         for name, value in (("velocity_noise", velocity_noise), ("area_noise", area_noise)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-        kf = KalmanFilter(dim_x=DIM_X, dim_z=DIM_Z)
-        kf.F = transition_matrix()
-        kf.H = measurement_matrix()
-        kf.P = initial_covariance()
-        kf.R = measurement_noise()
-        kf.Q = process_noise(velocity_noise, area_noise)
         self.velocity_noise = float(velocity_noise)
         self.area_noise = float(area_noise)
-        kf.x = np.zeros((DIM_X, 1))
-        kf.x[:DIM_Z, 0] = xywh_to_z(box_xywh)
+        x = np.zeros((DIM_X, 1))
+        x[:DIM_Z, 0] = xywh_to_z(box_xywh)
         if velocity is not None:
             v = np.asarray(velocity, dtype=float).reshape(-1)
             if v.shape != (2,) or not np.all(np.isfinite(v)):
                 raise ValueError(f"velocity must be a finite (du, dv), got {velocity!r}")
-            kf.x[4:6, 0] = v
+            x[4:6, 0] = v
+        kf = LinearKalman(x, initial_covariance(), _F, _H, process_noise(velocity_noise, area_noise), _R)
         self.kf = kf
         self._last_obs = (kf.x.copy(), kf.P.copy(), np.asarray(box_xywh, dtype=float).reshape(4).copy())
         self.age = 0
@@ -196,8 +224,8 @@ class BoxKalman:
         Raises InvalidPrediction if the state is not a finite box with w, h > 0 (only possible
         after `predict` raised it, or if the state was edited by hand).
         """
-        box = x_to_xywh(self.kf.x[:, 0])
-        if not (np.all(np.isfinite(self.kf.x)) and _valid_box(box)):
+        box = _state_box(self.kf.x)
+        if box is None:
             raise InvalidPrediction(f"state {self.kf.x[:, 0].tolist()} is not a valid box")
         return box
 
@@ -209,7 +237,7 @@ class BoxKalman:
     @property
     def is_valid(self) -> bool:
         """Whether the current state is a finite box with w > 0 and h > 0."""
-        return bool(np.all(np.isfinite(self.kf.x))) and _valid_box(x_to_xywh(self.kf.x[:, 0]))
+        return _state_box(self.kf.x) is not None
 
     def predict(self, hold: bool = False) -> np.ndarray:
         """Advance one frame; return the predicted (x, y, w, h) box.

@@ -1,14 +1,13 @@
 """Progress bars on stderr (tqdm): never on stdout, so they never mix into result lines.
 
 A bar shows only when stderr is a terminal and the caller did not ask for quiet; otherwise
-nothing at all is written (logs and pipes stay clean).
+nothing at all is written (logs and pipes stay clean).  tqdm is imported only for a bar that
+shows (importing it costs ~60 ms of every command's start otherwise).
 """
 
 from __future__ import annotations
 
 import sys
-
-from tqdm import tqdm
 
 
 class Progress:
@@ -18,23 +17,27 @@ class Progress:
 
     def __init__(self, total: int, label: str, enabled: bool = True, unit: str = "it"):
         self.total, self.label, self.done = total, label, 0
-        self.bar = tqdm(total=total, desc=label, unit=unit, file=sys.stderr, dynamic_ncols=True,
-                        disable=not enabled or not _stderr_is_terminal(), leave=True)
+        self.bar = None  # no bar: step() only counts
+        if enabled and _stderr_is_terminal():
+            from tqdm import tqdm
+            self.bar = tqdm(total=total, desc=label, unit=unit, file=sys.stderr, dynamic_ncols=True, leave=True)
 
     def step(self, what: str = "", n: int = 1) -> None:
         self.done += n
-        if what:
-            self.bar.set_postfix_str(what, refresh=False)
-        self.bar.update(n)
+        if self.bar is not None:
+            if what:
+                self.bar.set_postfix_str(what, refresh=False)
+            self.bar.update(n)
         if self.done >= self.total:
             self.close()
 
     def describe(self, what: str) -> None:
-        if what:
+        if what and self.bar is not None:
             self.bar.set_postfix_str(what, refresh=True)
 
     def close(self) -> None:
-        self.bar.close()
+        if self.bar is not None:
+            self.bar.close()
 
     def __enter__(self) -> "Progress":
         return self

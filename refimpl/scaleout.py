@@ -309,6 +309,8 @@ class _client:
         self.quiet: Any = None
 
     def __enter__(self):
+        import logging  # here, with Dask: the serial path (every one-sequence `track`) needs neither
+
         import dask
         from distributed import Client, LocalCluster
         from distributed.utils import silence_logging_cmgr

@@ -10,11 +10,15 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 import numpy as np
 
-from ortools.sat.python import cp_model
+# OR-Tools is imported where a model is built or solved (build_model, solve_lexicographic), not
+# here: importing cp_model costs ~0.65 s (it imports pandas), and the fast path (fast_path.py),
+# which imports this module's admissibility rules, answers most frames without CP-SAT.
+if TYPE_CHECKING:
+    from ortools.sat.python import cp_model
 
 from ..events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
 from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
@@ -178,6 +182,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
 
     Raises NoAdmissibleHypothesis when some track has no candidate action at all.
     """
+    from ortools.sat.python import cp_model  # heavy: only when the full model is needed (see the imports)
     model = cp_model.CpModel()
     am = AbductionModel(model, problem.time, objectives={p: [] for p in PRIORITIES + (EXPLANATION,)})
     iou = problem.iou_map
@@ -325,7 +330,7 @@ def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, in
     return {v.index: int(atom in chosen) for atom, v in list(am.actions.items()) + list(am.events.items())}
 
 
-LevelTerms = list[tuple[int, cp_model.IntVar]]
+LevelTerms = list[tuple[int, "cp_model.IntVar"]]
 
 def _range(terms: LevelTerms) -> int:
     """max - min + 1 of a level's sum over 0/1 variables."""
@@ -464,6 +469,7 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     never make a higher one worse.  If the first level finds no solution in time, the obvious
     hypothesis (everything ignored or halted, see _trivial_solution) stands in when it exists.
     """
+    from ortools.sat.python import cp_model  # heavy: only when the full model is needed (see the imports)
     model = am.model
     deadline = None if time_limit is None else time.perf_counter() + max(0.0, time_limit)
     variables = am.all_vars()

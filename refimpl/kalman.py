@@ -1,0 +1,75 @@
+"""A linear Kalman filter with the arithmetic of filterpy's ``KalmanFilter`` (SORT's filter).
+
+SORT (and refimpl before this module) runs each track's motion model on
+``filterpy.kalman.KalmanFilter``.  Importing filterpy costs about 1.5 s (its package imports
+filterpy.stats, which imports scipy.stats), more than tracking a whole KITTI sequence, and its
+``predict``/``update`` spend most of their time on bookkeeping the tracker never reads (prior
+and posterior copies, a deep copy of z, the log-likelihood fields).  ``LinearKalman`` keeps only
+the state: x (dim_x, 1), P, and the model F, H, Q, R.
+
+Its ``predict`` and ``update`` perform the *same floating-point operations in the same order*
+as filterpy 1.4.5 / 2.0.0 without a control input: the same ``numpy.dot`` calls on operands of
+the same shapes and memory layouts (so the same BLAS routines: gemv for a matrix times the
+(n, 1) state, gemm otherwise, the transposes as views), ``numpy.linalg.inv`` for S^-1, and the
+Joseph form of the covariance update.  So the filtered states are bit for bit filterpy's, and
+refimpl's results files did not change when it replaced filterpy
+(tests/test_kalman.py drives both with the same inputs and compares every bit of x and P).
+
+    predict:  x = F x
+              P = F P F^T + Q          (filterpy: alpha_sq * F P F^T + Q with alpha_sq = 1.0;
+                                        multiplying by 1.0 changes no float, so it is left out)
+    update:   y = z - H x
+              PHT = P H^T;  S = H PHT + R;  SI = inv(S);  K = PHT SI
+              x = x + K y
+              I_KH = I - K H
+              P = (I_KH P) I_KH^T + (K R) K^T
+
+Do not "simplify" an expression here (e.g. H x as x[:4], F P as a few additions, P H^T as a
+slice): mathematically equal, such a rewrite rounds differently or treats 0 * inf differently,
+and the tracker's outputs would change.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_dot = np.dot
+_inv = np.linalg.inv
+
+
+class LinearKalman:
+    """State x (dim_x, 1) and covariance P of a linear model x' = F x + noise(Q), z = H x + noise(R).
+
+    The attributes are plain arrays and may be assigned (as filterpy's): x, P, F, H, Q, R.
+    F and H are read on every call, so a new matrix takes effect at the next predict/update.
+    """
+
+    __slots__ = ("x", "P", "F", "H", "Q", "R", "_I")
+
+    def __init__(self, x: np.ndarray, P: np.ndarray, F: np.ndarray, H: np.ndarray, Q: np.ndarray,
+                 R: np.ndarray):
+        dim_x = F.shape[0]
+        if (x.shape != (dim_x, 1) or F.shape != (dim_x, dim_x) or P.shape != F.shape or Q.shape != F.shape
+                or H.shape[1:] != (dim_x,) or R.shape != (H.shape[0], H.shape[0])):
+            raise ValueError(f"inconsistent shapes: x {x.shape}, P {P.shape}, F {F.shape}, H {H.shape}, "
+                             f"Q {Q.shape}, R {R.shape}")
+        self.x, self.P, self.F, self.H, self.Q, self.R = x, P, F, H, Q, R
+        self._I = np.eye(dim_x)
+
+    def predict(self) -> None:
+        """Advance one step: filterpy's ``KalmanFilter.predict()`` (no control input)."""
+        F = self.F
+        self.x = _dot(F, self.x)
+        self.P = _dot(_dot(F, self.P), F.T) + self.Q
+
+    def update(self, z: np.ndarray) -> None:
+        """Correct with the measurement z, shape (dim_z, 1): filterpy's ``KalmanFilter.update(z)``."""
+        H, R, P = self.H, self.R, self.P
+        y = z - _dot(H, self.x)
+        PHT = _dot(P, H.T)
+        S = _dot(H, PHT) + R
+        SI = _inv(S)
+        K = _dot(PHT, SI)
+        self.x = self.x + _dot(K, y)
+        I_KH = self._I - _dot(K, H)
+        self.P = _dot(_dot(I_KH, P), I_KH.T) + _dot(_dot(K, R), K.T)
