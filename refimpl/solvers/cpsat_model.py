@@ -389,6 +389,7 @@ def _chunk_pairs(pair_terms: LevelTerms, bits: int = OBJECTIVE_BITS) -> list[Lev
 
 
 def _new_solver(workers: int, seed: int, seconds: float | None) -> cp_model.CpSolver:
+    from ortools.sat.python import cp_model  # heavy: only when the full model is solved (see the imports)
     solver = cp_model.CpSolver()
     solver.parameters.num_workers = workers
     solver.parameters.random_seed = seed
@@ -412,6 +413,7 @@ def _certify(model: cp_model.CpModel, terms: LevelTerms, solution: dict[int, int
     reported ``solution`` OPTIMAL: ask, without any objective, for a solution strictly below it
     (a pure integer feasibility question, exact in 64 bits) until there is none.  The constraint
     added last is relaxed to ``<= best`` afterwards, so the model keeps only valid bounds."""
+    from ortools.sat.python import cp_model  # heavy: only when the full model is solved (see the imports)
     model.clear_objective()
     expr = sum(c * v for c, v in terms)
     while True:
