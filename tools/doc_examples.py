@@ -76,6 +76,8 @@ def _block(lang: str, lines: list[tuple[int, str]]) -> list[Example]:
 
 def _example(at: tuple[int, str], shown: list[str]) -> Example:
     n, command = at
+    while shown and not shown[-1].strip():  # a blank line between two commands is layout
+        shown = shown[:-1]
     m = EXCERPT.search(command)
     if m:
         return Example(n, command[:m.start()], tuple(shown), True)
@@ -159,8 +161,13 @@ def regenerate(doc: Path, shared: Path, tmp: Path) -> int:
                 out_lines.append(lines[k])
                 k += 1
             out_lines.extend(printed[start])
+            old = []
             while k < len(lines) and not lines[k].startswith("$ ") and not FENCE.match(lines[k]):
-                k += 1  # the old output
+                old.append(lines[k])  # the old output
+                k += 1
+            while old and not old[-1].strip():  # a blank line between two commands stays
+                out_lines.append("")
+                old.pop()
     doc.write_text("\n".join(out_lines) + "\n", encoding="utf-8")
     return len(printed)
 
