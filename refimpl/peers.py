@@ -129,7 +129,10 @@ class PeerRun:
 
     rows: np.ndarray
     seconds: float
+    """CPU seconds of its update calls (refimpl.latency's boundary)."""
     parameters: Mapping[str, object]
+    frame_times: tuple[float, ...] = ()
+    """CPU seconds of each frame's update call."""
 
 
 def peer(name: str) -> Peer:
@@ -219,7 +222,7 @@ def _rows(frame: int, ids: np.ndarray, xyxy: np.ndarray) -> np.ndarray:
                             xyxy[:, 2] - xyxy[:, 0], xyxy[:, 3] - xyxy[:, 1]])
 
 
-def _track_trackers(seq, tracker) -> tuple[list[np.ndarray], float]:
+def _track_trackers(seq, tracker) -> tuple[list[np.ndarray], list[float]]:
     import supervision as sv
     prepared = []
     for fr in seq.frames:
@@ -227,15 +230,16 @@ def _track_trackers(seq, tracker) -> tuple[list[np.ndarray], float]:
         # below it, and a detection of confidence 70 would not reach ByteTrack's ">= 0.7")
         conf = np.asarray(fr.confidences, dtype=np.float64).reshape(-1) / 100.0
         prepared.append((fr.frame, sv.Detections(xyxy=_xyxy(fr), confidence=conf)))
-    out = []
-    t0 = time.perf_counter()
+    out, times = [], []
     for frame, dets in prepared:
+        t0 = time.process_time()
         res = tracker.update(dets)
+        times.append(time.process_time() - t0)
         ids = np.asarray(res.tracker_id, dtype=np.int64).reshape(-1)
         keep = ids >= 0
         if keep.any():
             out.append(_rows(frame, ids[keep], np.asarray(res.xyxy, dtype=float)[keep]))
-    return out, time.perf_counter() - t0
+    return out, times
 
 
 @contextmanager
@@ -251,21 +255,22 @@ def _boxmot_quiet():
         log.setLevel(level)
 
 
-def _track_boxmot(seq, tracker) -> tuple[list[np.ndarray], float]:
+def _track_boxmot(seq, tracker) -> tuple[list[np.ndarray], list[float]]:
     prepared = []
     for fr in seq.frames:
         conf = np.asarray(fr.confidences, dtype=np.float64).reshape(-1, 1) / 100.0
         xyxy = _xyxy(fr)
         prepared.append((fr.frame, np.hstack([xyxy, conf, np.zeros((len(xyxy), 1))])))
-    out = []
-    t0 = time.perf_counter()
+    out, times = [], []
     for frame, dets in prepared:
+        t0 = time.process_time()
         res = np.asarray(tracker.update(dets)).reshape(-1, 8)  # x1, y1, x2, y2, id, conf, class, det_ind
+        times.append(time.process_time() - t0)
         ids, det_ind = res[:, 4].astype(np.int64), res[:, 7].astype(np.int64)
         keep = (ids >= 0) & (det_ind >= 0)
         if keep.any():
             out.append(_rows(frame, ids[keep], dets[det_ind[keep], :4]))
-    return out, time.perf_counter() - t0
+    return out, times
 
 
 def run_peer(seq, name: str, **overrides) -> PeerRun:
@@ -275,7 +280,7 @@ def run_peer(seq, name: str, **overrides) -> PeerRun:
     params = peer_parameters(name, overrides.pop("frame_rate", getattr(seq, "fps", None)), **overrides)
     cls = peer_class(name)
     if entry.package == "trackers":
-        out, seconds = _track_trackers(seq, cls(**params))
+        out, times = _track_trackers(seq, cls(**params))
     else:
         # only what differs from the constructor's defaults is passed (BoxMOT's ByteTrack refuses
         # its base tracker's det_thresh, which it replaces by track_thresh)
@@ -283,17 +288,19 @@ def run_peer(seq, name: str, **overrides) -> PeerRun:
         given = {k: v for k, v in params.items() if k in entry.settings or k == "frame_rate"
                  or k in overrides or defaults.get(k, v) != v}
         with _boxmot_quiet():
-            out, seconds = _track_boxmot(seq, cls(**given))
+            out, times = _track_boxmot(seq, cls(**given))
     rows = np.vstack(out) if out else np.zeros((0, 6))
     rows = rows[np.lexsort((rows[:, 1], rows[:, 0]))]
-    return PeerRun(rows, seconds, params)
+    return PeerRun(rows, float(sum(times)), params, tuple(times))
 
 
 # ---------------------------------------------------------------------------------------
 # Side by side: refimpl's baseline, refimpl's abduction tracker and the peers, in one run
 # ---------------------------------------------------------------------------------------
 
-COMPARISON_COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDs", "Frag", "FP", "FN", "fps")
+COMPARISON_COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDs", "Frag", "FP", "FN", "fps", "p50 ms", "p99 ms")
+"""fps, p50 and p99: CPU frames per second and per-frame CPU milliseconds of the tracking work
+alone, every tracker timed at the same boundary (refimpl.latency)."""
 PEERS_BEGIN, PEERS_END = "<!-- peers:begin -->", "<!-- peers:end -->"
 
 
@@ -307,6 +314,8 @@ class TrackerScore:
     frames: int
     seconds: float
     parameters: str = ""
+    latency: object = None
+    """refimpl.latency.Latency of its frames (CPU per frame), or None."""
 
 
 @dataclass(frozen=True)
@@ -325,6 +334,7 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
     """Every tracker on the same detections of a dataset, scored by the same evaluator."""
     from .evaluate import evaluate_many
     from .datasets import TITLES, load_dataset
+    from .latency import summarise
     from .table6 import run_benchmark
 
     for p in peers:
@@ -340,13 +350,15 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
         runs.append((backend, f"refimpl abduction ({backend}), no preset", {}, TrackerOptions()))
     for tracker, label, consts, opts in runs:
         run = run_benchmark(name, data_root, tracker, step, dataset=dataset, constants=consts, options=opts)
-        scores.append(TrackerScore(label, run.overall, run.per_sequence, frames, run.seconds))
+        scores.append(TrackerScore(label, run.overall, run.per_sequence, frames, run.seconds,
+                                   latency=summarise(run.latency)))
     for p in peers:
-        triples, seconds, params = [], 0.0, {}
+        triples, seconds, params, timed = [], 0.0, {}, []
         for seq_name, dets, gt in dataset:
             r = run_peer(dets, p)
             triples.append((seq_name, gt, r.rows))
             seconds += r.seconds
+            timed += [(t, seq_name, fr.frame, len(fr)) for t, fr in zip(r.frame_times, dets.frames)]
             params = r.parameters
             if step:
                 step(f"{p} {seq_name}")
@@ -356,7 +368,7 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
             params = dict(params, frame_rate="/".join(f"{r:g}" for r in rates))
         package = PEERS[p].package
         scores.append(TrackerScore(f"{p} ({package} {_version(package)})", overall, per_seq, frames, seconds,
-                                   describe_parameters(p, params)))
+                                   describe_parameters(p, params), summarise(timed)))
     return Comparison(name, TITLES.get(name, name), tuple(scores), dict(constants or {}), options.changed())
 
 
@@ -379,7 +391,8 @@ def score_cells(s: TrackerScore) -> list[str]:
     o = s.overall
     return [_pct(o.get("hota")), _pct(o.get("deta")), _pct(o.get("assa")), _pct(o["mota"]), _pct(o["idf1"]),
             str(o["idsw"]), str(o["frag"]), str(o["fp"]), str(o["fn"]),
-            f"{s.frames / s.seconds:.0f}" if s.seconds > 0 else "-"]
+            f"{s.frames / s.seconds:.0f}" if s.seconds > 0 else "-",
+            f"{s.latency.median_ms:.2f}" if s.latency else "-", f"{s.latency.p99_ms:.2f}" if s.latency else "-"]
 
 
 def comparison_table(c: Comparison) -> str:
@@ -398,6 +411,10 @@ def comparison_table(c: Comparison) -> str:
     base = c.scores[0].overall["idsw"]  # the first row is refimpl's baseline (SORT), the paper's baseline
     notes.insert(1, f"- ID switches against {c.scores[0].label} (the paper's headline metric): "
                     + "; ".join(f"{s.label} {change(base, s.overall['idsw'])}" for s in c.scores[1:]))
+    slowest = [f"{s.label} {s.latency.worst_ms:.1f} ms at {s.latency.worst}" for s in c.scores if s.latency]
+    if slowest:
+        notes.insert(2, "- fps, p50, p99: CPU frames/s and per-frame CPU ms of each tracker's updates alone, measured "
+                        "in this run on this machine (refimpl.latency); the slowest frame: " + "; ".join(slowest))
     return "\n".join(lines) + "\n\n" + "\n".join(notes) + "\n"
 
 
