@@ -12,9 +12,10 @@ from tqdm import tqdm
 
 
 class Progress:
-    """``step(what)`` once per unit of work; closes itself after ``total`` steps."""
+    """``step(what)`` once per unit of work; closes itself after ``total`` steps (None: not known
+    in advance, e.g. frames arriving on a pipe: a count, closed by the caller)."""
 
-    def __init__(self, total: int, label: str, enabled: bool = True, unit: str = "it"):
+    def __init__(self, total: int | None, label: str, enabled: bool = True, unit: str = "it"):
         self.total, self.label, self.done = total, label, 0
         self.bar = tqdm(total=total, desc=label, unit=unit, file=sys.stderr, dynamic_ncols=True,
                         disable=not enabled or not _stderr_is_terminal(), leave=True)
@@ -24,7 +25,7 @@ class Progress:
         if what:
             self.bar.set_postfix_str(what, refresh=False)
         self.bar.update(1)
-        if self.done >= self.total:
+        if self.total is not None and self.done >= self.total:
             self.close()
 
     def close(self) -> None:
