@@ -107,7 +107,8 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,
                  solver=None, on_frame: FrameCallback | None = None, frame_times: list | None = None):
-    """Track one DetectionSequence with ``setup``: a refimpl.tracker.TrackingResult.
+    """Track one DetectionSequence (or a refimpl.io.DetectionStream: its frames are read once, as
+    they arrive) with ``setup``: a refimpl.tracker.TrackingResult.
 
     ``observer(problem, hypothesis)`` sees every frame's answer (abduction only); ``on_frame()`` is
     called once per frame (progress); with a ``sink`` (refimpl.tracker.ResultSink) rows and events
@@ -118,8 +119,9 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     from .tracker import TrackingResult
     if setup.baseline:
         from .baseline import stream_sequence
-        kept = []
-        for rows in _timed(stream_sequence(seq), frame_times):
+        kept, frames = [], 0
+        for rows in _timed(stream_sequence(seq), frame_times):  # seq.frames may be a stream, read once
+            frames += 1
             if sink is not None:
                 sink.rows(rows)
             elif len(rows):
@@ -127,7 +129,7 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
             if on_frame is not None:
                 on_frame()
         rows = np.vstack(kept) if kept else np.zeros((0, 6))
-        return TrackingResult(rows, (), (), len(seq.frames), 0, 0.0)
+        return TrackingResult(rows, (), (), frames, 0, 0.0)
 
     def observe(problem, hyp) -> None:
         if observer is not None:

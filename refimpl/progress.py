@@ -12,10 +12,11 @@ import sys
 
 class Progress:
     """``step(what)`` once per unit of work (``step(n=k)`` for k units at once); closes itself
-    after ``total`` steps.  ``describe(what)`` names the work under way without a step (e.g. the
+    after ``total`` steps (None: not known in advance, e.g. frames arriving on a pipe: a count,
+    closed by the caller).  ``describe(what)`` names the work under way without a step (e.g. the
     sequence whose frames are being counted)."""
 
-    def __init__(self, total: int, label: str, enabled: bool = True, unit: str = "it"):
+    def __init__(self, total: int | None, label: str, enabled: bool = True, unit: str = "it"):
         self.total, self.label, self.done = total, label, 0
         self.bar = None  # no bar: step() only counts
         if enabled and _stderr_is_terminal():
@@ -28,7 +29,7 @@ class Progress:
             if what:
                 self.bar.set_postfix_str(what, refresh=False)
             self.bar.update(n)
-        if self.done >= self.total:
+        if self.total is not None and self.done >= self.total:
             self.close()
 
     def describe(self, what: str) -> None:

@@ -54,8 +54,13 @@ def _load_sequence(args: argparse.Namespace, path: str | None = None):
     fmt = io.get_format(args.format)
     if fmt.needs_class and args.cls is None:
         raise UserError(f"--format {fmt.name} needs --class Car|Pedestrian|Cyclist")
-    return fmt.read_detections(path, object_class=args.cls if fmt.needs_class else None,
-                               scores_rule=getattr(args, "scores", "auto"))
+    try:
+        return fmt.read_detections(path, object_class=args.cls if fmt.needs_class else None,
+                                   scores_rule=getattr(args, "scores", "auto"))
+    except io.InputFormatError:
+        raise
+    except ValueError as exc:  # an argument the reader refuses (a --scores rule the format has not)
+        raise UserError(str(exc)) from None
 
 
 def _setup(args: argparse.Namespace, fmt: str, cls: str | None, constants=None):

@@ -168,7 +168,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
     t.add_argument("--dets", required=True, nargs="+", metavar="PATH",
-                   help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir)")
+                   help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir); - reads "
+                        "them from standard input frame by frame as a detector writes them (docs/robustness.md)")
+    t.add_argument("--seqinfo", metavar="SEQINFO.ini",
+                   help="with --dets - (MOTChallenge): the sequence's seqinfo.ini (name, image size, frame rate, "
+                        "length), which a file finds beside it")
     t.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
     t.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     t.add_argument("--backend", choices=TRACKERS, default=DEFAULT_BACKEND,

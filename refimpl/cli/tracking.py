@@ -78,6 +78,10 @@ def cmd_track(args: argparse.Namespace) -> int:
                                        or args.img_size or _option_flags_given(args)):
         raise UserError(f"{option_flags('--check', '--time-limit', '--scene', '--const', '--img-size')} "
                         f"need an abduction backend ({', '.join(BACKENDS)}); the baseline abduces no events")
+    if STDIN in args.dets:
+        return _track_pipe(args)
+    if args.seqinfo is not None:
+        raise UserError("--seqinfo is for --dets - (standard input): a file finds its seqinfo.ini beside it")
     outs = _track_outputs(args)
     outputs = {("--out" if args.out is not None else f"--out-dir {Path(p).name}"): str(p) for p in outs}
     outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
@@ -88,10 +92,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
     for seq, path in zip(seqs, args.dets):
-        if seq.image_size is None and "img_width" not in dict(setup.constants):
-            warnings.warn(f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size: the image size "
-                          "is unknown, so the right and bottom field-of-view borders are not tested "
-                          "(enters_fov, leaves_fov, clipped)")
+        _warn_unknown_image_size(seq, setup, f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size")
     _say_setup(setup, seqs, args)
     summary = sys.stderr if STDOUT in outputs.values() else sys.stdout
     if len(seqs) == 1 and not plan.distributed:
@@ -123,6 +124,12 @@ def cmd_track(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _warn_unknown_image_size(seq, setup, why: str) -> None:
+    if seq.image_size is None and "img_width" not in dict(setup.constants):
+        warnings.warn(f"{why}: the image size is unknown, so the right and bottom field-of-view borders are "
+                      "not tested (enters_fov, leaves_fov, clipped)")
+
+
 def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
     """One line on stderr: which tracker and preset run (unless --quiet), and a warning when the
     file's scores lie far from what the preset was fitted on (refimpl.presets.score_warning)."""
@@ -148,30 +155,36 @@ def _warn_if_empty(seq, tracks: int, setup, args: argparse.Namespace) -> None:
         cls = f" of class {args.cls}" if args.cls else ""
         why = f"the file has no detection{cls} (is --class right?)"
     else:
-        conf = [int(c) for f in seq.frames for c in f.confidences]
+        low, high = seq.confidence_range
         need = dict(setup.constants).get("conf_thresh_new_track")
         if need is None and not setup.baseline:
             from ..constants import default_constants
             need = default_constants()["conf_thresh_new_track"]
-        why = (f"{n} detections, confidences {min(conf)}..{max(conf)}" +
+        why = (f"{n} detections, confidences {low}..{high}" +
                (f" (a new track needs > {need}: conf_thresh_new_track; see --scores)" if need is not None else ""))
     print(f"refimpl track: warning: {seq.name}: no track written: {why}", file=sys.stderr)
 
 
-def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary) -> None:
+def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, live: bool = False) -> None:
     """One sequence in this process: results and event logs streamed to staged files as frames are
-    decided (bounded memory, docs/robustness.md), committed together at the end."""
+    decided (bounded memory, docs/robustness.md), committed together at the end.  ``live`` (a
+    detector pipe): ``seq`` is a refimpl.io.DetectionStream, and an output to standard output is
+    written and flushed as each frame's rows are final instead of staged."""
     from ..io import ResultWriter, results_formatter
-    from ..outputs import OutputSet
+    from ..outputs import STDOUT, OutputSet
     from ..pipeline import run_sequence
     from ..tasks import AnswerCheck
     with OutputSet() as outs:
-        sink = ResultWriter(outs.open(out_path), outs.open(args.events) if args.events else None,
-                            outs.open(args.events_json) if args.events_json else None, seq.first_frame,
+        def open_out(path):
+            return _Flushed(sys.stdout) if live and path == STDOUT else outs.open(path)
+        sink = ResultWriter(open_out(out_path), open_out(args.events) if args.events else None,
+                            open_out(args.events_json) if args.events_json else None, seq.first_frame,
                             results_formatter(args.out_format, seq.first_frame, args.cls))
         check = AnswerCheck(lambda line: print(f"refimpl track: {line}", file=sys.stderr)) \
             if args.check and not setup.baseline else None
-        with Progress(len(seq.frames), seq.name, enabled=not args.quiet, unit="frame") as bar:
+        # a pipe's rows on standard output would mix with a progress bar on the same terminal
+        bar_ok = not args.quiet and not (live and STDOUT in (out_path, args.events, args.events_json))
+        with Progress(None if live else len(seq.frames), seq.name, enabled=bar_ok, unit="frame") as bar:
             result = run_sequence(seq, setup, observer=check, sink=sink, keep_records=bool(args.scene),
                                   on_frame=bar.step)
         if result.not_optimal_frames:
@@ -185,8 +198,75 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary) ->
             from ..scene import scene_from_result, scene_to_json
             outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)),
                                               separators=(",", ":")) + "\n")
-    print(f"{seq.name}: {len(seq.frames)} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
+    print(f"{seq.name}: {result.frames} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
     _warn_if_empty(seq, len(sink.track_ids), setup, args)
+
+
+STDIN = "-"
+"""``--dets -``: the detections come from standard input."""
+
+
+class _Flushed:
+    """A text stream every write of which is flushed at once (a pipe's reader sees each frame's rows)."""
+
+    def __init__(self, stream) -> None:
+        self.stream = stream
+
+    def write(self, text: str) -> None:
+        self.stream.write(text)
+        self.stream.flush()
+
+
+def _on_first(frames, call):
+    """The frames, with ``call()`` made just before the first one is handed on."""
+    for k, frame in enumerate(frames):
+        if k == 0:
+            call()
+        yield frame
+
+
+def _track_pipe(args: argparse.Namespace) -> int:
+    """``track --dets -``: detections read from standard input frame by frame as a detector writes
+    them, each frame's rows written as soon as they are final (to standard output, flushed, with
+    ``--out -``; else streamed into the staged outputs), in the tracker's bounded streaming mode.
+    The rows equal those of the file run on the same lines (docs/robustness.md, "A detector pipe")."""
+    import io as stdio
+
+    from .. import io
+    from ..outputs import STDOUT, check_outputs
+    if len(args.dets) > 1:
+        raise UserError("--dets - reads one sequence from standard input: give it alone")
+    if args.out is None or args.out_dir is not None:
+        raise UserError("--dets - writes one results file: give --out FILE, or --out - for standard output")
+    if args.scene:
+        raise UserError("--scene keeps every box of every track to the end, so its memory grows with a pipe: "
+                        "write the detections to a file and track that")
+    if args.workers is not None or args.scheduler is not None:
+        raise UserError("--workers and --scheduler spread many sequences over processes; --dets - is one sequence")
+    fmt = io.get_format(args.format)
+    if fmt.needs_class and args.cls is None:
+        raise UserError(f"--format {fmt.name} needs --class Car|Pedestrian|Cyclist")
+    outputs = {"--out": args.out, "--events": args.events, "--events-json": args.events_json}
+    check_outputs(outputs, {"--seqinfo": args.seqinfo})
+    setup = _setup(args, args.format, args.cls, _track_constants(args) if args.backend != BASELINE else None)
+    if sys.stdin is None:
+        raise UserError("--dets -: standard input is closed")
+    text = stdio.TextIOWrapper(sys.stdin.buffer, encoding="utf-8-sig", newline=None)  # lines as they arrive
+    try:
+        try:
+            stream = fmt.stream_detections(text, object_class=args.cls if fmt.needs_class else None,
+                                           seqinfo=args.seqinfo, scores_rule=args.scores, image_size=args.img_size)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+        def starting() -> None:  # once the first frame has arrived (an empty input is one error line)
+            _warn_unknown_image_size(stream, setup, f"{stream.path}: no --seqinfo and no --img-size")
+            _say_setup(setup, [stream], args)
+        stream.frames = _on_first(stream.frames, starting)
+        _track_streaming(stream, args, args.out, setup, sys.stderr if STDOUT in outputs.values() else sys.stdout,
+                         live=True)
+    finally:
+        text.detach()  # standard input stays open (and sys.stdin usable)
+    return EXIT_OK
 
 
 def _prefix(seqs, seq) -> str:

@@ -7,6 +7,7 @@ One concern per module (each imports only the ones listed before it):
 * :mod:`.seqinfo`      - MOTChallenge seqinfo.ini and the columns det.txt and gt.txt share;
 * :mod:`.ground_truth` - GroundTruth, the MOTChallenge and KITTI ground-truth readers;
 * :mod:`.detections`   - DetectionFrame / DetectionSequence, the detection readers, the confidence rule;
+* :mod:`.stream`       - DetectionStream: detections read from a pipe frame by frame as they arrive;
 * :mod:`.event_logs`   - event log lines and files;
 * :mod:`.results`      - results readers and writers (MOTChallenge, KITTI), ResultWriter;
 * :mod:`.formats`      - the format registry (FORMATS, MOT, KITTI, get_format): each format's readers,
@@ -105,6 +106,7 @@ from .seqinfo import read_seqinfo
 from .ground_truth import GroundTruth, read_kitti_ground_truth, read_mot_ground_truth
 from .detections import (DEFAULT_SCORE_RULE, KITTI_FPS, KITTI_IMAGE_SIZE, SCORE_RULES, DetectionFrame, DetectionSequence,
                          read_kitti_detections, read_mot_detections)
+from .stream import STDIN_NAME, DetectionStream, stream_kitti_detections, stream_mot_detections
 from .event_logs import event_json_line, event_line, write_event_log, write_event_log_json
 from .results import (ResultWriter, format_kitti_results, format_mot_results, read_kitti_results,
                       read_mot_results, write_kitti_results, write_mot_results, write_text_atomic)
@@ -121,6 +123,7 @@ __all__ = [
     "GroundTruth", "read_kitti_ground_truth", "read_mot_ground_truth",
     "DEFAULT_SCORE_RULE", "KITTI_FPS", "KITTI_IMAGE_SIZE", "SCORE_RULES", "DetectionFrame", "DetectionSequence", "read_kitti_detections",
     "read_mot_detections",
+    "STDIN_NAME", "DetectionStream", "stream_kitti_detections", "stream_mot_detections",
     "event_json_line", "event_line", "write_event_log", "write_event_log_json",
     "RESULT_FORMATS", "ResultWriter", "format_kitti_results", "format_mot_results", "read_kitti_results",
     "read_mot_results", "read_results", "results_formatter", "write_kitti_results", "write_mot_results",

@@ -59,12 +59,40 @@ class DetectionSequence:
     def num_detections(self) -> int:
         return sum(len(f) for f in self.frames)
 
+    @property
+    def confidence_range(self) -> tuple[int, int] | None:
+        """The smallest and largest confidence of its detections (None: there are none)."""
+        conf = [int(c) for f in self.frames for c in f.confidences]
+        return (min(conf), max(conf)) if conf else None
+
     def frame(self, number: int) -> DetectionFrame:
         """The frame with this frame number (numbering as in the file)."""
         i = number - self.first_frame
         if not 0 <= i < len(self.frames):
             raise KeyError(number)
         return self.frames[i]
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """The validated detections of some lines (a whole file, or one line of a stream), in line order:
+    what a reader keeps of them (KITTI: the requested class, degenerate boxes dropped)."""
+
+    frames: np.ndarray
+    """int64 frame numbers."""
+    boxes: np.ndarray
+    """(n, 4) x, y, w, h."""
+    scores: np.ndarray
+    linenos: tuple[int, ...]
+    dropped: tuple[tuple[int, str], ...] = ()
+    """(line, reason) of rows dropped by the documented policy (KITTI's degenerate boxes)."""
+
+
+MOT_DET_TABLE = (",", 7, 10, "frame,id,x,y,w,h,score,...", range(7), ("frame", "id", "x", "y", "w", "h", "score"))
+"""A MOTChallenge detection line: separator, field counts, layout, the columns read and their names."""
+KITTI_DET_TABLE = (",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
+                   ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z", "rot_y", "alpha"))
+"""A KITTI PointRCNN detection line (as MOT_DET_TABLE)."""
 
 
 def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, conf: np.ndarray,
@@ -109,35 +137,44 @@ def _ranked(seq: DetectionSequence) -> DetectionSequence:
     return replace(seq, frames=tuple(replace(f, confidences=ranker.confidences(f.scores)) for f in seq.frames))
 
 
-def _mot_confidences(path: Path, linenos: Sequence[int], scores: np.ndarray, rule: str) -> np.ndarray | None:
-    """The confidence rule of a MOTChallenge detection file (module doc), one rule for every row;
-    None: the rank rule, applied frame by frame once the frames are built."""
+def _mot_rule(path, linenos: Sequence[int], scores: np.ndarray, rule: str, basis: str = "") -> str:
+    """The confidence rule of MOTChallenge scores (module doc), one rule for every row: ``rule``
+    itself, or for ``auto`` the rule these scores call for (RANK, with a warning, for scores that
+    are not probabilities).  ``basis`` says which scores decided (a stream: its first frame's)."""
     _check_rule(rule, (RANK, "auto", "probability", "raw"))
-    if rule == RANK:
-        return None  # set frame by frame once the frames are built (_ranked)
+    if rule != "auto":
+        return rule
     inside = (scores >= 0.0) & (scores <= 1.0)
-    if rule == "auto":
-        share = float(inside.mean())
-        if share == 1.0:
-            rule = "probability"
-        elif share <= 0.5:  # not probabilities (ACF's 0..139, a logit, ...): their scale says nothing
-            warnings.warn(f"{path}: scores {scores.min():g}..{scores.max():g} are not probabilities in 0..1: "
-                          "each detection's confidence is its score's rank among those seen so far "
-                          "(--scores rank; refimpl/confidence.py); --scores raw reads them as 0..100",
-                          InputFormatWarning, stacklevel=3)
-            return None
-        else:
-            bad = _first_bad(~inside)
-            raise InputFormatError(
-                f"score {scores[bad]:g} is outside 0..1 although {int(inside.sum())} of {len(scores)} scores "
-                "are probabilities in 0..1: fix the line, or choose the rule (--scores probability|raw)",
-                path, linenos[bad])
+    share = float(inside.mean())
+    if share == 1.0:
+        return "probability"
+    if share <= 0.5:  # not probabilities (ACF's 0..139, a logit, ...): their scale says nothing
+        warnings.warn(f"{path}: scores {scores.min():g}..{scores.max():g}{basis} are not probabilities in 0..1: "
+                      "each detection's confidence is its score's rank among those seen so far "
+                      "(--scores rank; refimpl/confidence.py); --scores raw reads them as 0..100",
+                      InputFormatWarning, stacklevel=3)
+        return RANK
+    bad = _first_bad(~inside)
+    raise InputFormatError(
+        f"score {scores[bad]:g} is outside 0..1 although {int(inside.sum())} of {len(scores)} scores{basis} "
+        "are probabilities in 0..1: fix the line, or choose the rule (--scores probability|raw)",
+        path, linenos[bad])
+
+
+def _mot_scale(path, linenos: Sequence[int], scores: np.ndarray, rule: str, hint: str = "") -> np.ndarray:
+    """The 0..100 confidences of MOTChallenge scores read as numbers (``probability`` or ``raw``);
+    ``hint`` ends the message of a score that is not a probability."""
     if rule == "probability":
-        bad = _first_bad(~inside)
+        bad = _first_bad(~((scores >= 0.0) & (scores <= 1.0)))
         if bad is not None:
-            raise InputFormatError(f"score {scores[bad]:g} is not a probability in 0..1", path, linenos[bad])
+            raise InputFormatError(f"score {scores[bad]:g} is not a probability in 0..1{hint}", path, linenos[bad])
         return _round_half_up(100.0 * scores)
     return _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
+
+
+def _kitti_sigmoid(scores: np.ndarray) -> np.ndarray:
+    """KITTI's logits as 0..100 confidences: round(100 * sigmoid(score)), overflow-free."""
+    return _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))
 
 
 def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray) -> None:
@@ -148,28 +185,34 @@ def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray
                                "(the solvers compute 100 * area in 32-bit integers)", path, linenos[bad])
 
 
-def read_mot_detections(path: str | os.PathLike, seqinfo=None,
-                        object_type: str = "pedestrian", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
-    """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
-    path = Path(path)
-    otype = _object_type(object_type, path)
-    a, linenos = _read_table(path, ",", 7, 10, "frame,id,x,y,w,h,score,...", range(7),
-                             ("frame", "id", "x", "y", "w", "h", "score"))
-    info = _resolve_seqinfo(seqinfo, path)
+def _mot_rows(path, linenos: Sequence[int], a: np.ndarray, info: dict | None) -> _Rows:
+    """Every check of MOTChallenge detection rows (MOT_DET_TABLE columns, as floats): integral
+    frames from 1 (to seqLength with a seqinfo), plausible boxes at least MIN_DET_SIZE wide and
+    high, areas the solvers can compute."""
     frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
     tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
     if tiny is not None:
         raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
                                f"w={boxes[tiny, 2]:g} h={boxes[tiny, 3]:g}", path, linenos[tiny])
     _check_area(path, linenos, boxes[:, 2], boxes[:, 3])
-    scores = a[:, 6]
-    conf = _mot_confidences(path, linenos, scores, scores_rule)
-    ranked = conf is None
-    conf = np.zeros(len(scores), dtype=np.int64) if ranked else conf
-    count = int(info["seqLength"]) if info is not None else int(frames.max())
+    return _Rows(frames, boxes, a[:, 6], tuple(linenos))
+
+
+def read_mot_detections(path: str | os.PathLike, seqinfo=None,
+                        object_type: str = "pedestrian", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
+    """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
+    path = Path(path)
+    otype = _object_type(object_type, path)
+    a, linenos = _read_table(path, *MOT_DET_TABLE)
+    info = _resolve_seqinfo(seqinfo, path)
+    rows = _mot_rows(path, linenos, a, info)
+    rule = _mot_rule(path, linenos, rows.scores, scores_rule)
+    ranked = rule == RANK
+    conf = np.zeros(len(rows.scores), dtype=np.int64) if ranked else _mot_scale(path, linenos, rows.scores, rule)
+    count = int(info["seqLength"]) if info is not None else int(rows.frames.max())
     seq = DetectionSequence(
         name=_mot_sequence_name(path, info),
-        frames=_build_frames(frames, boxes, scores, conf, [otype] * len(frames), 1, count),
+        frames=_build_frames(rows.frames, rows.boxes, rows.scores, conf, [otype] * len(conf), 1, count),
         first_frame=1,
         image_size=(int(info["imWidth"]), int(info["imHeight"])) if info is not None else None,
         fps=float(info["frameRate"]) if info is not None else None,
@@ -177,21 +220,12 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     return _ranked(seq) if ranked else seq
 
 
-def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames: int | None = None,
-                          on_degenerate: str = "drop", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
-    """PointRCNN detections of one class as a DetectionSequence over frames 0..num_frames-1.
-
-    num_frames defaults to the frame count of ``../../label_02/NNNN.txt`` (relative to the class
-    folder) if present, else max frame + 1.  Zero-width/height boxes: see module doc.
-    """
-    path = Path(path)
-    otype = _object_type(object_class, path)
-    if on_degenerate not in ("drop", "error"):
-        raise ValueError("on_degenerate must be 'drop' or 'error'")
-    _check_rule(scores_rule, (RANK, "auto", "sigmoid"))
-    a, linenos = _read_table(path, ",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
-                             ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z",
-                              "rot_y", "alpha"))
+def _kitti_rows(path, linenos: Sequence[int], a: np.ndarray, otype: str, num_frames: int | None,
+                on_degenerate: str) -> _Rows:
+    """Every check of KITTI PointRCNN detection rows (KITTI_DET_TABLE columns, as floats), and the
+    rows kept: integral frames from 0 (below num_frames if given), a known class type, plausible
+    boxes of non-negative size, areas the solvers can compute; only rows of ``otype``, its
+    degenerate boxes dropped and recorded (``on_degenerate="drop"``) or refused (``"error"``)."""
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     types = _check_integral(path, linenos, a[:, 1], "type")
     _check_min_frame(path, linenos, frames, 0)
@@ -199,12 +233,8 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     if bad is not None:
         raise InputFormatError(
             f"unknown class type {types[bad]} (1 pedestrian, 2 car, 3 cyclist)", path, linenos[bad])
-    if num_frames is None:
-        label = path.parent.parent.parent / "label_02" / path.name
-        num_frames = _kitti_label_num_frames(label) if label.is_file() else int(frames.max()) + 1
-    elif num_frames < 1:
-        raise ValueError("num_frames must be >= 1")
-    _check_max_frame(path, linenos, frames, num_frames - 1, f"num_frames={num_frames}")
+    if num_frames is not None:
+        _check_max_frame(path, linenos, frames, num_frames - 1, f"num_frames={num_frames}")
     _check_coordinates(path, linenos, a[:, 2:6], ("x1", "y1", "x2", "y2"))
     w = a[:, 4] - a[:, 2]
     h = a[:, 5] - a[:, 3]
@@ -226,20 +256,51 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
         for i in np.flatnonzero(zero):
             kind = "zero-area" if w[i] == 0 or h[i] == 0 else f"below {MIN_DET_SIZE:g} px"
             dropped.append((linenos[i], f"{kind} box w={w[i]:g} h={h[i]:g}"))
-        warnings.warn(
-            f"{path}: dropped {len(dropped)} zero-area (or thinner than {MIN_DET_SIZE:g} px) detection "
-            f"box(es) on line(s) {', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=2)
         keep &= ~zero
-    _check_area(path, np.asarray(linenos)[keep], w[keep], h[keep])
-    boxes = np.column_stack([a[:, 2], a[:, 3], w, h])[keep]
-    scores = a[keep, 6]
-    conf = _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))  # sigmoid, overflow-free
+    kept = np.asarray(linenos)[keep]
+    _check_area(path, kept, w[keep], h[keep])
+    return _Rows(frames[keep], np.column_stack([a[:, 2], a[:, 3], w, h])[keep], a[keep, 6],
+                 tuple(int(n) for n in kept), tuple(dropped))
+
+
+def _warn_dropped(path, dropped: Sequence[tuple[int, str]], stacklevel: int = 3) -> None:
+    """One warning naming every line of a degenerate KITTI box that was dropped."""
+    warnings.warn(
+        f"{path}: dropped {len(dropped)} zero-area (or thinner than {MIN_DET_SIZE:g} px) detection "
+        f"box(es) on line(s) {', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=stacklevel)
+
+
+def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames: int | None = None,
+                          on_degenerate: str = "drop", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
+    """PointRCNN detections of one class as a DetectionSequence over frames 0..num_frames-1.
+
+    num_frames defaults to the frame count of ``../../label_02/NNNN.txt`` (relative to the class
+    folder) if present, else max frame + 1.  Zero-width/height boxes: see module doc.
+    """
+    path = Path(path)
+    otype = _object_type(object_class, path)
+    if on_degenerate not in ("drop", "error"):
+        raise ValueError("on_degenerate must be 'drop' or 'error'")
+    _check_rule(scores_rule, (RANK, "auto", "sigmoid"))
+    a, linenos = _read_table(path, *KITTI_DET_TABLE)
+    if num_frames is None:
+        label = path.parent.parent.parent / "label_02" / path.name
+        if label.is_file():
+            num_frames = _kitti_label_num_frames(label)
+    elif num_frames < 1:
+        raise ValueError("num_frames must be >= 1")
+    rows = _kitti_rows(path, linenos, a, otype, num_frames, on_degenerate)
+    if rows.dropped:
+        _warn_dropped(path, rows.dropped)
+    if num_frames is None:
+        num_frames = int(a[:, 0].max()) + 1  # every row's frame (any class), integral and checked
     seq = DetectionSequence(
         name=path.stem,
-        frames=_build_frames(frames[keep], boxes, scores, conf, [otype] * int(keep.sum()), 0, num_frames),
+        frames=_build_frames(rows.frames, rows.boxes, rows.scores, _kitti_sigmoid(rows.scores),
+                             [otype] * len(rows.scores), 0, num_frames),
         first_frame=0,
         image_size=KITTI_IMAGE_SIZE,
         fps=KITTI_FPS,
-        dropped=tuple(dropped),
+        dropped=rows.dropped,
     )
     return _ranked(seq) if scores_rule == RANK else seq

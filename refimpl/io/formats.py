@@ -20,6 +20,7 @@ from .detections import DEFAULT_SCORE_RULE, DetectionSequence, read_kitti_detect
 from .errors import InputFormatError
 from .ground_truth import GroundTruth, _kitti_label_num_frames, read_kitti_ground_truth, read_mot_ground_truth
 from .lines import _read_lines
+from .stream import DetectionStream, stream_kitti_detections, stream_mot_detections
 from .results import (format_kitti_results, format_mot_results, read_kitti_results, read_mot_results,
                       write_kitti_results, write_mot_results)
 
@@ -31,6 +32,14 @@ def _need_class(name: str, object_class: str | None) -> str:
     if object_class is None:
         raise ValueError(f"{name} files hold several classes: reading or writing them needs the object class")
     return object_class
+
+
+def _stream_kitti(fh, object_class: str | None = None, seqinfo=None, scores_rule: str = DEFAULT_SCORE_RULE,
+                  image_size: tuple[int, int] | None = None) -> DetectionStream:
+    if seqinfo is not None:
+        raise ValueError("KITTI detections have no seqinfo.ini (the format gives their image size and frame rate)")
+    return stream_kitti_detections(fh, _need_class(KITTI, object_class), scores_rule=scores_rule,
+                                   image_size=image_size)
 
 
 def _kitti_label_dir(gt_root: Path) -> Path:
@@ -50,6 +59,9 @@ class DataFormat:
     """Its files hold several object classes: reading (and writing results) needs ``--class``."""
     read_detections: Callable[..., DetectionSequence]
     """(path, object_class=None, seqinfo=None, num_frames=None, scores_rule=DEFAULT_SCORE_RULE)."""
+    stream_detections: Callable[..., DetectionStream]
+    """(text stream, object_class=None, seqinfo=None, scores_rule=DEFAULT_SCORE_RULE, image_size=None):
+    detections read as the lines arrive (``track --dets -``, refimpl.io.stream)."""
     read_ground_truth: Callable[..., GroundTruth]
     """(path, object_class=None, seqinfo=None)."""
     frames_from_gt: Callable[[Path], int] | None
@@ -90,6 +102,9 @@ FORMATS: dict[str, DataFormat] = {f.name: f for f in (
         read_detections=lambda path, object_class=None, seqinfo=None, num_frames=None, scores_rule=DEFAULT_SCORE_RULE:
             read_mot_detections(path, seqinfo=seqinfo, object_type=object_class or "pedestrian",
                                 scores_rule=scores_rule),
+        stream_detections=lambda fh, object_class=None, seqinfo=None, scores_rule=DEFAULT_SCORE_RULE, image_size=None:
+            stream_mot_detections(fh, seqinfo=seqinfo, object_type=object_class or "pedestrian",
+                                  scores_rule=scores_rule, image_size=image_size),
         read_ground_truth=lambda path, object_class=None, seqinfo=None: read_mot_ground_truth(path, seqinfo=seqinfo),
         frames_from_gt=None,
         gt_layout="<SEQ>/gt/gt.txt",
@@ -106,6 +121,7 @@ FORMATS: dict[str, DataFormat] = {f.name: f for f in (
         read_detections=lambda path, object_class=None, seqinfo=None, num_frames=None, scores_rule=DEFAULT_SCORE_RULE:
             read_kitti_detections(path, _need_class(KITTI, object_class), num_frames=num_frames,
                                   scores_rule=scores_rule),
+        stream_detections=_stream_kitti,
         read_ground_truth=lambda path, object_class=None, seqinfo=None:
             read_kitti_ground_truth(path, _need_class(KITTI, object_class)),
         frames_from_gt=_kitti_label_num_frames,

@@ -27,31 +27,43 @@ MAX_DET_AREA = 20_000_000
 """px^2: a larger detection box would take 100 * area beyond clingo's 32-bit integers (tracker.MAX_BOX_AREA)."""
 
 
-def _line_chunks(path: Path, size: int):
-    """Lists of at most ``size`` (line number, stripped text) of the non-blank lines, read line by
-    line (never the whole file at once); missing/empty/unreadable is an error."""
-    chunk: list[tuple[int, str]] = []
-    lineno, seen = 0, False
+def _data_lines(fh, path: Path | str):
+    """(line number, stripped text) of the non-blank lines of an open text stream, one at a time as
+    they arrive (a file or a pipe); text that is not UTF-8 or cannot be read is an error."""
+    lineno = 0
     try:
-        # newline=None: \r\n and \r become \n, and a file object splits only at \n (str.splitlines
+        # a file object opened with newline=None splits only at \n, \r\n and \r (str.splitlines
         # would also split at \f, \v, \x85, U+2028 ... and so name the wrong line numbers)
-        with open(path, encoding="utf-8-sig", newline=None) as fh:
-            for lineno, raw in enumerate(fh, start=1):
-                text = raw.strip()
-                if text:
-                    chunk.append((lineno, text))
-                    if len(chunk) >= size:
-                        seen = True
-                        yield chunk
-                        chunk = []
-    except FileNotFoundError:
-        raise InputFormatError("file not found", path) from None
-    except IsADirectoryError:
-        raise InputFormatError("is a directory, expected a file", path) from None
+        for lineno, raw in enumerate(fh, start=1):
+            text = raw.strip()
+            if text:
+                yield lineno, text
     except UnicodeDecodeError as exc:
         raise InputFormatError(f"not a UTF-8 text file ({exc.reason} after line {lineno})", path) from None
     except OSError as exc:
         raise InputFormatError(f"cannot read file ({exc.strerror or exc})", path) from None
+
+
+def _line_chunks(path: Path, size: int):
+    """Lists of at most ``size`` (line number, stripped text) of the non-blank lines, read line by
+    line (never the whole file at once); missing/empty/unreadable is an error."""
+    chunk: list[tuple[int, str]] = []
+    seen = False
+    try:
+        fh = open(path, encoding="utf-8-sig", newline=None)
+    except FileNotFoundError:
+        raise InputFormatError("file not found", path) from None
+    except IsADirectoryError:
+        raise InputFormatError("is a directory, expected a file", path) from None
+    except OSError as exc:
+        raise InputFormatError(f"cannot read file ({exc.strerror or exc})", path) from None
+    with fh:
+        for line in _data_lines(fh, path):
+            chunk.append(line)
+            if len(chunk) >= size:
+                seen = True
+                yield chunk
+                chunk = []
     if chunk:
         yield chunk
     elif not seen:
@@ -113,6 +125,12 @@ def _numbers(path: Path, linenos: Sequence[int], rows: list[list[str]], columns:
         raise InputFormatError(f"field {columns[c] + 1} ({names[c]}) is not finite: {rows[r][columns[c]]!r}",
                                path, linenos[r])
     return out
+
+
+def _line_numbers(path: Path | str, lineno: int, text: str, sep: str | None, lo: int, hi: int, what: str,
+                  columns: Sequence[int], names: Sequence[str]) -> np.ndarray:
+    """One line's columns as a (1, k) float array: _split then _numbers (a stream read line by line)."""
+    return _numbers(path, [lineno], _split(path, [(lineno, text)], sep, lo, hi, what), columns, names)
 
 
 _CHUNK = 50_000

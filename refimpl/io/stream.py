@@ -1,0 +1,165 @@
+"""Detections read from a text stream as its lines arrive: a detector writing rows into a pipe
+(``refimpl track --dets -``).
+
+A :class:`DetectionStream` yields the same DetectionFrames as the file readers of
+:mod:`.detections` give for the same text (each line goes through the same row checks,
+``_mot_rows`` / ``_kitti_rows``, and each frame through the same confidence rule), one frame at a
+time: a frame is complete when a line of a later frame arrives, or at the end of the stream.  Its
+memory is one frame's rows, plus one float per detection under the rank rule (its state is every
+score seen so far) and the line numbers of dropped KITTI boxes (a handful per sequence).
+
+What differs from a file, because a stream cannot be read twice:
+
+* rows come frame by frame: a line whose frame is smaller than a previous line's is an error
+  naming its line (a file's rows are sorted);
+* frames are numbered as in the format (MOTChallenge from 1, KITTI from 0); frames missing
+  before the first row or between two rows are empty frames; the stream ends at its last row's
+  frame (MOTChallenge: at seqLength of a given seqinfo.ini).  There is no side file: the image
+  size and frame rate come from ``seqinfo`` (MOTChallenge) or the format (KITTI), or ``image_size``;
+* ``auto`` for MOTChallenge scores is decided from the first frame's scores (a file decides from
+  all of them): all in 0..1 reads probabilities, and a later score outside 0..1 is an error
+  suggesting ``--scores rank``; mostly outside 0..1 ranks them (with the file's warning);
+* KITTI's dropped degenerate boxes are warned about once, at the end, as the file reader does.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import IO, Callable, Iterator, Sequence
+
+import numpy as np
+
+from ..confidence import RANK, OnlineRank
+from .detections import (DEFAULT_SCORE_RULE, KITTI_DET_TABLE, KITTI_FPS, KITTI_IMAGE_SIZE, MOT_DET_TABLE,
+                         DetectionFrame, _check_rule, _kitti_rows, _kitti_sigmoid, _mot_rows, _mot_rule, _mot_scale,
+                         _Rows, _warn_dropped)
+from .errors import InputFormatError
+from .lines import _data_lines, _line_numbers, _object_type
+from .seqinfo import _resolve_seqinfo
+
+STDIN_NAME = "<stdin>"
+"""How errors and the summary name standard input (``<stdin>:12: ...``)."""
+
+
+class _Scores:
+    """A confidence rule applied frame by frame, in order (the rank rule keeps its state here)."""
+
+    def __init__(self, path: str, rule: str, mot: bool):
+        self.path, self.rule, self.mot = path, rule, mot
+        self.decided = False  # auto decided from the first frame (MOTChallenge)
+        self.ranker = OnlineRank() if rule == RANK else None
+
+    def __call__(self, linenos: Sequence[int], scores: np.ndarray) -> np.ndarray:
+        if self.mot and self.rule == "auto":
+            self.rule = _mot_rule(self.path, linenos, scores, "auto", basis=" (the first frame's)")
+            self.decided = True
+            self.ranker = OnlineRank() if self.rule == RANK else None
+        if self.ranker is not None:
+            return self.ranker.confidences(scores)
+        if not self.mot:
+            return _kitti_sigmoid(scores)
+        hint = (": a stream decides --scores auto from its first frame, whose scores all were; give "
+                "--scores rank (any detector's scale) or --scores raw (0..100)") if self.decided else ""
+        return _mot_scale(self.path, linenos, scores, self.rule, hint)
+
+
+class DetectionStream:
+    """The frames of one sequence read from a text stream as they arrive (module doc).
+
+    ``frames`` is an iterator of DetectionFrame, first frame to last, read once; a user mistake
+    raises InputFormatError ``<stdin>:<line>: <reason>`` when its line is read.  ``num_frames``,
+    ``num_detections``, ``confidence_range`` and ``dropped`` count what has been read so far."""
+
+    def __init__(self, fh: IO[str], path: str, table: tuple, rows: Callable[[Sequence[int], np.ndarray], _Rows],
+                 scores: _Scores, object_type: str, first_frame: int, last_frame: int | None, name: str,
+                 image_size: tuple[int, int] | None, fps: float | None):
+        self.path, self.name, self.first_frame = path, name, first_frame
+        self.image_size, self.fps = image_size, fps
+        self.num_frames = 0
+        self.num_detections = 0
+        self.confidence_range: tuple[int, int] | None = None
+        self.dropped: list[tuple[int, str]] = []
+        self._table, self._rows, self._scores, self._type = table, rows, scores, object_type
+        self._last = last_frame
+        self.frames: Iterator[DetectionFrame] = self._read(fh)
+
+    def _read(self, fh: IO[str]) -> Iterator[DetectionFrame]:
+        current, value, block, previous = None, None, [], 0
+        for lineno, text in _data_lines(fh, self.path):
+            a = _line_numbers(self.path, lineno, text, *self._table)
+            if a[0, 0] != value:  # a new frame: the previous one is complete, its rows are checked first
+                done = self._frame(current, block) if current is not None else None
+                self._rows([lineno], a)  # then this row, so its frame is integral and in range before any step
+                frame = int(a[0, 0])
+                if current is not None and frame < current:
+                    raise InputFormatError(f"frame {frame} after frame {current} (line {previous}): a stream is "
+                                           "read frame by frame, so its frame numbers must not decrease",
+                                           self.path, lineno)
+                if done is not None:
+                    yield done
+                yield from self._empty(self.first_frame if current is None else current + 1, frame)
+                current, value, block = frame, a[0, 0], []
+            block.append((lineno, a))
+            previous = lineno
+        if current is None:
+            raise InputFormatError("empty input (no data lines)", self.path)
+        yield self._frame(current, block)
+        if self._last is not None:
+            yield from self._empty(current + 1, self._last + 1)
+        if self.dropped:
+            _warn_dropped(self.path, self.dropped, stacklevel=2)
+
+    def _empty(self, start: int, stop: int) -> Iterator[DetectionFrame]:
+        for number in range(start, stop):
+            yield self._blank(number)
+
+    def _blank(self, number: int) -> DetectionFrame:
+        self.num_frames += 1
+        return DetectionFrame(number, np.zeros((0, 4)), np.zeros(0), np.zeros(0, dtype=np.int64), ())
+
+    def _frame(self, number: int, block: list[tuple[int, np.ndarray]]) -> DetectionFrame:
+        """One frame from its lines: every row check of the format, the rows kept, in line order,
+        and the confidence rule."""
+        kept = self._rows([n for n, _ in block], np.vstack([a for _, a in block]))
+        self.dropped.extend(kept.dropped)
+        if not len(kept.scores):  # KITTI: every row of another class, or dropped
+            return self._blank(number)
+        conf = self._scores(kept.linenos, kept.scores)
+        self.num_frames += 1
+        self.num_detections += len(conf)
+        lo, hi = int(conf.min()), int(conf.max())
+        if self.confidence_range is not None:
+            lo, hi = min(lo, self.confidence_range[0]), max(hi, self.confidence_range[1])
+        self.confidence_range = (lo, hi)
+        return DetectionFrame(number, np.array(kept.boxes), kept.scores, conf, (self._type,) * len(conf))
+
+
+def stream_mot_detections(fh: IO[str], seqinfo=None, object_type: str = "pedestrian",
+                          scores_rule: str = DEFAULT_SCORE_RULE, image_size: tuple[int, int] | None = None,
+                          path: str = STDIN_NAME) -> DetectionStream:
+    """MOTChallenge detection lines from a text stream (module doc); ``seqinfo``: a seqinfo.ini
+    path or dict (the sequence's name, frame rate, image size and length), else none is known;
+    ``image_size`` overrides its size."""
+    otype = _object_type(object_type, path)
+    _check_rule(scores_rule, (RANK, "auto", "probability", "raw"))
+    info = _resolve_seqinfo(seqinfo, Path(path)) if seqinfo is not None else None
+    size = (int(info["imWidth"]), int(info["imHeight"])) if info is not None else None
+    return DetectionStream(fh, path, MOT_DET_TABLE, lambda linenos, a: _mot_rows(path, linenos, a, info),
+                           _Scores(path, scores_rule, mot=True), otype, 1,
+                           int(info["seqLength"]) if info is not None else None,
+                           str(info["name"]) if info is not None else path, image_size or size,
+                           float(info["frameRate"]) if info is not None else None)
+
+
+def stream_kitti_detections(fh: IO[str], object_class: str, scores_rule: str = DEFAULT_SCORE_RULE,
+                            image_size: tuple[int, int] | None = None, on_degenerate: str = "drop",
+                            path: str = STDIN_NAME) -> DetectionStream:
+    """KITTI PointRCNN detection lines of one class from a text stream (module doc)."""
+    otype = _object_type(object_class, path)
+    if on_degenerate not in ("drop", "error"):
+        raise ValueError("on_degenerate must be 'drop' or 'error'")
+    _check_rule(scores_rule, (RANK, "auto", "sigmoid"))
+    return DetectionStream(fh, path, KITTI_DET_TABLE,
+                           lambda linenos, a: _kitti_rows(path, linenos, a, otype, None, on_degenerate),
+                           _Scores(path, scores_rule, mot=False), otype, 0, None, path,
+                           image_size or KITTI_IMAGE_SIZE, KITTI_FPS)
