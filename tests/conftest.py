@@ -18,7 +18,7 @@ def examples() -> Path:
     return EXAMPLES
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def shared_data() -> Path:
     if not (SHARED_DATA / "MOT15").is_dir():
         pytest.skip(f"benchmark data not found at {SHARED_DATA} (clone with ../shared beside it)")

@@ -25,7 +25,7 @@ BUS = REPO / "data" / "examples" / "bus_t235.lp"
 
 
 def _err(capsys) -> str:
-    err = [line for line in capsys.readouterr().err.splitlines() if line and not line.startswith("refimpl: warning")]
+    err = [line for line in capsys.readouterr().err.splitlines() if line and not line.startswith(("refimpl: warning", "refimpl track: note:"))]
     assert len(err) == 1, err
     return err[0]
 

@@ -420,8 +420,8 @@ def test_cli_bad_query_exits_2_with_the_forms(scene, tmp_path, capsys):
 def test_cli_track_with_scene_needs_an_abduction_backend(tmp_path, capsys):
     from refimpl import io
     dets = io.demo_sequence_paths().dets_path
-    code, _, err = run_cli(capsys, "track", "--dets", str(dets), "--out", str(tmp_path / "r.txt"),
-                           "--scene", str(tmp_path / "s.json"))
+    code, _, err = run_cli(capsys, "track", "--dets", str(dets), "--backend", "baseline", "--out",
+                           str(tmp_path / "r.txt"), "--scene", str(tmp_path / "s.json"))
     assert code == 2 and "--scene" in err and f"need an abduction backend ({', '.join(BACKENDS)})" in err
 
 

@@ -59,7 +59,7 @@ def test_track_and_benchmark_run_the_papers_method_by_default(tmp_path, capsys):
     assert main(["track", "--dets", str(DEMO_DETS), "--out", str(out)]) == 0
     err = capsys.readouterr().err
     # the one line saying what ran: the abduction backend and the MOTChallenge preset
-    assert "refimpl track: cpsat, preset mot/pedestrian" in err
+    assert "refimpl track: note: cpsat, preset mot/pedestrian" in err
 
 
 def test_help_shows_the_defaults(capsys):

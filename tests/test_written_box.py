@@ -87,7 +87,7 @@ def test_streamed_rows_equal_result_rows_with_detection_boxes():
 
 def test_api_tracker_returns_the_detection_box_when_asked():
     from refimpl import Tracker
-    t = Tracker("cpsat", written_box="detection", object_type="car", img_size=(1000, 600))
+    t = Tracker("cpsat", written_box="detection", object_type="car", img_size=(1000, 600), preset="none")
     for x, y, w, h in BOXES:
         out = t.update(np.array([[x, y, x + w, y + h, 0.9]]))
         np.testing.assert_array_equal(out, [[x, y, x + w, y + h, 1.0]])
@@ -140,7 +140,8 @@ def test_cli_written_box_needs_an_abduction_backend(tmp_path, capsys):
     from refimpl.cli import main
     dets = tmp_path / "det.txt"
     dets.write_text("1,-1,1,1,10,10,0.9,-1,-1,-1\n")
-    assert main(["track", "--dets", str(dets), "--out", str(tmp_path / "o.txt"), "--written-box", "detection"]) == 2
+    assert main(["track", "--dets", str(dets), "--backend", "baseline", "--out", str(tmp_path / "o.txt"),
+                 "--written-box", "detection"]) == 2
     assert "--written-box" in capsys.readouterr().err
 
 

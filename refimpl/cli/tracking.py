@@ -136,7 +136,7 @@ def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
     if setup.baseline:
         return  # SORT: no preset, nothing to say
     if not args.quiet:
-        print(f"refimpl track: {setup.describe()}", file=sys.stderr)
+        print(f"refimpl track: note: {setup.describe()}", file=sys.stderr)
     if setup.preset == "none":
         return
     from ..presets import preset_named, score_warning
