@@ -199,5 +199,6 @@ def test_const_changes_the_model_and_bad_constants_are_one_line_errors(tmp_path,
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and message in err
     assert not (tmp_path / "x.txt").exists()
-    assert main(["track", "--dets", dets, "--out", str(tmp_path / "x.txt"), "--const", "iou_thresh=1"]) == 2
+    assert main(["track", "--dets", dets, "--backend", "baseline", "--out", str(tmp_path / "x.txt"), "--const",
+                 "iou_thresh=1"]) == 2
     assert "need an abduction backend" in capsys.readouterr().err

@@ -141,6 +141,8 @@ def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
         return
     from ..presets import preset_named, score_warning
     for seq in seqs:
+        if not isinstance(seq.frames, tuple):
+            continue  # a pipe (refimpl.io.stream): its frames are read once, by the tracker
         line = score_warning(preset_named(setup.preset), seq, dict(setup.constants))
         if line:
             print(f"refimpl track: warning: {line}", file=sys.stderr)

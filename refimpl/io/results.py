@@ -131,7 +131,9 @@ def format_kitti_results(rows, object_class: str, path: str | os.PathLike = "<re
     """The lines of :func:`write_kitti_results` (chunks of whole frames concatenate, as for MOT)."""
     name = _KITTI_RESULT_TYPE[_object_type(object_class, path)]
     a, frames, ids = _sorted_result_rows(rows, 0)
-    r = np.round(a[:, 2:6], 2)
+    # the MOTChallenge writer's rounding (Python's round of each value, _fmt2), so both files hold
+    # the same boxes: np.round scales by 100 first and can land 0.01 off (e.g. 184.355 -> 184.36)
+    r = [[round(float(v), 2) for v in row] for row in a[:, 2:6]]
     lines = []
     for f, i, (x, y, w, h) in zip(frames, ids, r):
         lines.append(f"{f} {i} {name} -1 -1 -10 {_fmt2(x)} {_fmt2(y)} {_fmt2(x + w)} {_fmt2(y + h)} "
