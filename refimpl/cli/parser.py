@@ -99,6 +99,16 @@ def _class_name(text: str) -> str:
     return CLASSES[key]
 
 
+def _add_preset(p: argparse.ArgumentParser) -> None:
+    """--preset and --no-preset (refimpl.pipeline.setup_for: which preset the abduction tracker runs)."""
+    p.add_argument("--preset", default=None, metavar="NAME",
+                   help="the preset to run with: auto (that of the format and class, else the robust default), none, "
+                        "or a name of model/presets.json (kitti/car, default, ...) (default: auto)")
+    p.add_argument("--no-preset", action="store_true",
+                   help="abduction with model/constants.lp's defaults and the tracker's default options instead of "
+                        "the calibrated preset (model/presets.json); the same as --preset none")
+
+
 def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     """The tracker options a preset carries (refimpl.options.TRACKER_OPTIONS), overridable here."""
     for option in TRACKER_OPTIONS:
@@ -203,12 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
                    "for query / explain / plot (an abduction backend)")
-    t.add_argument("--preset", default=None, metavar="NAME",
-                   help="the preset to run with: auto (that of --format/--class, else the robust default), none, "
-                        "or a name of model/presets.json (kitti/car, default, ...) (default: auto)")
-    t.add_argument("--no-preset", action="store_true",
-                   help="run with model/constants.lp's defaults and the tracker's default options instead of the "
-                        "calibrated preset (model/presets.json)")
+    _add_preset(t)
     _add_tracker_options(t)
     _add_scaleout(t)
     t.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -253,12 +258,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --peers: also a table per dataset of every sequence (HOTA / IDF1 / IDs per tracker)")
     b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant of the abduction tracker (repeatable; on top of the preset)")
-    b.add_argument("--preset", default=None, metavar="NAME",
-                   help="the preset to run with: auto (that of --format/--class, else the robust default), none, "
-                        "or a name of model/presets.json (kitti/car, default, ...) (default: auto)")
-    b.add_argument("--no-preset", action="store_true",
-                   help="abduction with model/constants.lp's defaults and the tracker's default options instead "
-                        "of the calibrated preset")
+    _add_preset(b)
     _add_tracker_options(b)
     _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
