@@ -175,7 +175,9 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, li
     from ..io import ResultWriter, results_formatter
     from ..outputs import STDOUT, OutputSet
     from ..pipeline import run_sequence
+    from ..solvers import get_solver
     from ..tasks import AnswerCheck
+    solver = None if setup.baseline else get_solver(setup.backend)  # its libraries loaded before any output is staged
     with OutputSet() as outs:
         def open_out(path):
             return _Flushed(sys.stdout) if live and path == STDOUT else outs.open(path)
@@ -188,7 +190,7 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, li
         bar_ok = not args.quiet and not (live and STDOUT in (out_path, args.events, args.events_json))
         with Progress(None if live else len(seq.frames), seq.name, enabled=bar_ok, unit="frame") as bar:
             result = run_sequence(seq, setup, observer=check, sink=sink, keep_records=bool(args.scene),
-                                  on_frame=bar.step)
+                                  on_frame=bar.step, solver=solver)
         if result.not_optimal_frames:
             print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
                   f"within the time limit (best answer found used)", file=sys.stderr)

@@ -109,6 +109,11 @@ class CpSatSolver:
         self.decompose = decompose
         self.part_nodes = int(part_nodes)
         self.name = CPSAT if fast_path else CPSAT_FULL
+        if not fast_path:
+            # the full model needs OR-Tools on every frame: import it now, with the backend, not in
+            # the middle of a run (a Ctrl-C landing inside a C extension's import becomes an
+            # ImportError, not the KeyboardInterrupt that ends a command cleanly)
+            from ortools.sat.python import cp_model  # noqa: F401
         self.stats: Counter[str] = Counter()
         self._state_cache: dict[tuple[str, tuple], EventState] = {}
 
