@@ -17,21 +17,24 @@ import pytest
 from refimpl.cli import main
 
 CASES = {
-    # benchmark name -> (track arguments, detection files relative to the data root, sequences)
+    # name -> (track arguments, detection files relative to the data root, sequences, the smallest
+    # benchmark holding them: its results are compared too; None: not in it, --out-dir only)
     "kitti-car": (["--format", "kitti", "--class", "Car"],
-                  "KITTI/tracking/training/det_02_pointrcnn/Car/{}.txt", ("0001", "0008", "0009")),
+                  "KITTI/tracking/training/det_02_pointrcnn/Car/{}.txt", ("0001", "0008", "0009"), "kitti-car-val"),
     "kitti-ped": (["--format", "kitti", "--class", "Pedestrian"],
-                  "KITTI/tracking/training/det_02_pointrcnn/Pedestrian/{}.txt", ("0013",)),
+                  "KITTI/tracking/training/det_02_pointrcnn/Pedestrian/{}.txt", ("0013",), "kitti-ped-val"),
     "mot15": (["--format", "mot"], "MOT15/train/{}/det/det_sort_frcnn.txt",
-              ("ADL-Rundle-6", "ADL-Rundle-8", "ETH-Pedcross2", "ETH-Sunnyday")),
+              ("ADL-Rundle-6", "ADL-Rundle-8", "ETH-Pedcross2", "ETH-Sunnyday"), "mot15-sort6"),
 }
 
 
 @pytest.fixture(scope="module")
 def benchmarked(shared_data, tmp_path_factory):
-    """benchmark --results-dir over the three benchmarks (one run, as a user would)."""
+    """benchmark --results-dir over the smallest benchmarks holding the sequences (one run, as a user
+    would; KITTI Car 0009 is a tuning sequence and MOT15 ADL-Rundle-6 not one of SORT's six, so
+    those two are checked against --out-dir only here; tools/check_user_path.py runs all 53)."""
     out = tmp_path_factory.mktemp("benchmark")
-    assert main(["benchmark", "kitti-car", "kitti-ped", "mot15", "--data", str(shared_data), "--quiet",
+    assert main(["benchmark", *(c[3] for c in CASES.values()), "--data", str(shared_data), "--quiet",
                  "--results-dir", str(out)]) == 0
     return out
 
@@ -39,14 +42,20 @@ def benchmarked(shared_data, tmp_path_factory):
 @pytest.mark.parametrize("name", list(CASES))
 def test_single_input_track_writes_the_bytes_of_out_dir_and_benchmark(name, shared_data, benchmarked, tmp_path,
                                                                        capsys):
-    args, pattern, seqs = CASES[name]
+    args, pattern, seqs, bench = CASES[name]
     files = [str(shared_data / pattern.format(s)) for s in seqs]
     assert main(["track", "--dets", *files, *args, "--out-dir", str(tmp_path / "many"), "--quiet"]) == 0
+    compared = 0
     for seq, path in zip(seqs, files):
         single = tmp_path / f"one-{seq}.txt"
         assert main(["track", "--dets", path, *args, "--out", str(single), "--quiet"]) == 0
         written = single.read_bytes()
         assert written, f"{name}/{seq}: no rows"
         assert written == (tmp_path / "many" / f"{seq}.txt").read_bytes(), f"{name}/{seq}: --out-dir differs"
-        assert written == (benchmarked / name / f"{seq}.txt").read_bytes(), f"{name}/{seq}: benchmark differs"
+        scored = benchmarked / bench / f"{seq}.txt"
+        if scored.exists():
+            assert written == scored.read_bytes(), f"{name}/{seq}: benchmark differs"
+            compared += 1
+    # 0009 is a KITTI tuning sequence (not in the val benchmark), ADL-Rundle-6 not one of SORT's six
+    assert compared == len(seqs) - (name in ("kitti-car", "mot15"))
     capsys.readouterr()
