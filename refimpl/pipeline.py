@@ -66,7 +66,7 @@ def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND
     NONE or None (no preset), or a preset's name (``kitti/car``, ``default``).  ``constants`` and
     ``options`` ({name: value}) override the preset's.  ValueError (one sentence) for an unknown
     preset, constant or option, or for constants/options given to the baseline."""
-    from .presets import preset_named, resolve_preset
+    from .presets import merge_constants, merge_options, preset_named, resolve_preset
     if backend == BASELINE:
         if constants or options:
             raise ValueError("model constants and tracker options need an abduction backend; the baseline is SORT")
@@ -77,7 +77,6 @@ def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND
         chosen = resolve_preset(fmt, object_class or "pedestrian")
     else:
         chosen = preset_named(preset)
-    from .presets import merge_constants, merge_options
     merged = merge_constants(chosen, constants)
     opts = merge_options(chosen, options)
     return Setup(backend, tuple(merged.items()), opts, time_limit, chosen.name if chosen else NONE)
