@@ -1,7 +1,7 @@
 """The library interface in the shape trackers are used in: ``Tracker(...).update(dets) -> tracks``.
 
 One call per frame: detections in as an (N, 5) array ``x1, y1, x2, y2, score``, tracks out as an (M, 5) array ``x1, y1, x2, y2, track_id``.  Behind it is the paper's
-Algorithm 1 (refimpl.tracker.AbductionTracker), so the rows returned for a frame are exactly
+Algorithm 1 (refimpl.tracking.tracker.AbductionTracker), so the rows returned for a frame are exactly
 the rows ``refimpl track`` writes for that frame, with one documented exception: the boxes
 ``refimpl track`` interpolates inside a *bridged* gap (a confirmed track resumed after at most
 ``bridge_gap`` hidden frames) are only known once the track resumes, so an online caller never
@@ -13,8 +13,8 @@ the fact.
 Scores map to the model's integer confidences 0..100 as the file readers map them: by default on
 the format's own scale (MOTChallenge probabilities: ``floor(100 * score + 0.5)``; KITTI logits
 through a sigmoid), or with ``scores="rank"`` by their place among the scores seen so far
-(refimpl.confidence), for a detector of any scale.  The preset is chosen as ``refimpl track``
-chooses it (refimpl.pipeline.setup_for): ``Tracker(format="kitti", object_type="car")`` runs the
+(refimpl.core.confidence), for a detector of any scale.  The preset is chosen as ``refimpl track``
+chooses it (refimpl.tracking.pipeline.setup_for): ``Tracker(format="kitti", object_type="car")`` runs the
 KITTI Car preset, ``preset="none"`` none.
 """
 
@@ -25,13 +25,13 @@ from typing import TYPE_CHECKING, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .confidence import RANK, OnlineRank
+from .core.confidence import RANK, OnlineRank
 from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
-from .options import TrackerOptions
-from .pipeline import AUTO, new_tracker, setup_for
+from .tracking.options import TrackerOptions
+from .tracking.pipeline import AUTO, new_tracker, setup_for
 from .solvers import BACKENDS, DEFAULT_BACKEND
-from .spec import HistoryEvent
-from .tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
+from .core.spec import HistoryEvent
+from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
 
 API_SCORE_RULES = ("auto", RANK, "probability", "sigmoid")
 DEFAULT_CLASS_TYPES = {0: "pedestrian", 1: "cyclist", 2: "car"}
@@ -62,7 +62,7 @@ class Tracker:
         KITTI's image size and frame rate when ``img_size`` / ``fps`` are not given) and, with
         ``object_type``, which preset applies.
     preset: "auto" (default: the preset of (format, object_type) by the same rule as
-        ``refimpl track``, refimpl.pipeline.setup_for), "none" (model/constants.lp and the default
+        ``refimpl track``, refimpl.tracking.pipeline.setup_for), "none" (model/constants.lp and the default
         tracker options, as ``--no-preset``), or a preset's name ("kitti/car", "default").
         ``tracker.setup`` says what was chosen.
     constants: model constant overrides (names of model/constants.lp), e.g. {"iou_thresh": 20000},
@@ -70,12 +70,12 @@ class Tracker:
     img_size: (width, height) of the images in pixels; sets img_width / img_height (the
         field-of-view border).  Without it the border is not tested (KITTI: 1242 x 375), as for a
         det.txt without seqinfo.ini.
-    min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracker.track_sequence``.
-    **options: tracker option overrides by name (refimpl.options.TRACKER_OPTIONS), e.g.
+    min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracking.tracker.track_sequence``.
+    **options: tracker option overrides by name (refimpl.tracking.options.TRACKER_OPTIONS), e.g.
         ``written_box="detection"``, on top of the preset.
     scores: how a score becomes the model's confidence, as the file readers do it: "auto" (default:
         the format's own scale, "probability" for MOTChallenge, "sigmoid" for KITTI's logits),
-        "probability" (scores in 0..1, times 100), "sigmoid", or "rank" (refimpl.confidence: its
+        "probability" (scores in 0..1, times 100), "sigmoid", or "rank" (refimpl.core.confidence: its
         place among the scores seen so far, for a detector of any scale).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
     class_types: integer class id -> object type, for (N, 6) arrays and ``supervision.Detections``
@@ -121,7 +121,7 @@ class Tracker:
             raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
         TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
         self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit)
-        """What this tracker runs with (refimpl.pipeline.Setup): backend, constants, options, preset."""
+        """What this tracker runs with (refimpl.tracking.pipeline.Setup): backend, constants, options, preset."""
         self.backend = backend
         self.name, self.fps, self.image_size = name, fps, img_size
         self.first_frame = int(first_frame)
@@ -141,7 +141,7 @@ class Tracker:
     # -- validation --------------------------------------------------------------------------
     @staticmethod
     def _constants(constants: Mapping[str, int] | None) -> dict[str, int]:
-        from .constants import default_constants
+        from .core.constants import default_constants
         known = default_constants()
         out: dict[str, int] = {}
         for key, value in dict(constants or {}).items():
@@ -305,7 +305,7 @@ class Tracker:
         return tuple(self._tracker.events)
 
     def result(self) -> TrackingResult:
-        """Everything so far as ``refimpl.tracker.track_sequence`` returns it (rows in MOT order
+        """Everything so far as ``refimpl.tracking.tracker.track_sequence`` returns it (rows in MOT order
         frame, id, x, y, w, h, including the interpolated rows of bridged gaps)."""
         return self._tracker.result()
 
@@ -322,6 +322,6 @@ class Tracker:
 
     def scene(self) -> "Scene":
         """The scene so far (refimpl.scene.Scene): tracks, events and fluent timelines, for
-        refimpl.scene.query / explain and refimpl.plots."""
+        refimpl.scene.query / explain and refimpl.scene.plots."""
         from .scene import scene_from_result
         return scene_from_result(self.sequence(), self.result())

@@ -18,8 +18,8 @@ import random
 import numpy as np
 
 from framegen import CURR_TIME, _random_history
-from refimpl.geometry import iou_matrix, scale_iou
-from refimpl.spec import Detection, FrameProblem, TrackPrediction
+from refimpl.core.geometry import iou_matrix, scale_iou
+from refimpl.core.spec import Detection, FrameProblem, TrackPrediction
 
 
 def adversarial_frame(rng: random.Random) -> FrameProblem:

@@ -18,8 +18,8 @@ import random
 
 import numpy as np
 
-from refimpl.geometry import iou_matrix, scale_iou
-from refimpl.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+from refimpl.core.geometry import iou_matrix, scale_iou
+from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 
 CURR_TIME = 50
 

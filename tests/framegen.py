@@ -6,8 +6,8 @@ import random
 
 import numpy as np
 
-from refimpl.geometry import iou_matrix, scale_iou
-from refimpl.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+from refimpl.core.geometry import iou_matrix, scale_iou
+from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 
 TYPES = ("car", "person")
 CURR_TIME = 40

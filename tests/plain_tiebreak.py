@@ -3,15 +3,15 @@ tests: components by repeated flooding over the admissible pairs, indices by a p
 
 from __future__ import annotations
 
-from refimpl.constants import resolve_constants
-from refimpl.geometry import intersection_area
-from refimpl.spec import FrameProblem, natural_key
+from refimpl.core.constants import resolve_constants
+from refimpl.core.geometry import intersection_area
+from refimpl.core.spec import FrameProblem, natural_key
 
 
 def plain_tiebreak(problem: FrameProblem):
     """The canonical tie-break (refimpl/solvers/common.py docstring) written out the slow way:
     components by repeated flooding over the admissible pairs, indices by a plain sort."""
-    from refimpl.events import EFFECTS, EVENT_NAMES
+    from refimpl.knowledge.events import EFFECTS, EVENT_NAMES
     from refimpl.solvers.cpsat import assignment_constraints, resume_constraints
 
     consts = resolve_constants(problem)

@@ -18,12 +18,12 @@ from pathlib import Path
 
 import pytest
 
-from refimpl.check import check_answer
-from refimpl.constants import default_constants
-from refimpl.hypothesis import Hypothesis, parse_action
+from refimpl.solvers.check import check_answer
+from refimpl.core.constants import default_constants
+from refimpl.core.hypothesis import Hypothesis, parse_action
 from plain_tiebreak import plain_level0
 from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable, get_solver
-from refimpl.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term,
+from refimpl.core.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term,
                           read_problem, write_facts)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -179,7 +179,7 @@ def test_kitti_0020_t79(backend):
 def test_bus_t268_file_is_canonical_and_its_ious_are_computed():
     import numpy as np
 
-    from refimpl.geometry import iou_matrix, scale_iou
+    from refimpl.core.geometry import iou_matrix, scale_iou
 
     path = EXAMPLES / "bus_t268.lp"
     text = path.read_text(encoding="utf-8")
@@ -681,7 +681,7 @@ def _crowded(n: int = 40, seed: int = 7) -> FrameProblem:
         tracks.append(trk(i, "active" if i % 5 else "halted", (x, y, 60, 60)))
         dets.append(det(i, (x + rng.randrange(-15, 16), y + rng.randrange(-15, 16), 60, 60),
                         conf=rng.randrange(20, 100)))
-    from refimpl.geometry import intersection_area
+    from refimpl.core.geometry import intersection_area
     for t in tracks:
         for d in dets:
             inter = intersection_area(t.box, d.box)

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from refimpl.baseline import SortTracker, associate, track_sequence
+from refimpl.tracking.baseline import SortTracker, associate, track_sequence
 
 # Two pedestrians-sized boxes moving apart by 5 px per frame (A left, B right).
 # The Kalman velocity starts at 0, so the first prediction is the previous box: the IoU of a
@@ -154,7 +154,8 @@ DATA_ROOT = Path(__file__).resolve().parent.parent.parent / "shared" / "data"
 def sort6_scores():
     if not (DATA_ROOT / "MOT15" / "train").is_dir():
         pytest.skip(f"MOT15 benchmark data not found at {DATA_ROOT} (needs ../shared/data beside the repo)")
-    from refimpl import evaluate, io
+    from refimpl.evaluation import evaluate
+    from refimpl import io
 
     pairs = [(s.name, io.load_ground_truth(s), track_sequence(io.load_detections(s)))
              for s in io.benchmark_sequences("mot15-sort6", DATA_ROOT)]

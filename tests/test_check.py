@@ -1,12 +1,12 @@
-"""The independent answer checker (refimpl.check): every rule it guards, caught on tampered answers."""
+"""The independent answer checker (refimpl.solvers.check): every rule it guards, caught on tampered answers."""
 
 from __future__ import annotations
 
 import pytest
 
-from refimpl.check import check_answer
-from refimpl.hypothesis import Hypothesis
-from refimpl.spec import read_problem
+from refimpl.solvers.check import check_answer
+from refimpl.core.hypothesis import Hypothesis
+from refimpl.core.spec import read_problem
 
 # the optimal answer of the paper's bus frame (Section 4.1.1), as both backends give it
 BUS_ACTIONS = ("assign(trk_12,det_1)", "assign(trk_15,det_0)", "assign(trk_3,det_3)", "assign(trk_7,det_4)",
@@ -70,7 +70,7 @@ def test_each_rule_is_reported_by_its_label(bus, actions, events, rule):
 
 def test_start_below_the_confidence_threshold_is_reported(examples):
     # det_5 of the bus frame has confidence 59: with conf_thresh_new_track 60 its start is inadmissible
-    from refimpl.spec import with_constants
+    from refimpl.core.spec import with_constants
     p = with_constants(read_problem(str(examples / "bus_t235.lp")), {"conf_thresh_new_track": 60})
     assert "start_constraints" in _rules(p, _hyp())
 

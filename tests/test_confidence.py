@@ -1,4 +1,4 @@
-"""The confidence of a detection (refimpl.confidence): the rank rule, online, and results that do
+"""The confidence of a detection (refimpl.core.confidence): the rank rule, online, and results that do
 not depend on a detector's score scale (issue 25)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
-from refimpl.confidence import OnlineRank, rank_confidences
+from refimpl.core.confidence import OnlineRank, rank_confidences
 
 RESCALES = {
     "0.5*s-1.5": lambda s: 0.5 * s - 1.5,

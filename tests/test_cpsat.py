@@ -8,13 +8,13 @@ import random
 import pytest
 
 from framegen import random_frame
-from refimpl.constants import resolve_constants
-from refimpl.events import EventState, poss
-from refimpl.hypothesis import parse_action
+from refimpl.core.constants import resolve_constants
+from refimpl.knowledge.events import EventState, poss
+from refimpl.core.hypothesis import parse_action
 from refimpl.solvers import NoAdmissibleHypothesis, SolveTimeout, get_solver
 from refimpl.solvers.common import tiebreak_weights
 from refimpl.solvers.cpsat import CpSatFailure, CpSatSolver, build_model, solve_lexicographic
-from refimpl.spec import Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term, read_problem
+from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term, read_problem
 
 
 def H(event: str, t: int) -> HistoryEvent:

@@ -1,5 +1,5 @@
-"""The dataset catalogue (refimpl.datasets) is the one list of dataset names: it holds exactly
-refimpl.io's benchmark files plus the simulated datasets refimpl.simulate can make."""
+"""The dataset catalogue (refimpl.io.datasets) is the one list of dataset names: it holds exactly
+refimpl.io's benchmark files plus the simulated datasets refimpl.io.simulate can make."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 
 from refimpl import io
 from refimpl.cli import main
-from refimpl.datasets import (CATALOGUE, DATASETS, HELD_OUT, HELD_OUT_DATASETS, SIMULATED, SIMULATED_SUFFIX,
+from refimpl.io.datasets import (CATALOGUE, DATASETS, HELD_OUT, HELD_OUT_DATASETS, SIMULATED, SIMULATED_SUFFIX,
                               TABLE6_DATASETS, dataset)
-from refimpl.simulate import SIMULATED_BENCHMARKS
+from refimpl.io.simulate import SIMULATED_BENCHMARKS
 
 
 def test_the_catalogue_is_io_benchmarks_plus_the_simulated_ones():

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import json
 
-from refimpl.calibrate import choose_robust
-from refimpl.pipeline import setup_for
-from refimpl.presets import load_presets, resolve_preset
+from refimpl.experiments.calibrate import choose_robust
+from refimpl.tracking.pipeline import setup_for
+from refimpl.tracking.presets import load_presets, resolve_preset
 
 
 def test_the_best_mean_rank_wins_not_one_sets_optimum():

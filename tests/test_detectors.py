@@ -7,7 +7,7 @@ import pytest
 
 from refimpl import io
 from refimpl.cli import main
-from refimpl.detectors import DetectionQuality, detection_quality, first_frames
+from refimpl.experiments.detectors import DetectionQuality, detection_quality, first_frames
 
 
 def _dets(frames: dict[int, list[tuple[tuple[float, float, float, float], int]]], count: int) -> io.DetectionSequence:
@@ -83,7 +83,7 @@ def test_real_detector_report_on_one_mot15_sequence(shared_data, capsys):
 
 
 def test_mot15_compares_acf_and_frcnn_on_the_seven_acf_sequences(shared_data):
-    from refimpl.detectors import common_sequences
+    from refimpl.experiments.detectors import common_sequences
     # PROVENANCE.md: the official det.txt exists for these 7 sequences only
     assert common_sequences("mot15", shared_data) == [
         "ETH-Sunnyday", "KITTI-13", "KITTI-17", "PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "Venice-2"]
@@ -107,8 +107,8 @@ def test_sweep_two_points_on_a_few_mot17_frames(shared_data, tmp_path, capsys):
     # clipped to the 1920x1080 image.  A box B clipped to C has IoU(B, C) = area(C) / area(B), so a
     # detection counts as matched iff at least half of its source box lies inside the image.  Derive
     # the expected counts that way from the simulated boxes (same seed and parameters as the command).
-    from refimpl.detector_sweep import detector_params, sweep_data
-    from refimpl.simulate import simulate_detections
+    from refimpl.experiments.detector_sweep import detector_params, sweep_data
+    from refimpl.io.simulate import simulate_detections
     (_, gt, size, fps), = sweep_data("mot17", shared_data, ["MOT17-09"])
     dets = simulate_detections(gt, seed=0, params=detector_params("mot17", 1.0, 0.0, 0.0), image_size=size)
     matched = total = 0
@@ -145,5 +145,5 @@ def test_detectors_mistakes_end_in_one_line_and_exit_2(argv, fragment, shared_da
 
 
 def test_every_registered_detector_benchmark_is_a_known_benchmark():
-    from refimpl.detectors import REAL_DETECTORS
+    from refimpl.experiments.detectors import REAL_DETECTORS
     assert set(REAL_DETECTORS) <= set(io.BENCHMARKS)

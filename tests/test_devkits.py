@@ -4,7 +4,7 @@
   DontCare, a truncated target, a small box; MOTChallenge: a MOT20 non-MOT-vehicle row).
 * Two real cases -- KITTI Car 0011 tracked by the abduction tracker (conftest.py) and MOT15
   TUD-Campus tracked by the baseline -- scored by `refimpl eval --devkit trackeval` and by
-  TrackEval's Evaluator run directly on the files (tools/trackeval_agreement.py's runners): every
+  TrackEval's Evaluator run directly on the files (tests/tools/trackeval_agreement.py's runners): every
   metric of the table equal.
 """
 

@@ -11,7 +11,7 @@ import pytest
 
 from refimpl import io
 from refimpl.cli import main
-from refimpl.evaluate import evaluate_many
+from refimpl.evaluation.evaluate import evaluate_many
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus"

@@ -1,4 +1,4 @@
-"""refimpl.evaluate: CLEAR MOT / IDF1 on hand-made sequences, preprocessing, overall row, NumPy 2."""
+"""refimpl.evaluation.evaluate: CLEAR MOT / IDF1 on hand-made sequences, preprocessing, overall row, NumPy 2."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from refimpl import evaluate as ev
+from refimpl.evaluation import evaluate as ev
 from refimpl import io
 from refimpl.io import GroundTruth
 
@@ -191,7 +191,7 @@ def test_motmetrics_runs_end_to_end_without_patching_numpy():
     # A fresh interpreter: evaluating must neither need nor add np.asfarray (no process-wide patch).
     script = textwrap.dedent("""
         import numpy as np
-        import refimpl.evaluate as ev
+        import refimpl.evaluation.evaluate as ev
         from refimpl.io import GroundTruth
         gt = GroundTruth(name="s", frames=np.array([1, 2]), ids=np.array([1, 1]),
                             boxes=np.array([[0, 0, 10, 10], [0, 0, 10, 10]], float),

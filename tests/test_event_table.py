@@ -1,4 +1,4 @@
-"""The event table (refimpl.events.EVENT_TABLE) and the action/priority tables (refimpl.hypothesis)
+"""The event table (refimpl.knowledge.events.EVENT_TABLE) and the action/priority tables (refimpl.core.hypothesis)
 are the one place for each event's and action's knowledge: these tests pin them to the ASP
 encoding (model/*.lp) and prove that every consumer sees every event."""
 
@@ -8,13 +8,13 @@ import re
 
 import pytest
 
-from refimpl.constants import default_constants, model_dir, resolve_constants
-from refimpl.events import EVENT_TABLE, REEXPLAINED, EventState, explaining, possible_events
-from refimpl.hypothesis import ACTION_TABLE, PRIORITIES, action_cost
-from refimpl.plots import EVENT_STYLE
+from refimpl.core.constants import default_constants, model_dir, resolve_constants
+from refimpl.knowledge.events import EVENT_TABLE, REEXPLAINED, EventState, explaining, possible_events
+from refimpl.core.hypothesis import ACTION_TABLE, PRIORITIES, action_cost
+from refimpl.scene.plots import EVENT_STYLE
 from refimpl.scene import Episode, SceneTrack, explain_episode, make_scene
 from refimpl.solvers.cpsat import build_model
-from refimpl.spec import parse_facts
+from refimpl.core.spec import parse_facts
 
 
 def _lp(name: str) -> str:

@@ -1,4 +1,4 @@
-"""The hand-written event calculus (refimpl/events.py) on hand-made histories."""
+"""The hand-written event calculus (refimpl/knowledge/events.py) on hand-made histories."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import random
 
 import pytest
 
-from refimpl.constants import resolve_constants
-from refimpl.events import (
+from refimpl.core.constants import resolve_constants
+from refimpl.knowledge.events import (
     EFFECTS,
     EventState,
     fluent_key,
@@ -20,7 +20,7 @@ from refimpl.events import (
     poss_unhides_from_behind,
     possible_events,
 )
-from refimpl.spec import FrameProblem, HistoryEvent, TrackPrediction, parse_term
+from refimpl.core.spec import FrameProblem, HistoryEvent, TrackPrediction, parse_term
 
 
 def H(event: str, t: int) -> HistoryEvent:

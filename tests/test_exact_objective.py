@@ -18,9 +18,9 @@ from hypothesis import strategies as st
 from ortools.sat.python import cp_model
 
 from adversarial import adversarial_frame
-from refimpl.check import check_answer
-from refimpl.constants import resolve_constants
-from refimpl.events import EventState
+from refimpl.solvers.check import check_answer
+from refimpl.core.constants import resolve_constants
+from refimpl.knowledge.events import EventState
 from refimpl.solvers import get_solver
 from refimpl.solvers.cpsat_model import (
     OBJECTIVE_BITS,

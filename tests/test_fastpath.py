@@ -6,7 +6,7 @@ raise the same NoAdmissibleHypothesis, on:
 
 * thousands of seeded random frames (tests/framegen.py), with and without history, and with
   constants that make explanations cost the same (the tie-break's explanation part decides);
-* synthetic frames of refimpl.synthetic (5 .. 100 tracks, overlap 0.2 .. 0.8);
+* synthetic frames of refimpl.experiments.synthetic (5 .. 100 tracks, overlap 0.2 .. 0.8);
 * every frame of real sequences (MOT15 TUD-Campus and KITTI-17, KITTI Car 0000) tracked by the
   fast path, each frame re-solved by the full model (skipped without ../shared/data).
 
@@ -28,10 +28,10 @@ from ortools.sat.python import cp_model
 
 from framegen import random_frame
 from plain_tiebreak import plain_tiebreak as _plain_tiebreak
-from refimpl.constants import resolve_constants
-from refimpl.events import EventState
-from refimpl.geometry import intersection_area
-from refimpl.relations import overlapping_top
+from refimpl.core.constants import resolve_constants
+from refimpl.knowledge.events import EventState
+from refimpl.core.geometry import intersection_area
+from refimpl.knowledge.relations import overlapping_top
 from refimpl.solvers import NoAdmissibleHypothesis
 from refimpl.solvers.common import intersection_matrix, tiebreak_weights
 from refimpl.solvers.cpsat import (
@@ -45,8 +45,8 @@ from refimpl.solvers.cpsat import (
     solve_fast,
     solve_lexicographic,
 )
-from refimpl.spec import FrameProblem, natural_key, with_constants
-from refimpl.synthetic import synthetic_frame
+from refimpl.core.spec import FrameProblem, natural_key, with_constants
+from refimpl.experiments.synthetic import synthetic_frame
 
 EQUAL_COSTS = {name: 1 for name in ("cost_hides_behind", "cost_missing_detections", "cost_unhides_from_behind",
                                     "cost_recover", "cost_leaves_fov", "cost_lost", "cost_noise")}
@@ -285,7 +285,7 @@ REAL = [("mot15", "TUD-Campus"), ("mot15", "KITTI-17"), ("kitti-car", "0000")]
 @pytest.mark.parametrize("suite,name", REAL)
 def test_fast_path_equals_full_model_on_every_frame_of_a_real_sequence(shared_data, suite, name):
     from refimpl import io
-    from refimpl.tracker import track_sequence
+    from refimpl.tracking.tracker import track_sequence
 
     seqs = {s.name: s for s in io.benchmark_sequences(suite, shared_data)}
     if name not in seqs:
@@ -310,7 +310,7 @@ def test_fast_path_equals_full_model_on_every_frame_of_a_real_sequence(shared_da
 # -- the benchmark command's mechanics (nothing timed is asserted) -------------------------------
 
 def test_bench_scale_writes_tables_plot_and_json(tmp_path):
-    from refimpl import benchmarks as bm
+    from refimpl.experiments import benchmarks as bm
     from refimpl.cli import main
 
     doc = tmp_path / "bench.md"
@@ -341,7 +341,7 @@ def test_bench_scale_writes_tables_plot_and_json(tmp_path):
 
 
 def test_bench_throughput_counts_frames(shared_data):
-    from refimpl import benchmarks as bm
+    from refimpl.experiments import benchmarks as bm
 
     result = bm.bench_throughput(shared_data, benchmarks=("mot15",), trackers=("baseline", "cpsat"))
     frames = {r.tracker: sum(x.frames for x in result.runs if x.tracker == r.tracker) for r in result.runs}

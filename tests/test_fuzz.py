@@ -1,4 +1,4 @@
-"""Robustness of the fact-format parser and the MOTChallenge / KITTI readers (tools/fuzz.py, tools.fuzzing).
+"""Robustness of the fact-format parser and the MOTChallenge / KITTI readers (tests/tools/fuzz.py, tools.fuzzing).
 
 A small seeded fuzz run must end with zero tracebacks; then one hand-made case per category of
 the robustness issue (truncated lines, wrong arity, non-numbers, NaN/inf, non-positive sizes,
@@ -20,7 +20,7 @@ import pytest
 
 from refimpl import cli, io
 from refimpl.io import InputFormatError
-from refimpl.spec import ProblemFormatError, parse_facts, read_problem, write_facts
+from refimpl.core.spec import ProblemFormatError, parse_facts, read_problem, write_facts
 from tools import fuzzing as fuzz
 
 REPO = Path(__file__).resolve().parent.parent

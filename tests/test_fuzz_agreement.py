@@ -1,4 +1,4 @@
-"""Backend agreement on accepted inputs (issue 17, item 6): tools/fuzz_agreement.py's property on a
+"""Backend agreement on accepted inputs (issue 17, item 6): tests/tools/fuzz_agreement.py's property on a
 seeded batch, the judge on a broken backend, and the inputs the fuzzer found (now refused)."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ from dataclasses import replace
 import pytest
 
 from refimpl import cli
-from refimpl.ranges import check_ranges
+from refimpl.core.ranges import check_ranges
 from refimpl.solvers import BACKENDS
-from refimpl.spec import ProblemFormatError, parse_facts
+from refimpl.core.spec import ProblemFormatError, parse_facts
 from tools.fuzzing import agreement
 
 pytest.importorskip("clingo")

@@ -1,4 +1,4 @@
-"""The scene / CLI-value / output-path fuzzer (tools/fuzz_cli.py, tools.fuzzing.cli_inputs) finds no failure on a seeded run."""
+"""The scene / CLI-value / output-path fuzzer (tests/tools/fuzz_cli.py, tools.fuzzing.cli_inputs) finds no failure on a seeded run."""
 
 from __future__ import annotations
 

@@ -1,10 +1,10 @@
-"""Boxes and the integer IoU scale (refimpl.geometry)."""
+"""Boxes and the integer IoU scale (refimpl.core.geometry)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from refimpl.geometry import intersection_area, integer_box, iou_matrix, scale_iou, xywh_to_xyxy, xyxy_to_xywh
+from refimpl.core.geometry import intersection_area, integer_box, iou_matrix, scale_iou, xywh_to_xyxy, xyxy_to_xywh
 
 
 def test_iou_of_hand_computed_boxes():

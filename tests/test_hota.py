@@ -1,4 +1,4 @@
-"""HOTA / DetA / AssA (refimpl.hota via refimpl.evaluate): a hand-derived case, and agreement with
+"""HOTA / DetA / AssA (refimpl.evaluation.hota via refimpl.evaluation.evaluate): a hand-derived case, and agreement with
 TrackEval's own MOTChallenge pipeline on tracked MOT15 sequences."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from refimpl import evaluate as ev
+from refimpl.evaluation import evaluate as ev
 from refimpl import io
 from refimpl.cli import main
 
@@ -160,7 +160,7 @@ def _compare(ours: dict, theirs: dict, seqs: list[str]) -> None:
 
 
 def test_mot15_folder_scores_equal_trackevals_pipeline(shared_data, tmp_path):
-    from refimpl.table6 import run_tracker
+    from refimpl.experiments.table6 import run_tracker
     # ETH-Sunnyday and KITTI-17 have flag-0 ground-truth rows (not counted by either side)
     seqs = ["KITTI-17", "TUD-Campus", "TUD-Stadtmitte", "ETH-Sunnyday"]
     gt_root = shared_data / "MOT15" / "train"
@@ -177,8 +177,8 @@ def test_mot15_folder_scores_equal_trackevals_pipeline(shared_data, tmp_path):
 def test_mot17_distractor_handling_equals_trackevals(shared_data, tmp_path):
     import dataclasses
 
-    from refimpl.simulate import simulate_detections
-    from refimpl.table6 import run_tracker
+    from refimpl.io.simulate import simulate_detections
+    from refimpl.experiments.table6 import run_tracker
     seq = "MOT17-09-FRCNN"
     gt_root = shared_data / "MOT17" / "train"
     info = io.read_seqinfo(gt_root / seq / "seqinfo.ini")
@@ -205,12 +205,12 @@ def test_mot17_distractor_handling_equals_trackevals(shared_data, tmp_path):
 
 def test_hota_runs_on_numpy_without_any_patch():
     # A fresh interpreter: TrackEval's HOTA must work without refimpl giving NumPy anything back
-    # (the motmetrics shim of refimpl.evaluate is only installed when CLEAR is first computed).
+    # (the motmetrics shim of refimpl.evaluation.evaluate is only installed when CLEAR is first computed).
     import subprocess
     import sys
     script = (
         "import numpy as np\n"
-        "from refimpl.hota import hota_sequence\n"
+        "from refimpl.evaluation.hota import hota_sequence\n"
         "before = set(dir(np))\n"
         "r = hota_sequence([np.array([1])], [np.array([5])], [np.array([[1.0]])])\n"
         "assert r['hota'] == 1.0, r\n"

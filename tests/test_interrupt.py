@@ -19,9 +19,9 @@ import pytest
 
 from refimpl.solvers import TRACKERS
 
+from refimpl.experiments.long_sequence import write_sequence
+
 REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO / "tools"))
-from long_sequence import write_sequence  # noqa: E402
 
 
 @pytest.fixture(scope="module")

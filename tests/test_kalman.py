@@ -1,13 +1,13 @@
-"""refimpl.kalman.LinearKalman against its reference, filterpy's KalmanFilter: every bit of x and P.
+"""refimpl.tracking.kalman.LinearKalman against its reference, filterpy's KalmanFilter: every bit of x and P.
 
-LinearKalman claims filterpy's floating-point operations in filterpy's order (refimpl/kalman.py),
+LinearKalman claims filterpy's floating-point operations in filterpy's order (refimpl/tracking/kalman.py),
 so the tracker's results did not change when it replaced filterpy.  These tests check the claim
 bit for bit (``tobytes``: -0.0 and 0.0 differ, NaNs compare), after every call:
 
 * on dense random models (every entry of F, H, P, Q, R non-zero: with SORT's sparse F and H many
   different operation orders round alike, a dense model tells them apart);
 * the boxes BoxKalman computes on Python floats against x_to_xywh's numpy arithmetic;
-* through refimpl.motion.BoxKalman on random box sequences (gaps, hold mode, re-updates, the
+* through refimpl.tracking.motion.BoxKalman on random box sequences (gaps, hold mode, re-updates, the
   presets' noise factors) and on the real tracks of KITTI 0011 and MOT15 TUD-Campus: the
   reference is a BoxKalman whose ``kf`` is a filterpy KalmanFilter set up with the same matrices
   (BoxKalman uses only x, P, predict() and update(z) of its filter, which both classes have).
@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from refimpl import io
-from refimpl.kalman import LinearKalman
-from refimpl.motion import BoxKalman, InvalidPrediction, x_to_xywh, xywh_to_z
+from refimpl.tracking.kalman import LinearKalman
+from refimpl.tracking.motion import BoxKalman, InvalidPrediction, x_to_xywh, xywh_to_z
 
 filterpy_kalman = pytest.importorskip("filterpy.kalman")  # the reference (the test extra)
 

@@ -1,11 +1,11 @@
-"""Latency summaries (refimpl.latency) and that every tracker of a comparison is timed per frame."""
+"""Latency summaries (refimpl.experiments.latency) and that every tracker of a comparison is timed per frame."""
 
 from __future__ import annotations
 
 import pytest
 
-from refimpl.latency import summarise
-from refimpl.pipeline import run_sequence, setup_for
+from refimpl.experiments.latency import summarise
+from refimpl.tracking.pipeline import run_sequence, setup_for
 from refimpl import io
 
 

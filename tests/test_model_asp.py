@@ -2,7 +2,7 @@
 
 These ground the model for small frames and read the atoms the grounder derives as facts:
 the event calculus (holds_at after a history), the spatial relations (against their Python
-twins in refimpl/relations.py), poss/1, and the backend's plumbing (options, constants, show).
+twins in refimpl/knowledge/relations.py), poss/1, and the backend's plumbing (options, constants, show).
 The association behaviour shared with CP-SAT is in tests/test_association.py.
 """
 
@@ -18,13 +18,13 @@ import pytest
 
 clingo = pytest.importorskip("clingo")
 
-from refimpl.constants import default_constants, model_dir  # noqa: E402
-from refimpl.geometry import intersection_area  # noqa: E402
-from refimpl.relations import near_border, overlapping_top  # noqa: E402
+from refimpl.core.constants import default_constants, model_dir  # noqa: E402
+from refimpl.core.geometry import intersection_area  # noqa: E402
+from refimpl.knowledge.relations import near_border, overlapping_top  # noqa: E402
 from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable  # noqa: E402
 from refimpl.solvers.clingo_backend import (ClingoSolver, clingo_arguments,  # noqa: E402
                                             default_model_files, problem_facts)
-from refimpl.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction,  # noqa: E402
+from refimpl.core.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction,  # noqa: E402
                           parse_term, read_problem)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -187,7 +187,7 @@ def test_started_at_and_halted_at_take_the_latest_time():
 
 
 # =============================================================================================
-# Spatial relations: the ASP encoding agrees with refimpl/relations.py
+# Spatial relations: the ASP encoding agrees with refimpl/knowledge/relations.py
 # =============================================================================================
 
 def test_spatial_relations_match_python():

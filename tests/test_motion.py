@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from refimpl.motion import (
+from refimpl.tracking.motion import (
     BoxKalman,
     InvalidPrediction,
     initial_covariance,
@@ -183,7 +183,7 @@ def _follow(area_noise: float) -> tuple[BoxKalman, list[float]]:
 
 
 def test_sort_area_noise_loses_a_passing_car_that_a_large_area_noise_keeps():
-    from refimpl.geometry import iou_matrix
+    from refimpl.core.geometry import iou_matrix
     nxt = np.array([PASSING_CAR_NEXT], dtype=float)
     sort_kf, sort_lag = _follow(1.0)
     wide_kf, wide_lag = _follow(1e4)

@@ -1,4 +1,4 @@
-"""The long-occlusion suite (refimpl.occlusion) and its benchmark (refimpl.occlusion_bench)."""
+"""The long-occlusion suite (refimpl.experiments.occlusion) and its benchmark (refimpl.experiments.occlusion_bench)."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ import pytest
 
 from refimpl import io
 from refimpl.cli import main
-from refimpl.geometry import iou_matrix
-from refimpl.occlusion import (HIDDEN_COVER, OCCLUDER_ID, SCENARIOS, TARGET_ID, build_scenario, build_suite,
+from refimpl.core.geometry import iou_matrix
+from refimpl.experiments.occlusion import (HIDDEN_COVER, OCCLUDER_ID, SCENARIOS, TARGET_ID, build_scenario, build_suite,
                                write_scenario)
-from refimpl.occlusion_bench import TOLERANCE, parse_variant, run_variant
+from refimpl.experiments.occlusion_bench import TOLERANCE, parse_variant, run_variant
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The tracker options (refimpl.options): one table, and what backfill and scene_velocity do."""
+"""The tracker options (refimpl.tracking.options): one table, and what backfill and scene_velocity do."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
-from refimpl.options import OPTIONS_BY_NAME, TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
+from refimpl.tracking.options import OPTIONS_BY_NAME, TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
 from refimpl.solvers import get_solver
-from refimpl.tracker import AbductionTracker, track_sequence
+from refimpl.tracking.tracker import AbductionTracker, track_sequence
 from test_streaming import _walk
 from test_tracker import _occlusion_sequence
 
@@ -137,7 +137,7 @@ def test_scene_velocity_keeps_each_car_of_a_sliding_row_on_its_own_track():
 
 def test_a_new_track_starts_with_the_median_velocity_of_the_tracks_seen_last_frame():
     from refimpl.solvers import get_solver
-    from refimpl.tracker import AbductionTracker
+    from refimpl.tracking.tracker import AbductionTracker
     seq = _turning_camera()
     tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1400, "img_height": 600}, scene_velocity=True)
     for fr in seq.frames[:5]:

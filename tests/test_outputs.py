@@ -15,7 +15,7 @@ import pytest
 
 from refimpl.cli import main
 from refimpl.io import read_mot_results
-from refimpl.outputs import OutputError, OutputSet, check_outputs
+from refimpl.io.outputs import OutputError, OutputSet, check_outputs
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus"
@@ -273,7 +273,7 @@ def test_a_write_error_while_streaming_names_the_output(tmp_path):
         def write(self, data):
             raise OSError(errno.EDQUOT, os.strerror(errno.EDQUOT))
 
-    from refimpl.outputs import _Handle
+    from refimpl.io.outputs import _Handle
     with pytest.raises(OutputError, match=f"^cannot write out.txt: {os.strerror(errno.EDQUOT)}$"):
         _Handle(Full(), "out.txt").write("x")
 
@@ -282,7 +282,7 @@ def test_a_write_error_is_an_os_error_too_and_pickles():
     import errno
     import pickle
 
-    from refimpl.outputs import OutputWriteError
+    from refimpl.io.outputs import OutputWriteError
     exc = OutputWriteError("out.txt", OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)))
     assert isinstance(exc, OSError) and isinstance(exc, OutputError)
     assert (exc.errno, exc.filename, str(exc)) == (errno.ENOSPC, "out.txt", "cannot write out.txt: No space left on device")

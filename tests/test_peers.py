@@ -1,4 +1,4 @@
-"""The peer trackers (refimpl.peers), the presets (refimpl.presets) and calibration (refimpl.calibrate)."""
+"""The peer trackers (refimpl.experiments.peers), the presets (refimpl.tracking.presets) and calibration (refimpl.experiments.calibrate)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from refimpl import io
-from refimpl.baseline import SortTracker
+from refimpl.tracking.baseline import SortTracker
 from refimpl.cli import main
 
-peers = pytest.importorskip("refimpl.peers")
+peers = pytest.importorskip("refimpl.experiments.peers")
 pytest.importorskip("trackers")
 sv = pytest.importorskip("supervision")
 
@@ -29,13 +29,13 @@ def _xyxy(b: np.ndarray) -> np.ndarray:
     return np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3]]).reshape(-1, 4)
 
 
-# SORT as published (Bewley et al.) is what both refimpl.baseline and the package's SORTTracker
+# SORT as published (Bewley et al.) is what both refimpl.tracking.baseline and the package's SORTTracker
 # implement.  Configured alike, they must be the same tracker:
 #  - max_age 1: refimpl deletes a track missed for more than 1 frame; the package with
 #    lost_track_buffer=1 at frame_rate 30 allows ceil(30/30 * 1) = 1 missed frame, pruned after
 #    association in both (so a track missed once can still match in the next frame);
 #  - the package's XCYCSRStateEstimator with SORTTracklet's noise set-up is SORT's filter
-#    (R[2:,2:] *= 10, P[4:,4:] *= 1000, P *= 10, Q[-1,-1] *= 0.01, Q[4:,4:] *= 0.01), as refimpl.motion;
+#    (R[2:,2:] *= 10, P[4:,4:] *= 1000, P *= 10, Q[-1,-1] *= 0.01, Q[4:,4:] *= 0.01), as refimpl.tracking.motion;
 #  - both: Hungarian on IoU (scipy, maximise), pairs with IoU >= 0.3 kept, tracks in creation order;
 #  - track_activation_threshold 0: every unmatched detection starts a track, as in SORT;
 #  - refimpl min_hits 1 writes a track once it has been updated (hit_streak >= 1); the package with
@@ -154,7 +154,7 @@ def test_per_sequence_without_peers_is_a_one_line_user_error(capsys):
 
 
 def test_presets_are_chosen_by_format_and_class_and_const_overrides_them(tmp_path):
-    from refimpl.presets import Preset, constants_for, write_preset
+    from refimpl.tracking.presets import Preset, constants_for, write_preset
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"conf_thresh_new_track": 60}, "kitti-car-train", "test"), path)
     write_preset(Preset("mot", "pedestrian", {"iou_thresh": 20000}, "mot15", "test"), path)
@@ -193,8 +193,8 @@ def test_calibration_refuses_kitti_val_sequences(shared_data, capsys):
 
 
 def test_leave_one_sequence_out_scores_each_sequence_with_the_point_best_on_the_others():
-    from refimpl.calibrate import GridPoint, leave_one_sequence_out, rank_key
-    from refimpl.evaluate import evaluate_sequence
+    from refimpl.experiments.calibrate import GridPoint, leave_one_sequence_out, rank_key
+    from refimpl.evaluation.evaluate import evaluate_sequence
 
     seq = _demo()
     gt = io.load_ground_truth(io.demo_sequence_paths())
@@ -217,7 +217,7 @@ def test_leave_one_sequence_out_scores_each_sequence_with_the_point_best_on_the_
 
 
 def test_grid_is_the_product_of_its_dimensions_and_grid_options_replace_one():
-    from refimpl.calibrate import DEFAULT_GRID, grid_points, parse_grid
+    from refimpl.experiments.calibrate import DEFAULT_GRID, grid_points, parse_grid
     # 2 new-track x 2 assign x 2 IoU x 1 x 1 x 2 written boxes x 2 velocity noises x 2 backfill
     # x 3 fill_hidden = 192 points, every combination once
     points = grid_points(DEFAULT_GRID)

@@ -1,4 +1,4 @@
-"""BoxMOT's motion-only peers (refimpl.peers, extra ``peers-boxmot``) and the peer registry.
+"""BoxMOT's motion-only peers (refimpl.experiments.peers, extra ``peers-boxmot``) and the peer registry.
 
 The registry tests run everywhere; the ones that track need BoxMOT (which brings torch) and skip
 cleanly without it: the ``test`` extra does not install it."""
@@ -10,7 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-from refimpl import io, peers
+from refimpl import io
+
+from refimpl.experiments import peers
 from refimpl.cli import main
 from refimpl.io.detections import DetectionFrame, DetectionSequence
 

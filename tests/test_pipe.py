@@ -278,7 +278,7 @@ def test_seqinfo_is_for_the_pipe_only(tmp_path, capsys):
 
 
 def test_on_the_fuzzers_inputs_the_stream_reader_agrees_with_the_file_readers(tmp_path):
-    # the detection inputs among the first 600 of tools/fuzz.py (seed 0; seed files with 1 to 4 mutations):
+    # the detection inputs among the first 600 of tests/tools/fuzz.py (seed 0; seed files with 1 to 4 mutations):
     # where both readers accept, the same frames (a KITTI stream may end before the file's empty
     # last frames); where only the stream refuses, it is for what a stream cannot do (rows going
     # back, or scores outside 0..1 after a first frame of probabilities); every refusal is one

@@ -46,7 +46,7 @@ def test_plot_command_writes_one_frame_png(scene_file, tmp_path, capsys):
 
 
 def test_frame_relations_list_the_hidden_car_behind_the_bus():
-    from refimpl.plots import frame_relation_lines
+    from refimpl.scene.plots import frame_relation_lines
     s = bus_scene()
     at = 245
     lines = frame_relation_lines(s, at, [t for t in s.tracks if t.box_at(at)])
@@ -57,7 +57,7 @@ def test_frame_relations_list_the_hidden_car_behind_the_bus():
 
 
 def test_halted_spans_split_resumed_from_ended():
-    from refimpl.plots import halted_spans
+    from refimpl.scene.plots import halted_spans
     s = bus_scene()
     assert halted_spans(s, s.track("trk_13")) == [(235, 267, True)]
     assert halted_spans(s, s.track("trk_5")) == [(210, 211, True)]
@@ -76,9 +76,9 @@ def test_plot_mistakes_are_one_line_errors(scene_file, tmp_path, capsys, argv, m
 
 
 def test_plot_into_a_missing_folder_creates_it_and_under_a_file_is_an_error(scene_file, tmp_path):
-    # every output's folder is created if missing (refimpl.outputs); a file on the path is an error
-    from refimpl.outputs import OutputError
-    from refimpl.plots import plot_scene_file
+    # every output's folder is created if missing (refimpl.io.outputs); a file on the path is an error
+    from refimpl.io.outputs import OutputError
+    from refimpl.scene.plots import plot_scene_file
     plot_scene_file(scene_file, str(tmp_path / "no" / "x.png"))
     assert (tmp_path / "no" / "x.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with pytest.raises(OutputError, match="not a directory"):

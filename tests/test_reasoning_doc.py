@@ -3,7 +3,7 @@
 * every `refimpl ...` command in a fenced code block of docs/reasoning.md parses with the CLI's
   parser (parse only);
 * every example is re-run end to end and compared with what the doc shows by
-  tests/test_doc_examples.py (regenerate with ``python tools/doc_examples.py docs/reasoning.md``).
+  tests/test_doc_examples.py (regenerate with ``python tests/tools/doc_examples.py docs/reasoning.md``).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Commonsense relations of Table 2 on boxes (refimpl.relations), on hand-made boxes and properties."""
+"""Commonsense relations of Table 2 on boxes (refimpl.knowledge.relations), on hand-made boxes and properties."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from refimpl.relations import (
+from refimpl.knowledge.relations import (
     ALLEN_CONVERSE,
     ALLEN_RELATIONS,
     TOPOLOGY_CONVERSE,
@@ -76,7 +76,7 @@ def test_allen_rejects_reversed_interval():
 
 
 def _allen_predicates(a1, a2, b1, b2):
-    """Allen's endpoint definitions, written independently of refimpl.relations.allen."""
+    """Allen's endpoint definitions, written independently of refimpl.knowledge.relations.allen."""
     return {
         "before": a2 < b1,
         "after": b2 < a1,

@@ -19,8 +19,8 @@ from pathlib import Path
 import pytest
 
 from refimpl import cli
-from refimpl.report import ACTIVE, HIDDEN, MISSING, build_report, default_frame, frame_states
-from refimpl.report_html import STATE_COLOURS, frame_data, render_html
+from refimpl.scene.report import ACTIVE, HIDDEN, MISSING, build_report, default_frame, frame_states
+from refimpl.scene.report_html import STATE_COLOURS, frame_data, render_html
 from refimpl.scene import load_scene, save_scene
 
 from test_scene import bus_scene

@@ -11,10 +11,10 @@ import pytest
 
 from refimpl import cli
 from refimpl.io import InputFormatError, InputFormatWarning, read_mot_detections
-from refimpl.ranges import check_ranges
+from refimpl.core.ranges import check_ranges
 from refimpl.scene import save_scene, scene_to_json
-from refimpl.spec import ProblemFormatError, parse_facts
-from refimpl.synthetic import synthetic_frame
+from refimpl.core.spec import ProblemFormatError, parse_facts
+from refimpl.experiments.synthetic import synthetic_frame
 from refimpl.solvers import BACKENDS
 
 from test_scene import bus_scene
@@ -270,7 +270,7 @@ def test_bench_scale_from_json_on_malformed_files_ends_in_one_line(tmp_path, cap
     assert line.startswith(f"refimpl bench-scale: error: {f}") and message in line
 
 
-# -- found by tools/fuzz_cli.py -------------------------------------------------------------
+# -- found by tests/tools/fuzz_cli.py -------------------------------------------------------------
 
 def test_an_option_value_of_double_dash_is_not_a_valid_choice(tmp_path, capsys):
     # argparse turns --backend=-- into [] and skips its choices check; it used to reach

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from refimpl import cli
-from refimpl.tasks import results_file_name
+from refimpl.experiments.tasks import results_file_name
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus"
@@ -122,7 +122,7 @@ def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, 
 
         # results come back in input order although the first task finishes last: two workers,
         # task 0 sleeps 1.5 s while tasks 1 and 2 (no sleep) finish on the other worker
-        from refimpl.scaleout import Plan, run_tasks
+        from refimpl.experiments.scaleout import Plan, run_tasks
         items = [["sleep", "1.5"], ["true"], ["echo"]]
         finished = []
         done = run_tasks(subprocess.run, items, Plan(scheduler=address), quiet=True,
@@ -169,7 +169,7 @@ def test_several_dets_need_out_dir():
 
 
 def test_an_unreachable_scheduler_is_a_one_line_error(tmp_path, monkeypatch):
-    from refimpl import scaleout
+    from refimpl.experiments import scaleout
     monkeypatch.setattr(scaleout, "DEFAULT_CONNECT_TIMEOUT", 1.0)  # nothing listens on port 9
     code, _, err = run_cli(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(tmp_path / "x.txt"),
                             "--scheduler", "tcp://127.0.0.1:9", "--quiet"])
@@ -183,11 +183,11 @@ def test_run_requests_regroups_tasks_per_request():
     import math
 
     from refimpl import io
-    from refimpl.baseline import track_sequence as sort_track
-    from refimpl.evaluate import evaluate_many
-    from refimpl.scaleout import Plan
-    from refimpl.tasks import RunRequest, run_requests
-    from refimpl.tracker import track_sequence
+    from refimpl.tracking.baseline import track_sequence as sort_track
+    from refimpl.evaluation.evaluate import evaluate_many
+    from refimpl.experiments.scaleout import Plan
+    from refimpl.experiments.tasks import RunRequest, run_requests
+    from refimpl.tracking.tracker import track_sequence
 
     seq = io.demo_sequence_paths()
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)

@@ -22,8 +22,10 @@ import pytest
 
 pytest.importorskip("distributed")
 
-from refimpl import cli, scaleout  # noqa: E402
-from refimpl.scaleout import ClusterError, Plan, check_address, run_tasks  # noqa: E402
+from refimpl import cli  # noqa: E402
+
+from refimpl.experiments import scaleout  # noqa: E402
+from refimpl.experiments.scaleout import ClusterError, Plan, check_address, run_tasks  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus"

@@ -27,7 +27,7 @@ from refimpl.scene import (EgoRegion, ReasoningConfig, SceneError, SceneTrack, a
                            fluent_timelines, hidden_behind_at, hiding_episodes, load_scene, make_scene, query,
                            save_scene, scene_from_json, scene_to_json, score_scene, situations,
                            summarise_outcomes)
-from refimpl.spec import HistoryEvent, parse_term
+from refimpl.core.spec import HistoryEvent, parse_term
 from refimpl.solvers import BACKENDS
 
 
@@ -455,7 +455,7 @@ def test_real_sequence_hides_and_unhides_pair_up_on_the_same_track_pair(shared_d
     # MOT15 TUD-Campus (71 frames) tracked with cpsat: people walking past each other
     from refimpl import io
     from refimpl.scene import scene_from_result
-    from refimpl.tracker import track_sequence
+    from refimpl.tracking.tracker import track_sequence
     seq = next(s for s in io.benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus")
     dets = io.load_detections(seq)
     s = scene_from_result(dets, track_sequence(dets, backend="cpsat"))

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from refimpl.geometry import iou_matrix
+from refimpl.core.geometry import iou_matrix
 from refimpl.io import GroundTruth, InputFormatError, read_mot_ground_truth, read_seqinfo
-from refimpl.simulate import (
+from refimpl.io.simulate import (
     DetectorParams,
     simulate_detections,
     simulated_benchmark_sequences,

@@ -1,10 +1,10 @@
-"""The frame problem and the paper's fact format (refimpl.spec)."""
+"""The frame problem and the paper's fact format (refimpl.core.spec)."""
 
 from __future__ import annotations
 
 import pytest
 
-from refimpl.spec import (
+from refimpl.core.spec import (
     Detection, FrameProblem, HistoryEvent, ProblemFormatError, Term, TrackPrediction,
     natural_key, parse_facts, parse_term, read_problem, write_facts,
 )

@@ -18,13 +18,13 @@ import pytest
 
 from refimpl import io
 from refimpl.solvers.cpsat import CpSatSolver
-from refimpl.tracker import track_sequence
+from refimpl.tracking.tracker import track_sequence
 
 REPO = Path(__file__).resolve().parent.parent
 
 NEVER = ("scipy.stats", "pandas", "matplotlib", "dask", "distributed", "clingo", "motmetrics", "trackeval",
          "filterpy")
-"""Not on any tracking path (filterpy: refimpl.kalman replaced it; it is the tests' reference)."""
+"""Not on any tracking path (filterpy: refimpl.tracking.kalman replaced it; it is the tests' reference)."""
 
 _SCRIPT = """
 import json, sys
@@ -73,7 +73,7 @@ def test_track_with_cpsat_imports_neither_scipy_stats_nor_pandas_nor_ortools(tmp
     modules = _modules(["track", "--dets", str(demo.dets_path), "--backend", "cpsat", "--no-preset", "--out", str(out),
                         "--quiet"])
     assert out.read_text().count("\n") > 100  # it did track: TUD-Campus has 71 frames of 1 to 8 people
-    assert "refimpl.tracker" in modules and "refimpl.solvers.fast_path" in modules  # the path ran here
+    assert "refimpl.tracking.tracker" in modules and "refimpl.solvers.fast_path" in modules  # the path ran here
     for package in NEVER + ("ortools", "scipy"):
         assert _loaded(modules, package) == [], f"`refimpl track --backend cpsat` imported {package}"
 

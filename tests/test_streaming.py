@@ -4,7 +4,6 @@ are final give byte-identical files to the all-at-the-end writers, in bounded tr
 from __future__ import annotations
 
 import io as stdio
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,11 +11,10 @@ import pytest
 
 from refimpl.io import (DetectionSequence, ResultWriter, event_json_line, event_line, format_mot_results,
                         read_mot_detections)
-from refimpl.tracker import AbductionTracker, track_sequence
+from refimpl.tracking.tracker import AbductionTracker, track_sequence
 from refimpl.solvers import get_solver
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
-from measure_memory import frames as walk_frames  # noqa: E402
+from refimpl.experiments.measure_memory import frames as walk_frames
 
 DEMO = Path(__file__).resolve().parent.parent / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
 

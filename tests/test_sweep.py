@@ -9,9 +9,9 @@ import math
 import pytest
 
 from refimpl import cli, io
-from refimpl.scaleout import Plan
-from refimpl.sweep import SweepPlan, format_sweep, grid_settings, run_sweep, split_dataset, val_sequences
-from refimpl.tasks import RunRequest, RunSummary
+from refimpl.experiments.scaleout import Plan
+from refimpl.experiments.sweep import SweepPlan, format_sweep, grid_settings, run_sweep, split_dataset, val_sequences
+from refimpl.experiments.tasks import RunRequest, RunSummary
 
 
 def run_cli(argv, stderr=None):
@@ -68,7 +68,7 @@ def test_sweep_on_the_demo_sequence():
 
 
 def test_table_has_no_hota_column_without_hota():
-    from refimpl.sweep import SweepResult
+    from refimpl.experiments.sweep import SweepResult
     o = {"mota": 0.6, "idf1": 0.5, "idsw": 3, "fp": 4, "fn": 5}
     plan = SweepPlan(("iou_thresh",), ((30000,),), "b", "all", ("s",), "cpsat", ())
     result = SweepResult(plan, (RunSummary(0, {}, o),))
@@ -76,7 +76,7 @@ def test_table_has_no_hota_column_without_hota():
 
 
 def test_table_shows_hota_when_the_evaluation_has_it():
-    from refimpl.sweep import SweepResult
+    from refimpl.experiments.sweep import SweepResult
     o = {"hota": 0.5234, "mota": 0.6, "idf1": math.nan, "idsw": 3, "fp": 4, "fn": 5}
     plan = SweepPlan(("iou_thresh",), ((30000,),), "b", "all", ("s",), "cpsat", ())
     result = SweepResult(plan, (RunSummary(0, {}, o),))

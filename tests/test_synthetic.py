@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from refimpl.geometry import iou_matrix, scale_iou
-from refimpl.spec import IOU_SCALE, FrameProblem, parse_facts, read_problem, write_facts
-from refimpl.synthetic import (
+from refimpl.core.geometry import iou_matrix, scale_iou
+from refimpl.core.spec import IOU_SCALE, FrameProblem, parse_facts, read_problem, write_facts
+from refimpl.experiments.synthetic import (
     overlapping_count,
     suite_file_name,
     synthetic_frame,

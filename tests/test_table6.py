@@ -3,7 +3,7 @@ reported apart from the fragmentations."""
 
 from __future__ import annotations
 
-from refimpl.table6 import PAPER_ID_SWITCHES, BenchmarkRun, change, format_table6
+from refimpl.experiments.table6 import PAPER_ID_SWITCHES, BenchmarkRun, change, format_table6
 
 
 def _overall(idsw: int, frag: int, mota: float) -> dict:

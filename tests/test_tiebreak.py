@@ -17,8 +17,8 @@ import pytest
 from framegen import random_frame
 from refimpl.solvers import BACKENDS, NoAdmissibleHypothesis, SolveTimeout, check_time_limit, get_solver
 from refimpl.solvers.common import components, tiebreak_level, tiebreak_weights
-from refimpl.spec import Detection, FrameProblem, TrackPrediction, read_problem, with_constants
-from refimpl.synthetic import synthetic_frame
+from refimpl.core.spec import Detection, FrameProblem, TrackPrediction, read_problem, with_constants
+from refimpl.experiments.synthetic import synthetic_frame
 
 EQUAL_COSTS = {name: 1 for name in ("cost_hides_behind", "cost_missing_detections", "cost_unhides_from_behind",
                                     "cost_recover", "cost_leaves_fov", "cost_lost", "cost_noise")}
@@ -169,7 +169,7 @@ def test_no_time_gives_the_obvious_answer_flagged(examples, backend):
 
 
 def test_no_time_and_no_admissible_fallback_raises_solve_timeout(backend):
-    from refimpl.spec import HistoryEvent, parse_term
+    from refimpl.core.spec import HistoryEvent, parse_term
     # a clipped active track cannot be halted by missing_detections: the obvious answer breaks a rule
     p = FrameProblem(time=5, detections=(Detection("det_0", "car", 90, (50, 50, 20, 20)),),
                      tracks=(TrackPrediction("trk_1", "car", "active", (50, 50, 20, 20)),),
@@ -264,7 +264,7 @@ def test_sigint_interrupts_a_long_clingo_search_within_a_second():
 _CPSAT_SIGINT = """
 import os, signal, sys, threading, time
 from refimpl.solvers import get_solver
-from refimpl.synthetic import synthetic_frame
+from refimpl.experiments.synthetic import synthetic_frame
 p = synthetic_frame(200, 0.8, 1)
 solver = get_solver("cpsat-full")
 solver.solve(p)  # warm: imports and the first model build are not the interrupted solve

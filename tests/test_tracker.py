@@ -1,4 +1,4 @@
-"""The online abduction tracker, the paper's Algorithm 1 (refimpl.tracker)."""
+"""The online abduction tracker, the paper's Algorithm 1 (refimpl.tracking.tracker)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from refimpl import io
 from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.io import write_event_log, write_event_log_json
 from refimpl.solvers import BACKENDS
-from refimpl.tracker import track_sequence
+from refimpl.tracking.tracker import track_sequence
 
 
 def _occlusion_sequence() -> DetectionSequence:
@@ -134,7 +134,7 @@ def test_a_gap_longer_than_bridge_gap_is_not_bridged():
 
 def test_predictions_stay_inside_the_asp_integer_range():
     from refimpl.solvers import get_solver
-    from refimpl.tracker import MAX_BOX_AREA, AbductionTracker
+    from refimpl.tracking.tracker import MAX_BOX_AREA, AbductionTracker
     tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 4000, "img_height": 3000})
     # a box far outside and enormous: clipped to [-4000, 8000] x [-3000, 6000], then its area
     # 12000 * 9000 = 1.08e8 > 2e7 is scaled down around its centre

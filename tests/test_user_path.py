@@ -6,7 +6,7 @@ bytes: ``refimpl track`` on the one file (streamed to its results file), ``refim
 many files with ``--out-dir`` (tasks), and ``refimpl benchmark --results-dir`` (the code every
 published table comes from).  The sequences are the eight on which single-input ``track`` once
 crashed with a duplicate (frame, id) row (issue 24: backfill and the streaming writer disagreed on
-which frames were already written).  ``tools/check_user_path.py`` runs the same check on all 53
+which frames were already written).  ``tests/tools/check_user_path.py`` runs the same check on all 53
 shared sequences (MOT15 11, KITTI Car 21, KITTI Pedestrian 21).
 """
 
@@ -32,7 +32,7 @@ CASES = {
 def benchmarked(shared_data, tmp_path_factory):
     """benchmark --results-dir over the smallest benchmarks holding the sequences (one run, as a user
     would; KITTI Car 0009 is a tuning sequence and MOT15 ADL-Rundle-6 not one of SORT's six, so
-    those two are checked against --out-dir only here; tools/check_user_path.py runs all 53)."""
+    those two are checked against --out-dir only here; tests/tools/check_user_path.py runs all 53)."""
     out = tmp_path_factory.mktemp("benchmark")
     assert main(["benchmark", *(c[3] for c in CASES.values()), "--data", str(shared_data), "--quiet",
                  "--results-dir", str(out)]) == 0

@@ -1,4 +1,4 @@
-"""The tracker option written_box (refimpl.tracker.WrittenBox / TrackerOptions): which box a track
+"""The tracker option written_box (refimpl.tracking.tracker.WrittenBox / TrackerOptions): which box a track
 writes for an observed frame, carried by presets, the CLI, the API and calibration."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
-from refimpl.options import TrackerOptions, WrittenBox
-from refimpl.tracker import track_sequence
+from refimpl.tracking.options import TrackerOptions, WrittenBox
+from refimpl.tracking.tracker import track_sequence
 
 # one object over three frames, moving right and getting wider (x, y, w, h)
 BOXES = [(100.0, 100.0, 40.0, 80.0), (104.0, 100.0, 44.0, 80.0), (109.0, 101.0, 46.0, 80.0)]
@@ -34,7 +34,7 @@ def test_filtered_mode_writes_the_kalman_state_after_the_update():
     result = track_sequence(_three_frames(), backend="cpsat")  # the default: filtered
     rows = {int(r[0]): r[2:] for r in result.rows}
     assert set(result.rows[:, 1].tolist()) == {1}
-    # frame 2, derived by hand from SORT's filter (refimpl/motion.py): a new track starts at
+    # frame 2, derived by hand from SORT's filter (refimpl/tracking/motion.py): a new track starts at
     # z1 = (u, v, s, r) = (120, 140, 3200, 0.5) with P0 = diag(10 x4, 10000 x3); one prediction
     # with zero velocity gives the prior z1 with variance 10 + 10000 + 1 for u, v, s (position
     # plus its velocity plus Q) and 10 + 1 for r (no velocity); R = diag(1, 1, 10, 10); the
@@ -69,10 +69,7 @@ def test_unknown_written_box_is_a_value_error_naming_the_choices():
 
 def test_streamed_rows_equal_result_rows_with_detection_boxes():
     # a walker missed now and then: bridged gaps interpolate between written (detection) boxes
-    import sys
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
-    from measure_memory import frames as walk_frames
+    from refimpl.experiments.measure_memory import frames as walk_frames
     seq = DetectionSequence("walk", tuple(walk_frames(80, 6, 3)), 1, (1920, 1080), 30.0)
     at_end = track_sequence(seq, backend="cpsat", written_box="detection")
     out = stdio.StringIO()
@@ -99,7 +96,7 @@ def test_api_tracker_returns_the_detection_box_when_asked():
 
 
 def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path):
-    from refimpl.presets import Preset, load_presets, options_for, write_preset
+    from refimpl.tracking.presets import Preset, load_presets, options_for, write_preset
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"iou_thresh": 20000}, "kitti-car-train", "test",
                         TrackerOptions(WrittenBox.DETECTION)), path)
@@ -146,7 +143,7 @@ def test_cli_written_box_needs_an_abduction_backend(tmp_path, capsys):
 
 
 def test_calibration_grid_takes_written_box_as_an_axis():
-    from refimpl.calibrate import DEFAULT_GRID, grid_points, parse_grid, split_point
+    from refimpl.experiments.calibrate import DEFAULT_GRID, grid_points, parse_grid, split_point
     grid = parse_grid(["written_box=detection"])
     assert grid["written_box"] == ("detection",)
     assert all(dict(p)["written_box"] == "detection" for p in grid_points(grid))
@@ -160,9 +157,9 @@ def test_calibration_grid_takes_written_box_as_an_axis():
 
 
 def test_velocity_noise_scales_the_velocity_block_of_the_process_noise():
-    from refimpl.motion import BoxKalman
+    from refimpl.tracking.motion import BoxKalman
     from refimpl.solvers import get_solver
-    from refimpl.tracker import AbductionTracker
+    from refimpl.tracking.tracker import AbductionTracker
     # SORT's Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001); x10 on the velocities du, dv, ds only
     np.testing.assert_allclose(np.diag(BoxKalman(BOXES[0], 10).kf.Q), [1, 1, 1, 1, 0.1, 0.1, 0.001])
     tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1000, "img_height": 600}, velocity_noise=10)
@@ -177,7 +174,7 @@ def test_velocity_noise_scales_the_velocity_block_of_the_process_noise():
 
 
 def test_peer_table_names_the_tracker_options_the_abduction_row_ran_with():
-    from refimpl.peers import Comparison, TrackerScore, comparison_table
+    from refimpl.experiments.peers import Comparison, TrackerScore, comparison_table
     o = {"hota": 0.5, "deta": 0.5, "assa": 0.5, "mota": 0.5, "idf1": 0.5, "idsw": 1, "frag": 2, "fp": 3, "fn": 4}
     c = Comparison("x", "X", (TrackerScore("refimpl abduction (cpsat)", o, {}, 10, 1.0),), {"iou_thresh": 20000},
                    TrackerOptions(WrittenBox.DETECTION, 10).changed())

@@ -16,7 +16,7 @@ import sys
 import warnings
 from typing import Sequence
 
-from ..progress import Progress  # noqa: F401  (re-exported, as refimpl/cli.py had it)
+from ..experiments.progress import Progress  # noqa: F401  (re-exported, as refimpl/cli.py had it)
 from ..solvers import BACKENDS  # noqa: F401
 from .benchmarks import (  # noqa: F401  (re-exported: every command stays importable from refimpl.cli)
     _benchmark_peers,
@@ -61,15 +61,15 @@ from .tracking import (  # noqa: F401
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    from ..calibrate import CalibrationRefused
+    from ..experiments.calibrate import CalibrationRefused
     from ..io import InputFormatError
-    from ..peers import PeersUnavailable
+    from ..experiments.peers import PeersUnavailable
     from ..solvers import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout
-    from ..spec import ProblemFormatError
+    from ..core.spec import ProblemFormatError
     from ..scene import SceneError
-    from ..scaleout import ClusterError
-    from ..outputs import OutputError
-    from ..benchmarks import BenchmarkFileError
+    from ..experiments.scaleout import ClusterError
+    from ..io.outputs import OutputError
+    from ..experiments.benchmarks import BenchmarkFileError
     return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable,
             NoAdmissibleHypothesis, SceneError, ClusterError, PeersUnavailable, CalibrationRefused, SolveTimeout)
 
@@ -80,7 +80,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 
 def main(argv: Sequence[str] | None = None) -> int:
     """The command line; Ctrl-C (SIGINT) anywhere ends it with exit code 130 and one line, after the
-    outputs' temporary files are removed (refimpl.outputs), so no partial output is left (SIGTERM
+    outputs' temporary files are removed (refimpl.io.outputs), so no partial output is left (SIGTERM
     likewise, exit 143, when the process was started by run())."""
     try:
         parser = build_parser()

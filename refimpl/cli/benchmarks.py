@@ -8,17 +8,17 @@ import json
 import sys
 from pathlib import Path
 
-from ..progress import Progress
+from ..experiments.progress import Progress
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
-from ..options import option_flags
+from ..tracking.options import option_flags
 from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from ..evaluate import format_table
-    from ..datasets import TITLES, dataset_kind, load_dataset
-    from ..tasks import RunRequest, run_requests
-    from ..outputs import check_outputs
+    from ..evaluation.evaluate import format_table
+    from ..io.datasets import TITLES, dataset_kind, load_dataset
+    from ..experiments.tasks import RunRequest, run_requests
+    from ..io.outputs import check_outputs
     check_outputs({"--json": args.json, "--out": args.out})
     if args.results_dir and args.peers is not None:
         raise UserError("--results-dir writes the results files of refimpl's tracker: give it without --peers")
@@ -59,8 +59,8 @@ def _write_results(args: argparse.Namespace, runs) -> None:
     """benchmark --results-dir DIR: every scored sequence's rows as DIR/<dataset>/<sequence>.txt, in
     the MOTChallenge lines ``refimpl track`` writes (KITTI frames kept 0-based), all files together."""
     from .. import io
-    from ..datasets import dataset_kind
-    from ..outputs import OutputSet
+    from ..io.datasets import dataset_kind
+    from ..io.outputs import OutputSet
     with OutputSet() as files:
         for name, run in zip(args.names, runs):
             fmt, cls = dataset_kind(name, args.data)
@@ -73,10 +73,10 @@ def _write_results(args: argparse.Namespace, runs) -> None:
 
 def _benchmark_peers(args: argparse.Namespace) -> int:
     """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
-    from ..benchmarks import format_command, machine_note, write_section
-    from ..peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
+    from ..experiments.benchmarks import format_command, machine_note, write_section
+    from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
                          peer_class, per_sequence_table)
-    from ..datasets import dataset_kind, load_dataset
+    from ..io.datasets import dataset_kind, load_dataset
     try:
         peers = list(parse_peers(args.peers))
     except ValueError as exc:
@@ -116,8 +116,8 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
-    from ..benchmarks import format_command, write_section
-    from ..calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
+    from ..experiments.benchmarks import format_command, write_section
+    from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
                             chosen_preset, parse_grid, refuse_held_out)
     if args.default:
         return _calibrate_default(args)
@@ -140,11 +140,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
             print(f"written: {args.out}")
         if args.write_presets:
-            from ..presets import write_preset
+            from ..tracking.presets import write_preset
             from dataclasses import replace
 
-            from ..datasets import load_dataset
-            from ..presets import startable_share
+            from ..io.datasets import load_dataset
+            from ..tracking.presets import startable_share
             preset = chosen_preset(cal)
             share = startable_share([d for _, d, _ in load_dataset(name, args.data)], preset.constants)
             print(f"preset {cal.format}/{cal.object_class} written: "
@@ -154,8 +154,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _calibrate_default(args: argparse.Namespace) -> int:
     """calibrate --default: the robust default preset over every named tuning benchmark at once."""
-    from ..benchmarks import format_command, write_section
-    from ..calibrate import check_tunable, default_preset, robust_default, robust_report
+    from ..experiments.benchmarks import format_command, write_section
+    from ..experiments.calibrate import check_tunable, default_preset, robust_default, robust_report
     if args.grid:
         raise UserError("--default chooses among the stored presets: give no --grid")
     for name in args.benchmark:
@@ -167,17 +167,17 @@ def _calibrate_default(args: argparse.Namespace) -> int:
         write_section(args.out, "<!-- calibrate:default:begin -->", "<!-- calibrate:default:end -->", text)
         print(f"written: {args.out}")
     if args.write_presets:
-        from ..presets import write_preset
+        from ..tracking.presets import write_preset
         print(f"preset default written: {write_preset(default_preset(choice))}")
     return EXIT_OK
 
 
 def cmd_table6(args: argparse.Namespace) -> int:
-    from ..datasets import DATASETS, TABLE6_DATASETS, load_dataset
-    from ..table6 import BenchmarkRun, format_table6
-    from ..tasks import RunRequest, run_requests
+    from ..io.datasets import DATASETS, TABLE6_DATASETS, load_dataset
+    from ..experiments.table6 import BenchmarkRun, format_table6
+    from ..experiments.tasks import RunRequest, run_requests
     datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
-    from ..outputs import check_outputs
+    from ..io.outputs import check_outputs
     check_outputs({"--out": args.out})
     unknown = [d for d in datasets if d not in DATASETS]
     if unknown or not all(datasets):
@@ -201,8 +201,8 @@ def cmd_table6(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from ..io import InputFormatError
-    from ..outputs import check_outputs
-    from ..sweep import format_sweep, plan_sweep, run_sweep, sweep_json
+    from ..io.outputs import check_outputs
+    from ..experiments.sweep import format_sweep, plan_sweep, run_sweep, sweep_json
     check_outputs({"--json": args.json})
     plan = _plan(args)
     try:
@@ -220,7 +220,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_scale(args: argparse.Namespace) -> int:
-    from .. import benchmarks as bm
+    from ..experiments import benchmarks as bm
     try:
         sizes = bm.parse_list(args.sizes, int)
         overlaps = bm.parse_list(args.overlaps, float)
@@ -235,7 +235,7 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
             raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
     if args.seeds < 1 or args.time_limit <= 0 or not sizes or not overlaps:
         raise UserError("--seeds must be >= 1, --time-limit > 0, --sizes and --overlaps not empty")
-    from ..outputs import check_outputs
+    from ..io.outputs import check_outputs
     out = None if args.out == "-" else args.out
     default_plot = str(Path(out).with_name("scalability.png")) if out and not args.throughput else None
     check_outputs({"--out": out, "--plot": args.plot or default_plot, "--json": args.json},
@@ -250,9 +250,9 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
 
 
 def cmd_detectors(args: argparse.Namespace) -> int:
-    from .. import benchmarks as bm
-    from .. import detector_sweep as sw
-    from .. import detectors as dt
+    from ..experiments import benchmarks as bm
+    from ..experiments import detector_sweep as sw
+    from ..experiments import detectors as dt
     if args.backend not in BACKENDS:
         raise UserError(f"--backend takes one of {', '.join(BACKENDS)}, got {args.backend!r}")
     try:
@@ -286,7 +286,7 @@ def cmd_detectors(args: argparse.Namespace) -> int:
 
 
 def cmd_occlusion_suite(args: argparse.Namespace) -> int:
-    from ..occlusion import SCENARIOS, write_suite
+    from ..experiments.occlusion import SCENARIOS, write_suite
     out = Path(args.out)
     taken = [s.name for s in SCENARIOS if (out / s.name).exists() and any((out / s.name).iterdir())]
     if taken and not args.force:
@@ -297,9 +297,9 @@ def cmd_occlusion_suite(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_occlusion(args: argparse.Namespace) -> int:
-    from ..benchmarks import write_section
-    from ..occlusion_bench import format_results, parse_variant, run_suite
-    from ..occlusion import SCENARIOS
+    from ..experiments.benchmarks import write_section
+    from ..experiments.occlusion_bench import format_results, parse_variant, run_suite
+    from ..experiments.occlusion import SCENARIOS
     variants = [v.strip() for v in args.trackers.split(",") if v.strip()]
     for v in variants:
         try:

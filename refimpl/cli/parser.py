@@ -6,16 +6,16 @@ import argparse
 
 from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
                          cmd_occlusion_suite, cmd_sweep, cmd_table6)
-from ..datasets import HELD_OUT_DATASETS, REAL_DETECTORS
-from ..devkits import DEVKITS
+from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
+from ..evaluation.devkits import DEVKITS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
 from .scenes import cmd_explain, cmd_plot, cmd_query, cmd_report
 from .solving import cmd_diff, cmd_solve
 from .tracking import cmd_eval, cmd_track
-from ..options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
-from ..peers import PEERS
+from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
+from ..experiments.peers import PEERS
 
 
 _SEEN = "_refimpl_options_seen"
@@ -100,7 +100,7 @@ def _class_name(text: str) -> str:
 
 
 def _add_preset(p: argparse.ArgumentParser) -> None:
-    """--preset and --no-preset (refimpl.pipeline.setup_for: which preset the abduction tracker runs)."""
+    """--preset and --no-preset (refimpl.tracking.pipeline.setup_for: which preset the abduction tracker runs)."""
     p.add_argument("--preset", default=None, metavar="NAME",
                    help="the preset to run with: auto (that of the format and class, else the robust default), none, "
                         "or a name of model/presets.json (kitti/car, default, ...) (default: auto)")
@@ -110,7 +110,7 @@ def _add_preset(p: argparse.ArgumentParser) -> None:
 
 
 def _add_tracker_options(p: argparse.ArgumentParser) -> None:
-    """The tracker options a preset carries (refimpl.options.TRACKER_OPTIONS), overridable here."""
+    """The tracker options a preset carries (refimpl.tracking.options.TRACKER_OPTIONS), overridable here."""
     for option in TRACKER_OPTIONS:
         p.add_argument(option.flag, dest=option.name, type=_option_value(option), default=None,
                        choices=option.choices, metavar=None if option.choices else "X",
@@ -191,7 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
                                  "- for standard output)")
     t.add_argument("--scores", choices=SCORE_RULES, default=DEFAULT_SCORE_RULE,
                    help="how detection scores become the model's confidences 0..100: rank (their place among "
-                        "the scores seen so far: any detector's scale, refimpl/confidence.py), or read as "
+                        "the scores seen so far: any detector's scale, refimpl/core/confidence.py), or read as "
                         "numbers: probability (0..1), raw (0..100), sigmoid (KITTI logits), auto (the file "
                         "decides, refimpl/io/detections.py)")
     t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
@@ -238,7 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
     b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
-                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.simulate); "
+                   help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.io.simulate); "
                         f"{', '.join(HELD_OUT_DATASETS)} are held out (never tuned on)")
     b.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     b.add_argument("--backend", choices=TRACKERS, default=DEFAULT_BACKEND,

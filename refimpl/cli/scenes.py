@@ -22,7 +22,7 @@ def cmd_explain(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from ..plots import plot_scene_file
+    from ..scene.plots import plot_scene_file
     print(plot_scene_file(args.scene, args.out, frame=args.frame, tracks=args.tracks, frames=args.frames))
     return EXIT_OK
 
@@ -30,8 +30,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_report(args: argparse.Namespace) -> int:
     import sys
 
-    from ..outputs import STDOUT
-    from ..report import write_report
+    from ..io.outputs import STDOUT
+    from ..scene.report import write_report
     summary = write_report(args.scene, args.out, frame=args.frame)
     print(summary, file=sys.stderr if args.out == STDOUT else sys.stdout)  # the page itself may be stdout
     return EXIT_OK

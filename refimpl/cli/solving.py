@@ -11,10 +11,10 @@ from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
 
 def cmd_solve(args: argparse.Namespace) -> int:
     from ..solvers import get_solver
-    from ..spec import ProblemFormatError, read_problem, with_constants
+    from ..core.spec import ProblemFormatError, read_problem, with_constants
 
-    from ..constants import resolve_constants
-    from ..ranges import check_constant, check_ranges
+    from ..core.constants import resolve_constants
+    from ..core.ranges import check_constant, check_ranges
     problem = read_problem(args.file)
     if args.const:
         for name, value in args.const:
@@ -28,7 +28,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
     violations = ()
     if args.check:
-        from ..check import check_answer
+        from ..solvers.check import check_answer
         report = check_answer(problem, hyp)
         violations = report.messages
         if report.cost != hyp.cost:
@@ -49,16 +49,16 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 def cmd_diff(args: argparse.Namespace) -> int:
     from .. import io
-    from ..diff import DiffReport
-    from ..scaleout import run_tasks
-    from ..tasks import DiffJob, diff_job
+    from ..experiments.diff import DiffReport
+    from ..experiments.scaleout import run_tasks
+    from ..experiments.tasks import DiffJob, diff_job
     backends = tuple(b.strip() for b in args.backends.split(","))
     if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
         raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
                         f"got {args.backends!r}")
     plan = _plan(args)
     if args.benchmark:
-        from ..datasets import load_dataset  # real and simulated (*-sim) benchmarks alike
+        from ..io.datasets import load_dataset  # real and simulated (*-sim) benchmarks alike
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
     elif args.dets:
         seqs = [_load_sequence(args, path) for path in args.dets]

@@ -8,15 +8,15 @@ import sys
 import warnings
 from pathlib import Path
 
-from ..progress import Progress
+from ..experiments.progress import Progress
 from ..solvers import BACKENDS, BASELINE
-from ..options import option_flags
+from ..tracking.options import option_flags
 from .common import CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup
 
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
     """Where each --dets goes: --out for one, or DIR/<sequence>.txt with --out-dir."""
-    from ..tasks import results_file_name
+    from ..experiments.tasks import results_file_name
     if (args.out is None) == (args.out_dir is None):
         raise UserError("give --out FILE (one --dets) or --out-dir DIR (one results file per --dets)")
     if args.out is not None:
@@ -49,7 +49,7 @@ def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
 
 def _track_constants(args: argparse.Namespace) -> dict[str, int]:
     """--const overrides, checked against the model's constants before any frame is tracked."""
-    from ..constants import default_constants
+    from ..core.constants import default_constants
     consts = dict(args.const or [])
     known = default_constants()
     unknown = sorted(set(consts) - set(known))
@@ -57,7 +57,7 @@ def _track_constants(args: argparse.Namespace) -> dict[str, int]:
         raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
     if args.img_size is not None and {"img_width", "img_height"} & set(consts):
         raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
-    from ..ranges import check_constant
+    from ..core.ranges import check_constant
     for name, value in consts.items():
         check_constant(name, value, f"--const {name}={value}")
     return consts
@@ -67,9 +67,9 @@ def cmd_track(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from .. import io
-    from ..outputs import STDOUT, OutputSet, check_outputs
-    from ..scaleout import run_tasks
-    from ..tasks import TrackJob, track_job
+    from ..io.outputs import STDOUT, OutputSet, check_outputs
+    from ..experiments.scaleout import run_tasks
+    from ..experiments.tasks import TrackJob, track_job
     out_fmt, in_fmt = io.get_format(args.out_format), io.get_format(args.format)
     if out_fmt.needs_class and out_fmt is not in_fmt:
         raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
@@ -132,14 +132,14 @@ def _warn_unknown_image_size(seq, setup, why: str) -> None:
 
 def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
     """One line on stderr: which tracker and preset run (unless --quiet), and a warning when the
-    file's scores lie far from what the preset was fitted on (refimpl.presets.score_warning)."""
+    file's scores lie far from what the preset was fitted on (refimpl.tracking.presets.score_warning)."""
     if setup.baseline:
         return  # SORT: no preset, nothing to say
     if not args.quiet:
         print(f"refimpl track: note: {setup.describe()}", file=sys.stderr)
     if setup.preset == "none":
         return
-    from ..presets import preset_named, score_warning
+    from ..tracking.presets import preset_named, score_warning
     for seq in seqs:
         if not isinstance(seq.frames, tuple):
             continue  # a pipe (refimpl.io.stream): its frames are read once, by the tracker
@@ -160,7 +160,7 @@ def _warn_if_empty(seq, tracks: int, setup, args: argparse.Namespace) -> None:
         low, high = seq.confidence_range
         need = dict(setup.constants).get("conf_thresh_new_track")
         if need is None and not setup.baseline:
-            from ..constants import default_constants
+            from ..core.constants import default_constants
             need = default_constants()["conf_thresh_new_track"]
         why = (f"{n} detections, confidences {low}..{high}" +
                (f" (a new track needs > {need}: conf_thresh_new_track; see --scores)" if need is not None else ""))
@@ -173,10 +173,10 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, li
     detector pipe): ``seq`` is a refimpl.io.DetectionStream, and an output to standard output is
     written and flushed as each frame's rows are final instead of staged."""
     from ..io import ResultWriter, results_formatter
-    from ..outputs import STDOUT, OutputSet
-    from ..pipeline import run_sequence
+    from ..io.outputs import STDOUT, OutputSet
+    from ..tracking.pipeline import run_sequence
     from ..solvers import get_solver
-    from ..tasks import AnswerCheck
+    from ..experiments.tasks import AnswerCheck
     solver = None if setup.baseline else get_solver(setup.backend)  # its libraries loaded before any output is staged
     with OutputSet() as outs:
         def open_out(path):
@@ -237,7 +237,7 @@ def _track_pipe(args: argparse.Namespace) -> int:
     import io as stdio
 
     from .. import io
-    from ..outputs import STDOUT, check_outputs
+    from ..io.outputs import STDOUT, check_outputs
     if len(args.dets) > 1:
         raise UserError("--dets - reads one sequence from standard input: give it alone")
     if args.out is None or args.out_dir is not None:
@@ -279,10 +279,10 @@ def _prefix(seqs, seq) -> str:
 
 def cmd_eval(args: argparse.Namespace) -> int:
     from .. import io
-    from ..devkits import check_devkit, evaluate_sequences
-    from ..evaluate import format_table
-    from ..folder_eval import load_folder, load_sequence, metrics_json
-    from ..outputs import check_outputs
+    from ..evaluation.devkits import check_devkit, evaluate_sequences
+    from ..evaluation.evaluate import format_table
+    from ..evaluation.folder_eval import load_folder, load_sequence, metrics_json
+    from ..io.outputs import check_outputs
     check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
     if io.get_format(args.format).needs_class and args.cls is None:
         raise UserError(f"--format {args.format} needs --class Car|Pedestrian")

@@ -11,7 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..confidence import RANK, OnlineRank
+from ..core.confidence import RANK, OnlineRank
 from .errors import InputFormatError, InputFormatWarning
 from .ground_truth import _kitti_label_num_frames
 from .lines import (MAX_DET_AREA, MIN_DET_SIZE, _check_coordinates, _check_integral, _check_max_frame,
@@ -117,7 +117,7 @@ def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, con
 
 
 SCORE_RULES = ("auto", RANK, "probability", "raw", "sigmoid")
-"""How a file's scores become confidences (refimpl.confidence; the package doc): ``auto`` (the
+"""How a file's scores become confidences (refimpl.core.confidence; the package doc): ``auto`` (the
 default: the format's own scale where the scores are on it, MOTChallenge probabilities in 0..1 and
 KITTI's logits through a sigmoid; a MOTChallenge file whose scores are not probabilities is ranked),
 ``rank`` (any detector's scale: a score's place among those seen so far), ``probability``, ``raw``
@@ -131,7 +131,7 @@ def _check_rule(rule: str, allowed: Sequence[str]) -> None:
 
 
 def _ranked(seq: DetectionSequence) -> DetectionSequence:
-    """The rank rule (refimpl.confidence): each frame's confidences from the scores of frames <= it."""
+    """The rank rule (refimpl.core.confidence): each frame's confidences from the scores of frames <= it."""
     from dataclasses import replace
     ranker = OnlineRank()
     return replace(seq, frames=tuple(replace(f, confidences=ranker.confidences(f.scores)) for f in seq.frames))
@@ -151,7 +151,7 @@ def _mot_rule(path, linenos: Sequence[int], scores: np.ndarray, rule: str, basis
     if share <= 0.5:  # not probabilities (ACF's 0..139, a logit, ...): their scale says nothing
         warnings.warn(f"{path}: scores {scores.min():g}..{scores.max():g}{basis} are not probabilities in 0..1: "
                       "each detection's confidence is its score's rank among those seen so far "
-                      "(--scores rank; refimpl/confidence.py); --scores raw reads them as 0..100",
+                      "(--scores rank; refimpl/core/confidence.py); --scores raw reads them as 0..100",
                       InputFormatWarning, stacklevel=3)
         return RANK
     bad = _first_bad(~inside)
@@ -178,7 +178,7 @@ def _kitti_sigmoid(scores: np.ndarray) -> np.ndarray:
 
 
 def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray) -> None:
-    """A detection's area must fit the solvers' 32-bit arithmetic (refimpl.ranges): w*h <= MAX_DET_AREA."""
+    """A detection's area must fit the solvers' 32-bit arithmetic (refimpl.core.ranges): w*h <= MAX_DET_AREA."""
     bad = _first_bad(np.round(w) * np.round(h) > MAX_DET_AREA)
     if bad is not None:
         raise InputFormatError(f"box area w*h = {w[bad]:g}*{h[bad]:g} exceeds {MAX_DET_AREA} px^2 "

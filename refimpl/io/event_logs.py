@@ -1,12 +1,12 @@
 """Event log files: the abduced events in the paper's syntax ('occurs_at(E,T).') or as JSON lines,
-written atomically (refimpl.outputs)."""
+written atomically (refimpl.io.outputs)."""
 
 from __future__ import annotations
 
 import json
 from typing import Iterable
 
-from ..outputs import write_atomic
+from .outputs import write_atomic
 
 
 def event_line(e) -> str:

@@ -58,9 +58,9 @@ def _fmt2(v: float) -> str:
 
 
 def write_text_atomic(path, text: str) -> None:
-    """Write text atomically through refimpl.outputs (never a partial file; symlinks, device
+    """Write text atomically through refimpl.io.outputs (never a partial file; symlinks, device
     nodes, modes and the umask handled as its module doc says)."""
-    from ..outputs import write_atomic
+    from .outputs import write_atomic
     write_atomic(path, text)
 
 
@@ -180,7 +180,7 @@ def read_kitti_results(path: str | os.PathLike, object_class: str, allow_empty: 
 
 class ResultWriter:
     """Writes results rows and event logs to open (staged) files as a streaming tracker decides
-    them: a ``refimpl.tracker.ResultSink`` (rows of whole frames, then each frame's events).
+    them: a ``refimpl.tracking.tracker.ResultSink`` (rows of whole frames, then each frame's events).
 
     ``results_format``: a function formatting (n, 6) rows as text (default MOTChallenge lines,
     :func:`format_mot_results`); chunks of whole frames concatenate to the text of all rows."""

@@ -29,7 +29,7 @@ from typing import IO, Callable, Iterator, Sequence
 
 import numpy as np
 
-from ..confidence import RANK, OnlineRank
+from ..core.confidence import RANK, OnlineRank
 from .detections import (DEFAULT_SCORE_RULE, KITTI_DET_TABLE, KITTI_FPS, KITTI_IMAGE_SIZE, MOT_DET_TABLE,
                          DetectionFrame, _check_rule, _kitti_rows, _kitti_sigmoid, _mot_rows, _mot_rule, _mot_scale,
                          _Rows, _warn_dropped)

@@ -3,7 +3,7 @@
 A :class:`Scene` is the paper's explanation EXP = <H^events, MT> of one sequence, frozen and
 JSON-serialisable: the motion tracks (observed boxes, halted spans with their Kalman-predicted
 boxes, end), the abduced event log, and the fluent timelines obtained by replaying the events
-with :class:`refimpl.events.EventState` frame by frame.  On top of it this package answers:
+with :class:`refimpl.knowledge.events.EventState` frame by frame.  On top of it this package answers:
 
 * queries (``query(scene, "hidden_by trk_12")``; the forms are in :data:`QUERY_FORMS`);
 * explanations: the event log as one English sentence per episode (:func:`explain`);

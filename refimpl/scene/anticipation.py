@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
-from .. import relations as rel
+from ..knowledge import relations as rel
 from .episodes import hiding_end, hiding_episodes
 from .model import Box, Scene, SceneError, SceneTrack
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..events import EVENT_TABLE, explaining
-from ..spec import natural_key
+from ..knowledge.events import EVENT_TABLE, explaining
+from ..core.spec import natural_key
 from .model import Scene, track_id
 
 
@@ -111,7 +111,7 @@ def _later(a: int, b: int) -> str:
 
 
 def explain_episode(scene: Scene, ep: Episode) -> str:
-    """One plain-English sentence for an episode (phrases from the event table, refimpl.events)."""
+    """One plain-English sentence for an episode (phrases from the event table, refimpl.knowledge.events)."""
     who = _who(scene, ep.track, True) if ep.track else ""
     halt = next((e for e in _HALTS.values() if e.closing == ep.kind), None)
     if halt is not None:

@@ -10,7 +10,7 @@ import json
 import math
 import os
 
-from ..spec import HistoryEvent, ProblemFormatError, parse_term
+from ..core.spec import HistoryEvent, ProblemFormatError, parse_term
 from .model import Box, Scene, SceneError, SceneTrack
 
 
@@ -76,7 +76,7 @@ def _boxes(rows, what: str) -> tuple[tuple[int, Box], ...]:
 
 
 def _event(text, i: int) -> HistoryEvent:
-    from ..events import EFFECTS
+    from ..knowledge.events import EFFECTS
     _need(isinstance(text, str), f"events[{i}] must be a string 'occurs_at(E,T)'")
     try:
         term = parse_term(text)

@@ -3,7 +3,7 @@
 A :class:`Scene` is the paper's explanation EXP = <H^events, MT> of one sequence, frozen: the
 motion tracks (observed boxes, halted spans with their Kalman-predicted boxes, end), the abduced
 event log, and the fluent timelines obtained by replaying the events with
-:class:`refimpl.events.EventState` frame by frame (time semantics: refimpl.scene's package doc).
+:class:`refimpl.knowledge.events.EventState` frame by frame (time semantics: refimpl.scene's package doc).
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import bisect
 from dataclasses import dataclass, field
 from typing import Iterable, Mapping, Sequence
 
-from ..events import EVENT_TABLE, EventState
-from ..spec import HistoryEvent, Term, natural_key
+from ..knowledge.events import EVENT_TABLE, EventState
+from ..core.spec import HistoryEvent, Term, natural_key
 
 
 Box = tuple[float, float, float, float]
@@ -215,7 +215,7 @@ def make_scene(name: str, tracks: Iterable[SceneTrack], events: Iterable[History
 
 
 def scene_from_result(seq, result) -> Scene:
-    """The scene of a tracked DetectionSequence (refimpl.io) and its TrackingResult (refimpl.tracker)."""
+    """The scene of a tracked DetectionSequence (refimpl.io) and its TrackingResult (refimpl.tracking.tracker)."""
     tracks = [SceneTrack(r.id, r.type,
                          tuple((int(f), _round_box(b)) for f, b in r.observed),
                          tuple((int(f), _round_box(b)) for f, b in r.halted),

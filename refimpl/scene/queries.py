@@ -7,8 +7,8 @@ import json
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
-from .. import relations as rel
-from ..events import EventState
+from ..knowledge import relations as rel
+from ..knowledge.events import EventState
 from .anticipation import DEFAULT_CONFIG, ReasoningConfig, anticipate, no_anticipation_reason
 from .episodes import ENDINGS, episodes
 from .model import Box, Scene, SceneError, frame_runs, track_id
@@ -55,7 +55,7 @@ def _spatial_relations() -> dict[str, Callable[[Box, Box], bool]]:
 
 def _hide_overlap() -> int:
     """model/constants.lp hide_overlap: overlapping_top needs more than this % of T1 covered."""
-    from ..constants import default_constants
+    from ..core.constants import default_constants
     return default_constants()["hide_overlap"]
 
 

@@ -11,7 +11,7 @@ import sys
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
-from ..datasets import THROUGHPUT_DATASETS
+from ..io.datasets import THROUGHPUT_DATASETS
 from ..solvers import DEFAULT_BACKEND
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate
 from .episodes import hiding_episodes
@@ -148,7 +148,7 @@ def format_evaluation(rows: Sequence[tuple[str, str, str, dict]]) -> str:
 
 def _benchmark_scenes(name: str, data_root: str, cache: str | None, progress: bool) -> list[Scene]:
     from .. import io
-    from ..pipeline import Setup, run_sequence
+    from ..tracking.pipeline import Setup, run_sequence
     out = []
     for s in io.benchmark_sequences(name, data_root):
         path = os.path.join(cache, f"{name}-{s.name}.scene.json") if cache else None
@@ -190,7 +190,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [(name, motion, k, v) for k, v in result["by_hidden_frames"].items()]
     print(format_evaluation(rows))
     if args.json:
-        from ..outputs import write_atomic
+        from ..io.outputs import write_atomic
         write_atomic(args.json, json.dumps([{"data": d, "motion": m, "bucket": b, **s} for d, m, b, s in rows],
                                            indent=2))
     return 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..spec import natural_key
+from ..core.spec import natural_key
 from .anticipation import DEFAULT_CONFIG, ReasoningConfig
 from .episodes import hiding_end, hiding_episodes
 from .model import Box, Scene, frame_runs

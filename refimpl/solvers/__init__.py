@@ -40,8 +40,8 @@ import math
 from dataclasses import dataclass
 from typing import Mapping, Protocol
 
-from ..hypothesis import Hypothesis
-from ..spec import FrameProblem
+from ..core.hypothesis import Hypothesis
+from ..core.spec import FrameProblem
 
 CPSAT, CPSAT_FULL, CLINGO = "cpsat", "cpsat-full", "clingo"
 """The backend names; the only place they are spelled (the classes read their own from here)."""
@@ -86,7 +86,7 @@ REFERENCE_BACKEND = CLINGO
 """The paper's own encoding: benchmarks give every other backend's speed as a ratio to it."""
 
 BASELINE = "baseline"
-"""The paper's baseline tracker (SORT, refimpl.baseline): a tracker without a solver."""
+"""The paper's baseline tracker (SORT, refimpl.tracking.baseline): a tracker without a solver."""
 TRACKERS: tuple[str, ...] = (BASELINE,) + BACKENDS
 """What a tracking command's ``--backend`` accepts: the baseline, or abduction with a backend."""
 

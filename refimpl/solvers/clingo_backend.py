@@ -13,7 +13,7 @@ clingo options (fixed, so that a run is reproducible):
 * ``--parallel-mode=N``       N solver threads (default 1: single-threaded, deterministic; with
                               N > 1 clingo races N configurations and the optimal answer found
                               first may differ among equally good ones)
-* ``-c name=value``           every model constant (refimpl.constants.resolve_constants), so
+* ``-c name=value``           every model constant (refimpl.core.constants.resolve_constants), so
                               model/constants.lp gives only the defaults and the problem's
                               ``#const`` lines are not passed in the fact text
 """
@@ -24,10 +24,10 @@ import time
 from pathlib import Path
 from typing import Sequence
 
-from ..constants import model_dir, resolve_constants
-from ..ranges import OutOfClingoRange, clingo_overflow
-from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
-from ..spec import FrameProblem
+from ..core.constants import model_dir, resolve_constants
+from ..core.ranges import OutOfClingoRange, clingo_overflow
+from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
+from ..core.spec import FrameProblem
 from . import CLINGO, NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
 from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
@@ -77,7 +77,7 @@ PART_NODES = 16
 def check_representable(problem: FrameProblem, parts: Sequence[Part] | None = None) -> None:
     """OutOfClingoRange (one line) if any sub-problem clingo would be given (``parts``, by
     default those of ``split(problem, PART_NODES)``) has an optimisation sum beyond its 32-bit
-    integers (refimpl.ranges.clingo_overflow); the others are not solved either: an answer for
+    integers (refimpl.core.ranges.clingo_overflow); the others are not solved either: an answer for
     part of a frame is no answer."""
     if parts is None:
         parts = split(problem, PART_NODES)
@@ -212,7 +212,7 @@ class ClingoSolver:
         if whole and cost and optimal is not None and found is not None:
             levels = {p: cost.get(p, 0) for p in PRIORITIES}
         else:  # several parts (or the fallback): the levels of the merged answer
-            from ..check import recompute_cost
+            from .check import recompute_cost
             names = [event_term(e).split("(", 1)[0] for e in events]
             levels = dict(recompute_cost(problem, actions, names, events, resolve_constants(problem)))
         levels[TIEBREAK_LEVEL] = tiebreak_level(problem, actions, events)

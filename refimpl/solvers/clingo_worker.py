@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..spec import FrameProblem
+from ..core.spec import FrameProblem
 
 POLL = 0.1
 """Seconds between two checks of the pipe (time limit, SIGINT)."""

@@ -25,7 +25,7 @@ Levels 10..1 leave ties.  Level 0 makes the optimum unique on every frame:
   options of one node always differ at level 3 (ignore costs 10@3, end/start/halt 0@3; an active
   track has no other solo action than halt), so the actions are unique.
 * explanation part: every event a track (or detection) can explain an action with has an index
-  idx >= 0 among the events of its first argument: the arity-1 events in refimpl.events.EVENT_NAMES
+  idx >= 0 among the events of its first argument: the arity-1 events in refimpl.knowledge.events.EVENT_NAMES
   order, then for each arity-2 event the other tracks that overlap the track's box (decreasing
   overlap, then natural order) or that its history names (natural order).  A chosen event weighs
   idx.  The events of one action have distinct indices and, given the actions, each action's
@@ -51,13 +51,13 @@ from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 
-from ..events import EFFECTS, EVENT_NAMES
-from ..ranges import EXPLANATION_LIMIT
-from ..spec import Box, FrameProblem, natural_key
+from ..knowledge.events import EFFECTS, EVENT_NAMES
+from ..core.ranges import EXPLANATION_LIMIT
+from ..core.spec import Box, FrameProblem, natural_key
 
 
 def intersection_matrix(boxes: Sequence[Box]) -> np.ndarray:
-    """inter[i, j] = refimpl.geometry.intersection_area(boxes[i], boxes[j]) for integer boxes,
+    """inter[i, j] = refimpl.core.geometry.intersection_area(boxes[i], boxes[j]) for integer boxes,
     all pairs at once (int64, exact: the same integer arithmetic, vectorised)."""
     b = np.asarray(boxes, dtype=np.int64).reshape(-1, 4)
     x1, y1 = b[:, 0], b[:, 1]
@@ -90,7 +90,7 @@ class Component:
 def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
     """The (trk, det) pairs that can take a pair action: an iou/3 fact and the assign or resume
     integrity constraint (whether a resume can be explained is not asked: a superset is safe)."""
-    from ..constants import resolve_constants
+    from ..core.constants import resolve_constants
     from .cpsat import assignment_constraints, resume_constraints  # the rules, one place
 
     constants = resolve_constants(problem)
@@ -107,7 +107,7 @@ def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
             ok = assignment_constraints(problem, constants, iou, trk, det)
         else:
             if state is None and det.conf <= constants["conf_thresh_resume"]:
-                from ..events import EventState
+                from ..knowledge.events import EventState
                 state = EventState.from_problem(problem)
             ok = resume_constraints(problem, constants, iou, trk, det, state, tracks)
         if ok:

@@ -2,7 +2,7 @@
 
 The hypothesis space and the cost vector are those of docs/model-spec.md, the same contract the
 ASP encoding (model/*.lp) implements; the event calculus and the events' preconditions come from
-refimpl/events.py instead of ASP rules.
+refimpl/knowledge/events.py instead of ASP rules.
 
 Model (``build_model``): one Boolean per *candidate* action and per *candidate* event.  A
 candidate action passes its integrity constraint (spec section 1) and, if it needs an
@@ -33,10 +33,10 @@ from __future__ import annotations
 import time
 from collections import Counter
 
-from ..constants import resolve_constants
-from ..events import EventState
-from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
-from ..spec import FrameProblem
+from ..core.constants import resolve_constants
+from ..knowledge.events import EventState
+from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
+from ..core.spec import FrameProblem
 from . import CPSAT, CPSAT_FULL, NoAdmissibleHypothesis, SolveTimeout, check_time_limit  # noqa: F401
 from .common import tiebreak_level
 from .cpsat_model import (  # noqa: F401  (re-exported: refimpl.solvers.cpsat is the public name)

@@ -20,10 +20,10 @@ import numpy as np
 if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
-from ..events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
-from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
-from ..relations import area
-from ..spec import Detection, FrameProblem, TrackPrediction
+from ..knowledge.events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
+from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
+from ..knowledge.relations import area
+from ..core.spec import Detection, FrameProblem, TrackPrediction
 from . import NoAdmissibleHypothesis, SolveTimeout
 from .common import intersection_matrix, tiebreak_weights
 

@@ -20,7 +20,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..spec import FrameProblem
+from ..core.spec import FrameProblem
 from .common import Component, components, event_term, intersection_matrix
 
 DEFAULT_PART_NODES = 60

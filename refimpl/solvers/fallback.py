@@ -9,15 +9,15 @@ flagged not optimal; where it is not admissible, the caller reports the frame in
 
 from __future__ import annotations
 
-from ..hypothesis import Hypothesis
-from ..spec import FrameProblem
+from ..core.hypothesis import Hypothesis
+from ..core.spec import FrameProblem
 
 
 def obvious_hypothesis(problem: FrameProblem, backend: str, solve_ms: float = 0.0) -> Hypothesis | None:
     """The ignore-and-halt answer with its real cost vector, or None if it breaks a rule."""
-    from ..check import check_answer  # the checker decides admissibility and the cost
-    from ..constants import resolve_constants
-    from ..events import EventState, explaining, poss, reexplained
+    from .check import check_answer  # the checker decides admissibility and the cost
+    from ..core.constants import resolve_constants
+    from ..knowledge.events import EventState, explaining, poss, reexplained
 
     t = problem.time
     actions = [f"ignore_det({d.id})" for d in problem.detections]

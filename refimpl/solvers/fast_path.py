@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
-from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key, reexplained
-from ..hypothesis import PRIORITIES
-from ..spec import FrameProblem
+from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, fluent_key, reexplained
+from ..core.hypothesis import PRIORITIES
+from ..core.spec import FrameProblem
 from .common import DisjointSets, intersection_matrix, tiebreak_weights
 from .cpsat_model import (_cost, _explanations, _overlapping_top_matrix, assignment_constraints,
                           resume_constraints, start_constraints)
@@ -195,7 +195,7 @@ class TrackwiseState:
     EventState per track, each folded from that track's own events only, and memoised.
 
     Exact because every effect, start and halt time of an event concerns its first argument only
-    (refimpl.events.EFFECTS: each effect's fluent has the event's first argument as its own first
+    (refimpl.knowledge.events.EFFECTS: each effect's fluent has the event's first argument as its own first
     argument; recover's "hidden_by(T, X) for every X" too), and the set-valued grouping of one
     time point is per fluent; folding a track's events in time order (stable, as EventState does)
     gives that track's fluents exactly.  Per-track states are reused across frames while the
@@ -267,7 +267,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     """The unique lexicographic optimum of the model, without CP-SAT, or FastPathDeclined.
 
     Candidates are those of build_model (same rules: cpsat_model's constraint functions and the
-    poss functions of refimpl.events), costs those of build_model's objectives."""
+    poss functions of refimpl.knowledge.events), costs those of build_model's objectives."""
     tracks, dets = problem.tracks, problem.detections
     iou = problem.iou_map
     inter = intersection_matrix([t.box for t in tracks])

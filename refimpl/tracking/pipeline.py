@@ -1,0 +1,167 @@
+"""One pipeline: a sequence and a Setup in, result rows and events out.
+
+Every way of tracking goes through here: ``refimpl track`` with one input (streamed to its
+files) or many (``--out-dir``, serial or on Dask), ``benchmark``, ``calibrate``, ``sweep``,
+``table6``, the peer comparison, ``detectors``, ``diff`` and the library's ``refimpl.Tracker``
+(which builds its tracker with :func:`new_tracker`).  So what a user's command writes is what the
+published tables measured.
+
+* :class:`Setup` is what a sequence is tracked with: the tracker (``baseline`` or an abduction
+  backend), the model constants beyond ``model/constants.lp``, the tracker options, the per-frame
+  time limit, and the name of the preset they came from;
+* :func:`setup_for` is the one rule that picks it: the preset of (format, class) (refimpl.tracking.presets;
+  the robust default where that pair has none), unless asked for none or for another by name, then
+  the caller's constants and options on top;
+* :func:`run_sequence` tracks one sequence with a Setup, optionally streaming to a sink.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from time import process_time
+from typing import Callable, Mapping
+
+import numpy as np
+
+from .options import TrackerOptions
+from ..solvers import BASELINE, DEFAULT_BACKEND
+
+AUTO = "auto"
+"""Pick the preset by (format, class), falling back to the robust default."""
+NONE = "none"
+"""No preset: model/constants.lp and the tracker's default options."""
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What a sequence is tracked with (picklable: a task carries it to a worker)."""
+
+    backend: str = DEFAULT_BACKEND
+    constants: tuple[tuple[str, int], ...] = ()
+    """Model constants beyond model/constants.lp (the preset's, then overrides)."""
+    options: TrackerOptions = field(default_factory=TrackerOptions)
+    time_limit: float | None = None
+    preset: str = NONE
+    """The preset the constants and options came from ("kitti/car", "default", or "none")."""
+
+    @property
+    def baseline(self) -> bool:
+        return self.backend == BASELINE
+
+    def describe(self) -> str:
+        """One line for a user: which tracker and preset ran."""
+        if self.baseline:
+            return "baseline (SORT)"
+        if self.preset == NONE:
+            return f"{self.backend}, no preset (model/constants.lp, default tracker options)"
+        return f"{self.backend}, preset {self.preset}"
+
+
+def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND,
+              constants: Mapping[str, int] | None = None, options: Mapping[str, object] | None = None,
+              preset: str | None = AUTO, time_limit: float | None = None) -> Setup:
+    """The Setup for a sequence of this format and class.
+
+    ``preset``: AUTO (the preset of (format, class), or the robust default where there is none),
+    NONE or None (no preset), or a preset's name (``kitti/car``, ``default``).  ``constants`` and
+    ``options`` ({name: value}) override the preset's.  ValueError (one sentence) for an unknown
+    preset, constant or option, or for constants/options given to the baseline."""
+    from .presets import merge_constants, merge_options, preset_named, resolve_preset
+    if backend == BASELINE:
+        if constants or options:
+            raise ValueError("model constants and tracker options need an abduction backend; the baseline is SORT")
+        return Setup(BASELINE, preset=NONE)
+    if preset is None or preset == NONE:
+        chosen = None
+    elif preset == AUTO:
+        chosen = resolve_preset(fmt, object_class or "pedestrian")
+    else:
+        chosen = preset_named(preset)
+    merged = merge_constants(chosen, constants)
+    opts = merge_options(chosen, options)
+    return Setup(backend, tuple(merged.items()), opts, time_limit, chosen.name if chosen else NONE)
+
+
+FrameCallback = Callable[[], None]
+
+
+def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: float | None = None,
+                min_hits: int | None = None, bridge_gap: int | None = None, bridge_conf: int | None = None,
+                solver=None, sink=None, keep_records: bool = True):
+    """The abduction tracker (refimpl.tracking.tracker.AbductionTracker) of a Setup for a sequence of this
+    image size and frame rate, exactly as :func:`run_sequence` builds it (the library's
+    refimpl.Tracker steps it frame by frame)."""
+    from ..solvers import get_solver
+    from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker,
+                          sequence_constants)
+    if setup.baseline:
+        raise ValueError("the baseline is SORT (refimpl.tracking.baseline), not an abduction tracker")
+    return AbductionTracker(solver or get_solver(setup.backend),
+                            sequence_constants(dict(setup.constants), image_size, fps),
+                            DEFAULT_MIN_HITS if min_hits is None else min_hits, setup.time_limit,
+                            DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
+                            DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf,
+                            sink=sink, keep_records=keep_records, **setup.options.kwargs())
+
+
+def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,
+                 solver=None, on_frame: FrameCallback | None = None, frame_times: list | None = None):
+    """Track one DetectionSequence (or a refimpl.io.DetectionStream: its frames are read once, as
+    they arrive) with ``setup``: a refimpl.tracking.tracker.TrackingResult.
+
+    ``observer(problem, hypothesis)`` sees every frame's answer (abduction only); ``on_frame()`` is
+    called once per frame (progress); with a ``sink`` (refimpl.tracking.tracker.ResultSink) rows and events
+    are handed over as they become final and the result's rows are empty (as for
+    refimpl.tracking.tracker.track_sequence); ``solver``: a solver instance to use instead of the backend's; ``frame_times``: a list that
+    receives each frame's CPU seconds of tracking (time.process_time around the frame's update:
+    latency, issue 27)."""
+    from .tracker import TrackingResult
+    if setup.baseline:
+        from .baseline import stream_sequence
+        kept, frames = [], 0
+        for rows in _timed(stream_sequence(seq), frame_times):  # seq.frames may be a stream, read once
+            frames += 1
+            if sink is not None:
+                sink.rows(rows)
+            elif len(rows):
+                kept.append(rows)
+            if on_frame is not None:
+                on_frame()
+        rows = np.vstack(kept) if kept else np.zeros((0, 6))
+        return TrackingResult(rows, (), (), frames, 0, 0.0)
+
+    def observe(problem, hyp) -> None:
+        if observer is not None:
+            observer(problem, hyp)
+        if on_frame is not None:
+            on_frame()
+
+    tracker = new_tracker(setup, seq.image_size, getattr(seq, "fps", None), solver=solver, sink=sink,
+                          keep_records=keep_records)
+    watch = observe if (observer is not None or on_frame is not None) else None
+    for fr in seq.frames:
+        start = process_time() if frame_times is not None else 0.0
+        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, watch)
+        if frame_times is not None:
+            frame_times.append(process_time() - start)
+    tracker.finish()
+    if sink is None:
+        return tracker.result()
+    return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
+                          tracker.track_records() if keep_records else (), tracker.frames, tracker.not_optimal,
+                          tracker.solve_ms)
+
+
+def _timed(frames, frame_times: list | None):
+    """The items of an iterator, each one's CPU seconds of computing appended to frame_times."""
+    it = iter(frames)
+    while True:
+        start = process_time()
+        try:
+            item = next(it)
+        except StopIteration:
+            return
+        if frame_times is not None:
+            frame_times.append(process_time() - start)
+        yield item
+

@@ -1,0 +1,471 @@
+"""Online abduction tracker: the paper's Algorithm 1 (Online_Abduction), one frame at a time.
+
+For each time point: observe detections (VO_t), Kalman-predict every track, active and halted
+(P_t), compute the matching likelihood (ML_t, IoU x 100000), build the frame problem with the
+event history, abduce the best hypothesis with a backend, and apply it: assign updates the
+filter, start creates a track (ids handed out here, in detection order), halt keeps the track
+alive but unobserved, resume re-attaches a detection to the same identity, end removes it,
+ignores drop.  Events are logged as occurs_at(E, t) with track ids.
+
+What the results file holds (refimpl decision; measurements in docs/tracking.md):
+- a track's box is written for a frame in which a detection was assigned to it or resumed it,
+  once the track is confirmed by SORT's online rule: hit_streak >= min_hits consecutive
+  observations, or the first min_hits frames; WHICH box is the tracker option ``written_box``
+  (WrittenBox): the Kalman state after the update (FILTERED, as SORT writes it, the default) or
+  the detection's own box (DETECTION, as ByteTrack and OC-SORT write it; the KITTI Car preset
+  chooses it, docs/peers.md);
+- a resumed track must be re-confirmed the same way, unless the gap was short (<= bridge_gap
+  frames) and the resuming detection confident (>= bridge_conf): then it stays confirmed and its
+  hidden frames are filled by linear interpolation between the boxes around the gap (the paper's
+  commonsense interpolation of a hidden object's position);
+- a halted track writes nothing for its halted frames otherwise;
+- with the tracker option ``fill_hidden`` (refimpl.tracking.options), an occlusion episode of a confirmed
+  track (halted with hides_behind right after its last observed frame, resumed with
+  unhides_from_behind) of at most fill_hidden frames is filled by the same interpolation once the
+  resumed track is confirmed again (min_hits updates): the paper's interpolated position of a
+  hidden object, written;
+- with the tracker option ``backfill`` (refimpl.tracking.options), a track that becomes confirmed also
+  writes the earlier frames of the streak that confirmed it (up to min_hits frames back: a new
+  track's first frame and its first min_hits - 1 updates; SORT never writes them): a frame's rows
+  are then final min_hits frames late instead of bridge_gap.
+Measured on MOT15 and KITTI: writing longer hidden spans, or every resumed frame, adds more false
+positives than it removes misses (flickering false detections survive halts), which is why the
+defaults are this conservative.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import numpy as np
+
+from ..core.geometry import integer_box, iou_matrix, scale_iou
+from ..knowledge.events import explaining
+from ..core.hypothesis import Hypothesis
+from .motion import BoxKalman, InvalidPrediction
+from .options import TrackerOptions, WrittenBox
+from ..core.ranges import check_ranges
+from ..solvers import DEFAULT_BACKEND, Solver, get_solver
+from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+
+DEFAULT_MIN_HITS = 3
+DEFAULT_BRIDGE_GAP = 2
+DEFAULT_BRIDGE_CONF = 90
+_RESUMING = frozenset(e.name for e in explaining("resume"))
+_STARTING = frozenset(e.name for e in explaining("start"))
+HIDDEN_MAX_SECONDS = 10.0
+"""The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
+frame rate (docs/model.md 3.14); without a frame rate the model's default in frames applies."""
+MAX_BOX_AREA = 20_000_000
+"""px^2: 100 * area stays below clingo's 2^31 integer limit."""
+
+FrameObserver = Callable[[FrameProblem, Hypothesis], None]
+
+
+class ResultSink:
+    """Where a streaming tracker puts what it has decided (see AbductionTracker's ``sink``)."""
+
+    def rows(self, rows: np.ndarray) -> None:
+        """(n, 6) results rows of whole frames that can receive no more rows, sorted by (frame, id)."""
+
+    def events(self, events: tuple[HistoryEvent, ...]) -> None:
+        """The events of the frame just decided, in log order."""
+
+
+@dataclass
+class _Track:
+    """A motion track's mutable state inside the tracker (not part of the public data flow)."""
+
+    id: str
+    type: str
+    kalman: BoxKalman
+    state: str = "active"
+    observed: dict[int, np.ndarray] = field(default_factory=dict)  # frame -> box written for it
+    gaps: list[tuple[int, int]] = field(default_factory=list)  # (last observed frame, resumed frame)
+    history: list[HistoryEvent] = field(default_factory=list)
+    halted: dict[int, np.ndarray] = field(default_factory=dict)  # frame -> predicted box while halted
+    ended_at: int | None = None
+    predicted: np.ndarray | None = None
+    streak: int = 0  # consecutive observed frames, SORT's hit_streak (0 at birth)
+    bridged: bool = False  # resumed after a short gap while confirmed: stays confirmed
+    episode: tuple[int, int] | None = None  # an occlusion episode to fill once re-confirmed (fill_hidden)
+    confirmed: set[int] = field(default_factory=set)  # observed frames that are written
+
+
+@dataclass(frozen=True)
+class TrackRecord:
+    """One motion track as abduced: where it was observed and where it was halted (unobserved)."""
+
+    id: str
+    type: str
+    observed: tuple[tuple[int, tuple[float, float, float, float]], ...]
+    """(frame, box) for every frame a detection was assigned to it or resumed it."""
+    halted: tuple[tuple[int, tuple[float, float, float, float]], ...]
+    """(frame, Kalman-predicted box) for every frame it was halted."""
+    ended_at: int | None
+    """The frame of its end action, or None if it was alive at the end of the sequence."""
+
+
+@dataclass(frozen=True)
+class TrackingResult:
+    """Motion tracks and the event sequence explaining them: <H^events, MT>."""
+
+    rows: np.ndarray
+    """(n, 6) results rows frame, track number, x, y, w, h (MOTChallenge order)."""
+    events: tuple[HistoryEvent, ...]
+    tracks: tuple[TrackRecord, ...]
+    frames: int
+    not_optimal_frames: int
+    solve_ms: float
+
+
+def _det_id(i: int) -> str:
+    return f"det_{i}"
+
+
+def _trk_number(trk_id: str) -> int:
+    return int(trk_id.rsplit("_", 1)[1])
+
+
+class AbductionTracker:
+    """Algorithm 1 with one solver backend; deterministic for a deterministic backend."""
+
+    def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
+                 min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
+                 bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
+                 compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True,
+                 **options: object):
+        """``**options``: the tracker options by name (refimpl.tracking.options.TRACKER_OPTIONS; the module
+        docstring says what the writing ones write; docs/tracking.md measures them); ValueError for
+        an unknown name or a bad value.
+
+        ``sink``: results rows and events are handed to it as soon as they are final (a frame's
+        rows once no later frame can add any: bridged-gap interpolation reaches back at most
+        ``bridge_gap`` frames, a backfilled confirmation min_hits; ``delay``), instead of being kept; with ``keep_records=False`` as well, the
+        tracker forgets everything a later frame does not need (finished tracks, all but the last
+        observed box of a live one), so its memory does not grow with the sequence; then
+        :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
+        self.solver = solver
+        chosen = TrackerOptions.from_mapping(options)  # ValueError if unknown or bad
+        self.written_box = chosen.written_box
+        self.velocity_noise = chosen.velocity_noise
+        self.area_noise = chosen.area_noise
+        self.backfill = chosen.backfill
+        self.scene_velocity = chosen.scene_velocity
+        self.fill_hidden = chosen.fill_hidden
+        self.hold_hidden = chosen.hold_hidden
+        self.reupdate_on_resume = chosen.reupdate_on_resume
+        self.constants = tuple((constants or {}).items())
+        self.constant_map = dict(self.constants)
+        self.min_hits = min_hits
+        self.time_limit = time_limit
+        self.bridge_gap = bridge_gap
+        self.bridge_conf = bridge_conf
+        self.compact_history = compact_history
+        self.tracks: dict[str, _Track] = {}
+        self.finished: list[_Track] = []
+        self.next_number = 1
+        self.events: list[HistoryEvent] = []
+        self.owners: dict[int, str] = {}
+        """The last frame's detection index -> the track it was assigned to, resumed or started."""
+        self.frames = 0
+        self.not_optimal = 0
+        self.solve_ms = 0.0
+        self.sink = sink
+        self.keep_records = keep_records or sink is None
+        self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
+        self.delay = max(bridge_gap, min_hits if self.backfill else 0,
+                         self.fill_hidden + min_hits if self.fill_hidden else 0)
+        """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
+        backfilled confirmations)."""
+
+    # -- step 1: the problem specification ---------------------------------------------------
+    def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
+                      types: tuple[str, ...]) -> FrameProblem:
+        """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
+        tracks = list(self.tracks.values())
+        predicted = np.array([self._bounded(self._predict(t, self.hold_hidden)) for t in tracks]).reshape(-1, 4)
+        for k, t in enumerate(tracks):
+            t.predicted = predicted[k]
+        detections = tuple(
+            Detection(_det_id(i), types[i], int(confidences[i]), integer_box(boxes[i]))
+            for i in range(len(boxes)))
+        predictions = tuple(
+            TrackPrediction(t.id, t.type, t.state, integer_box(predicted[k])) for k, t in enumerate(tracks))
+        ml = scale_iou(iou_matrix(predicted, boxes)) if len(tracks) and len(boxes) else np.zeros((0, 0), int)
+        iou = tuple(
+            (tracks[k].id, _det_id(j), int(ml[k, j]))
+            for k in range(ml.shape[0]) for j in range(ml.shape[1]) if ml[k, j] > 0)
+        history = tuple(e for t in tracks for e in t.history)
+        return FrameProblem(time=frame, detections=detections, tracks=predictions, iou=iou,
+                            constants=self.constants, history=history)
+
+    def _bounded(self, box: np.ndarray) -> np.ndarray:
+        """A prediction clipped to the image extended by one image size on every side, its area
+        capped at MAX_BOX_AREA: a long-halted track's area velocity cannot blow it past the ASP
+        model's 32-bit integer arithmetic (the relations compute 100 * area)."""
+        w = self.constant_map.get("img_width", 0) or 1500
+        h = self.constant_map.get("img_height", 0) or 1500
+        x1, y1 = np.clip(box[0], -w, 2 * w), np.clip(box[1], -h, 2 * h)
+        x2, y2 = np.clip(box[0] + box[2], -w, 2 * w), np.clip(box[1] + box[3], -h, 2 * h)
+        bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
+        if bw * bh > MAX_BOX_AREA:
+            shrink = float(np.sqrt(MAX_BOX_AREA / (bw * bh)))
+            cx, cy = x1 + bw / 2, y1 + bh / 2
+            bw, bh = bw * shrink, bh * shrink
+            x1, y1 = cx - bw / 2, cy - bh / 2
+        return np.array([x1, y1, bw, bh])
+
+    @staticmethod
+    def _predict(trk: _Track, hold: bool = False) -> np.ndarray:
+        """Kalman prediction; a filter whose state degenerated restarts, motionless, at the last observed box."""
+        try:
+            return trk.kalman.predict(hold)
+        except InvalidPrediction:
+            trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise,
+                                   area_noise=trk.kalman.area_noise)
+            return trk.kalman.predict()
+
+    # -- steps 2-3 and the update ------------------------------------------------------------
+    def step(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
+             observer: FrameObserver | None = None) -> Hypothesis:
+        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        problem = self.frame_problem(frame, boxes, confidences, types)
+        check_ranges(problem, f"frame {frame}")
+        hyp = self.solver.solve(problem, time_limit=self.time_limit)
+        if observer is not None:
+            observer(problem, hyp)
+        self.frames += 1
+        self.not_optimal += not hyp.optimal
+        self.solve_ms += hyp.solve_ms
+        self._apply(frame, boxes, np.asarray(confidences), types, hyp)
+        if self.sink is not None:
+            self._flush(frame - self.delay)
+            if not self.keep_records:
+                self._forget()
+        return hyp
+
+    def _flush(self, upto: int | None) -> None:
+        """Hand the rows of every pending frame <= upto (None: all) to the sink, by (frame, id)."""
+        done = sorted(f for f in self._pending if upto is None or f <= upto)
+        if done:
+            rows = np.array([r for f in done for r in sorted(self._pending.pop(f), key=lambda r: r[1])],
+                            dtype=float).reshape(-1, 6)
+            self.sink.rows(rows)
+
+    def _forget(self) -> None:
+        """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
+        self.finished.clear()
+        self.events.clear()
+        keep = self.min_hits + 1 if self.backfill or self.fill_hidden else 1  # the streak's boxes
+        for trk in self.tracks.values():
+            recent = sorted(trk.observed)[-keep:]
+            if trk.episode is not None:  # the box before a pending occlusion episode
+                recent = sorted({*recent, trk.episode[0]})
+            if len(trk.observed) > len(recent):
+                trk.observed = {f: trk.observed[f] for f in recent}
+            # which of the kept frames are already written: a later confirmation (backfill, an
+            # occlusion episode) walks back over exactly these, and must not write one twice
+            trk.confirmed &= set(recent)
+            trk.gaps.clear()
+            trk.halted.clear()
+
+    def finish(self) -> None:
+        """Hand every remaining row to the sink (streaming); call after the last frame."""
+        if self.sink is not None:
+            self._flush(None)
+
+    def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
+               hyp: Hypothesis) -> None:
+        index = {_det_id(j): j for j in range(len(boxes))}
+        self.owners = {index[d]: t for t, d in (*hyp.assignments, *hyp.resumes)}
+        scene = self._scene_velocity(frame) if self.scene_velocity else None
+        for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
+            self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
+        unhidden = {args[0] for name, args in hyp.event_terms
+                    if name == "unhides_from_behind"} if self.fill_hidden and hyp.resumes else set()
+        for trk_id, det_id in hyp.resumes:
+            trk, j = self.tracks[trk_id], index[det_id]
+            last = max(trk.observed)
+            gap = frame - last - 1
+            trk.bridged = (gap <= self.bridge_gap and int(confidences[j]) >= self.bridge_conf
+                           and last in trk.confirmed)
+            hidden = (not trk.bridged and last in trk.confirmed and gap <= self.fill_hidden
+                      and trk_id in unhidden and self._hid_after(trk, last))
+            trk.episode = (last, frame) if hidden else None
+            if trk.bridged:
+                trk.gaps.append((last, frame))
+            trk.state = "active"
+            self._observe(trk, frame, boxes[j], resumed=True)
+            if trk.bridged and self.sink is not None:
+                self._pend_gap(trk, last, frame)
+        for trk_id in hyp.halts:
+            self.tracks[trk_id].state = "halted"
+        # start: new identities in detection order, so ids do not depend on atom sorting
+        new_ids: dict[str, str] = {}
+        for j in sorted(index[d] for d in hyp.starts):
+            trk_id = f"trk_{self.next_number}"
+            self.next_number += 1
+            kalman = BoxKalman(boxes[j], self.velocity_noise, scene, self.area_noise)
+            trk = _Track(trk_id, types[j], kalman)
+            trk.observed[frame] = self._written(kalman, boxes[j])
+            self._confirm(trk, frame)
+            self.tracks[trk_id] = trk
+            new_ids[_det_id(j)] = trk_id
+            self.owners[j] = trk_id
+        frame_events: list[HistoryEvent] = []
+        for name, args in hyp.event_terms:
+            event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
+            logged = HistoryEvent(event, frame)
+            self.events.append(logged)
+            frame_events.append(logged)
+            owner = self.tracks.get(event.args[0].name)
+            if owner is None:
+                continue
+            if self.compact_history and name in _RESUMING:
+                # a resume leaves every fluent of the track at its initial value (visible,
+                # unclipped, hidden by none, in view): only its start event still matters
+                owner.history = [e for e in owner.history if e.event.name in _STARTING]
+            else:
+                owner.history.append(logged)
+        if self.sink is not None and frame_events:
+            self.sink.events(tuple(frame_events))
+        for trk_id in hyp.ends:
+            trk = self.tracks.pop(trk_id)
+            trk.ended_at = frame
+            self.finished.append(trk)
+        for trk in self.tracks.values():
+            if trk.state == "halted" and trk.predicted is not None:
+                trk.halted[frame] = trk.predicted
+
+    @staticmethod
+    def _hid_after(trk: _Track, last: int) -> bool:
+        """Whether the track's halt after its last observed frame was explained by hides_behind."""
+        return any(e.event.name == "hides_behind" and e.time == last + 1 for e in trk.history)
+
+    def _scene_velocity(self, frame: int) -> np.ndarray | None:
+        """The tracker option scene_velocity: the component-wise median (du, dv) of the active tracks
+        observed in the previous frame and at least once before it (a velocity measured, not a
+        newborn's), the image motion they share when the camera turns; None (a new track starts at
+        rest, as in SORT) with fewer than two such tracks."""
+        moving = [t.kalman.velocity for t in self.tracks.values()
+                  if t.state == "active" and frame - 1 in t.observed and t.streak >= 1]
+        return np.median(np.array(moving), axis=0) if len(moving) >= 2 else None
+
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray, resumed: bool = False) -> None:
+        """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
+        if resumed and self.reupdate_on_resume:
+            trk.kalman.reupdate(box)  # observation-centric re-update along the gap
+        else:
+            trk.kalman.update(box)
+        trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
+        trk.observed[frame] = self._written(trk.kalman, box)
+        self._confirm(trk, frame)
+
+    def _written(self, kalman: BoxKalman, box: np.ndarray) -> np.ndarray:
+        """The box an observed frame writes: the filter's state after the update, or the detection."""
+        chosen = box if self.written_box is WrittenBox.DETECTION else kalman.box
+        return np.array(chosen, dtype=float).reshape(4)
+
+    def _confirm(self, trk: _Track, frame: int) -> None:
+        """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
+        frames); a confirmed track resumed after a gap of at most bridge_gap frames stays confirmed.
+        With backfill, the frame that confirms a streak also writes the streak's earlier frames; a
+        track re-confirmed after an occlusion episode (fill_hidden) writes the episode, interpolated,
+        and the frames that re-confirmed it."""
+        if not (trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged):
+            return
+        first = frame
+        if self.backfill and trk.streak == self.min_hits:  # the streak's frames, a new track's first included
+            while first - 1 in trk.observed and first - 1 not in trk.confirmed and frame - first < self.min_hits:
+                first -= 1
+        if trk.episode is not None and trk.streak >= self.min_hits:
+            last, resumed = trk.episode
+            trk.gaps.append(trk.episode)
+            if self.sink is not None:
+                self._pend_gap(trk, last, resumed)
+            first = min(first, resumed)
+            trk.episode = None
+        for f in range(first, frame + 1):
+            if f in trk.observed and f not in trk.confirmed:
+                trk.confirmed.add(f)
+                if self.sink is not None:
+                    self._pending.setdefault(f, []).append([f, _trk_number(trk.id), *trk.observed[f]])
+
+    def _pend_gap(self, trk: _Track, last: int, resumed: int) -> None:
+        """The interpolated rows of a bridged gap, exactly as result_rows computes them."""
+        number = _trk_number(trk.id)
+        a, b = trk.observed[last], trk.observed[resumed]
+        for f in range(last + 1, resumed):
+            w = (f - last) / (resumed - last)
+            self._pending.setdefault(f, []).append([f, number, *((1 - w) * a + w * b)])
+
+    # -- results -----------------------------------------------------------------------------
+    def result_rows(self) -> np.ndarray:
+        rows: list[list[float]] = []
+        for trk in sorted(self.finished + list(self.tracks.values()), key=lambda t: _trk_number(t.id)):
+            if not trk.confirmed:
+                continue
+            number = _trk_number(trk.id)
+            for f in sorted(trk.confirmed):
+                rows.append([f, number, *trk.observed[f]])
+            for last, resumed in trk.gaps:  # bridged gaps only
+                a, b = trk.observed[last], trk.observed[resumed]
+                for f in range(last + 1, resumed):
+                    w = (f - last) / (resumed - last)
+                    rows.append([f, number, *((1 - w) * a + w * b)])
+        out = np.array(rows, dtype=float).reshape(-1, 6)
+        return out[np.lexsort((out[:, 1], out[:, 0]))] if len(out) else out
+
+    def track_records(self) -> tuple[TrackRecord, ...]:
+        def boxes(d: dict[int, np.ndarray]):
+            return tuple((f, tuple(float(v) for v in b)) for f, b in sorted(d.items()))
+        everyone = sorted(self.finished + list(self.tracks.values()), key=lambda t: _trk_number(t.id))
+        return tuple(TrackRecord(t.id, t.type, boxes(t.observed), boxes(t.halted), t.ended_at) for t in everyone)
+
+    def result(self) -> TrackingResult:
+        return TrackingResult(self.result_rows(), tuple(self.events), self.track_records(), self.frames,
+                              self.not_optimal, self.solve_ms)
+
+
+def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,
+                       fps: float | None) -> dict[str, int]:
+    """The constants a sequence is tracked with: the given ones, then what the sequence says of
+    itself where they do not (image size: the field-of-view border; frame rate: the safety bound on
+    halts, HIDDEN_MAX_SECONDS)."""
+    merged = dict(constants or {})
+    if image_size is not None:
+        merged.setdefault("img_width", int(image_size[0]))
+        merged.setdefault("img_height", int(image_size[1]))
+    if fps:
+        merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * fps))))
+    return merged
+
+
+def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, int] | None = None,
+                   min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
+                   observer: FrameObserver | None = None, solver: Solver | None = None,
+                   bridge_gap: int | None = None, bridge_conf: int | None = None,
+                   compact_history: bool = True, sink: ResultSink | None = None,
+                   keep_records: bool = True, **options: object) -> TrackingResult:
+    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
+    the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
+
+    ``**options``: the tracker options by name (refimpl.tracking.options.TRACKER_OPTIONS), passed on to
+    AbductionTracker.  With a ``sink`` the rows and events go to it as they are decided (see
+    AbductionTracker) and the result's rows are empty (its events and tracks too unless ``keep_records``)."""
+    merged = sequence_constants(constants, seq.image_size, getattr(seq, "fps", None))
+    tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
+                               DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
+                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
+                               sink=sink, keep_records=keep_records, **options)
+    for fr in seq.frames:
+        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
+    tracker.finish()
+    if sink is not None:
+        return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
+                              tracker.track_records() if keep_records else (),
+                              tracker.frames, tracker.not_optimal, tracker.solve_ms)
+    return tracker.result()
+

@@ -1,0 +1,113 @@
+"""The user's path on every shared real sequence: single-input ``refimpl track`` with its defaults
+must run on all 53 (MOT15 11 with SORT's detections, KITTI Car 21, KITTI Pedestrian 21) and write
+exactly the bytes that ``track --out-dir`` and ``benchmark --results-dir`` write, and the library's
+``refimpl.Tracker`` with its defaults must give the same rows (``result().rows``; byte for byte
+for KITTI, to the files' 0.01 px for MOTChallenge, whose x, y, w, h the API takes as x1..y2).
+
+    python tests/tools/check_user_path.py [--data ../shared/data] [--work DIR]
+
+Every command runs as a user runs it (``python -m refimpl ...`` in a subprocess, defaults only);
+prints one line per sequence and a summary; exit 1 on any difference or failure.
+tests/test_user_path.py runs the same check on the eight sequences that once crashed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+GROUPS = {
+    "mot15": (["--format", "mot"], "MOT15/train/*/det/det_sort_frcnn.txt", "mot", "pedestrian"),
+    "kitti-car": (["--format", "kitti", "--class", "Car"], "KITTI/tracking/training/det_02_pointrcnn/Car/*.txt",
+                  "kitti", "car"),
+    "kitti-ped": (["--format", "kitti", "--class", "Pedestrian"],
+                  "KITTI/tracking/training/det_02_pointrcnn/Pedestrian/*.txt", "kitti", "pedestrian"),
+}
+
+
+def refimpl(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "refimpl", *args], capture_output=True, text=True)
+
+
+def sequence_name(path: Path) -> str:
+    return path.parent.parent.name if path.parent.name == "det" else path.stem
+
+
+def api_rows(path: Path, fmt: str, cls: str) -> bytes:
+    """The library with its defaults, fed the file's boxes and raw scores frame by frame."""
+    import numpy as np
+
+    import refimpl
+    from refimpl import io
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        seq = io.get_format(fmt).read_detections(path, object_class=cls)
+    tracker = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps)
+    for fr in seq.frames:
+        b = fr.boxes
+        tracker.update(np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores]))
+    return io.results_formatter(io.MOT, seq.first_frame, cls)(tracker.result().rows).encode()
+
+
+def close(a: bytes, b: bytes) -> bool:
+    """The same (frame, id) rows with boxes within the files' 0.01 px: the API takes x1, y1, x2, y2,
+    so a MOTChallenge file's x, y, w, h come back as (x + w) - x, a last-bit float difference that
+    can round the written two decimals the other way (KITTI files hold x1..y2: byte-identical)."""
+    def rows(text: bytes):
+        return {tuple(int(float(v)) for v in line.split(",")[:2]): [float(v) for v in line.split(",")[2:6]]
+                for line in text.decode().splitlines()}
+    ra, rb = rows(a), rows(b)
+    return ra.keys() == rb.keys() and all(abs(x - y) <= 0.01 + 1e-9 for k in ra for x, y in zip(ra[k], rb[k]))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default="../shared/data")
+    ap.add_argument("--work", default=None, help="keep the files here (default: a temporary folder)")
+    args = ap.parse_args()
+    data = Path(args.data)
+    work = Path(args.work or tempfile.mkdtemp(prefix="user-path-"))
+    work.mkdir(parents=True, exist_ok=True)
+    started = time.perf_counter()
+    done = refimpl("benchmark", *GROUPS, "--data", str(data), "--quiet", "--results-dir", str(work / "benchmark"))
+    if done.returncode:
+        print(done.stderr, file=sys.stderr)
+        return 1
+    bad = total = 0
+    for group, (flags, pattern, fmt, cls) in GROUPS.items():
+        files = sorted(data.glob(pattern))
+        many = refimpl("track", "--dets", *map(str, files), *flags, "--out-dir", str(work / group), "--quiet")
+        if many.returncode:
+            print(f"{group}: track --out-dir failed: {many.stderr.strip()}")
+            bad += len(files)
+            continue
+        for path in files:
+            total += 1
+            name = sequence_name(path)
+            single = work / f"{group}-{name}.txt"
+            one = refimpl("track", "--dets", str(path), *flags, "--out", str(single), "--quiet")
+            if one.returncode:
+                bad += 1
+                print(f"{group}/{name}: FAILED (exit {one.returncode}): {one.stderr.strip().splitlines()[-1:]}")
+                continue
+            mine = single.read_bytes()
+            api = api_rows(path, fmt, cls)
+            same = {"out-dir": mine == (work / group / f"{name}.txt").read_bytes(),
+                    "benchmark": mine == (work / "benchmark" / group / f"{name}.txt").read_bytes(),
+                    "api": mine == api or close(mine, api)}
+            rows = mine.count(b"\n")
+            verdict = "equal" if all(same.values()) else "DIFFERS: " + ", ".join(k for k, v in same.items() if not v)
+            bad += not all(same.values())
+            print(f"{group}/{name}: {rows} rows; track --out == --out-dir == benchmark == API: {verdict}")
+    print(f"{total} sequences, {total - bad} equal, {bad} failing ({time.perf_counter() - started:.0f} s; "
+          f"files in {work})")
+    return 1 if bad or total != 53 else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,20 @@
+"""Backend agreement on accepted inputs: every backend, the same answer, the checker's approval.
+
+    python tests/tools/fuzz_agreement.py --inputs 2000 --seed 0
+
+The fuzzer is tools.fuzzing.agreement (its doc says what is generated and how outcomes are
+judged); this script only puts the repository on the import path and runs it.
+"""
+
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+for _path in (REPO, REPO / "tests"):  # this checkout's refimpl, and tests/tools as `tools`
+    if str(_path) not in sys.path:
+        sys.path.insert(0, str(_path))
+
+from tools.fuzzing.agreement import main  # noqa: E402
+
+if __name__ == "__main__":
+    sys.exit(main())

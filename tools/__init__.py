@@ -1,4 +1,0 @@
-"""Developer tools (fuzzers, benchmarks, measurements) run as scripts: ``python tools/NAME.py``.
-
-A package so that the tests import the fuzzers (tools.fuzzing) like any other module.
-"""
