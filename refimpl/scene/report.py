@@ -212,13 +212,3 @@ def build_report(scene: Scene, frame: int | None = None) -> Report:
                   tuple(tuple(states[f]) for f in range(scene.first_frame, scene.last_frame + 1)),
                   tuple(relations), tuple(track_timelines(scene)), tuple(explanations(scene)), len(scene.events))
 
-
-def write_report(scene_path: str, out: str, frame: int | None = None) -> str:
-    """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line."""
-    from ..io.outputs import check_outputs, write_atomic
-    from .report_html import render_html
-    check_outputs({"--out": out}, {"scene": scene_path})
-    report = build_report(load_scene(scene_path), frame)
-    write_atomic(out, render_html(report))
-    return (f"{report.name}: {len(report.tracks)} tracks, {report.events} events, frame {report.frame} "
-            f"({len(report.states_at(report.frame))} boxes) -> {out}")

@@ -20,7 +20,8 @@ import json
 
 from ..knowledge.events import EVENT_TABLE
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
-from .report import ACTIVE, HALTED, HIDDEN, MISSING, STATES, Report, TrackTimeline
+from . import load_scene
+from .report import ACTIVE, HALTED, HIDDEN, MISSING, STATES, Report, TrackTimeline, build_report
 
 STATE_COLOURS = {ACTIVE: OBSERVED_COLOUR, HIDDEN: EVENT_TABLE["hides_behind"].colour,
                  MISSING: EVENT_TABLE["missing_detections"].colour, HALTED: ENDED_COLOUR}
@@ -394,3 +395,13 @@ SCRIPT = r"""
   if (!root.getAttribute("data-report").startsWith("error")) { root.setAttribute("data-report", "rendered"); }
 })();
 """
+
+
+def write_report(scene_path: str, out: str, frame: int | None = None) -> str:
+    """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line."""
+    from ..io.outputs import check_outputs, write_atomic
+    check_outputs({"--out": out}, {"scene": scene_path})
+    report = build_report(load_scene(scene_path), frame)
+    write_atomic(out, render_html(report))
+    return (f"{report.name}: {len(report.tracks)} tracks, {report.events} events, frame {report.frame} "
+            f"({len(report.states_at(report.frame))} boxes) -> {out}")
