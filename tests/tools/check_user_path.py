@@ -21,6 +21,10 @@ import time
 import warnings
 from pathlib import Path
 
+REPO = Path(__file__).resolve().parents[2]
+if str(REPO) not in sys.path:  # run as a script: this checkout's refimpl
+    sys.path.insert(0, str(REPO))
+
 GROUPS = {
     "mot15": (["--format", "mot"], "MOT15/train/*/det/det_sort_frcnn.txt", "mot", "pedestrian"),
     "kitti-car": (["--format", "kitti", "--class", "Car"], "KITTI/tracking/training/det_02_pointrcnn/Car/*.txt",

@@ -1,6 +1,6 @@
 """refimpl's scores of a results folder next to TrackEval's own MOTChallenge pipeline on the same files.
 
-    python -m tools.trackeval_agreement [--benchmark mot15|mot17-sim|kitti-car|kitti-ped] [--tracker baseline]
+    python tests/tools/trackeval_agreement.py [--benchmark mot15|mot17-sim|kitti-car|kitti-ped] [--tracker baseline]
                                          [--data ../shared/data]
 
 Tracks every sequence of the benchmark, writes one MOTChallenge results file per sequence into a
@@ -17,7 +17,7 @@ and ``refimpl eval --devkit trackeval`` (``refimpl.evaluation.devkits``), which 
 
 ``trackeval_mot`` / ``trackeval_kitti`` run TrackEval's Evaluator directly on a layout; the tests
 of ``refimpl eval --devkit trackeval`` (tests/test_devkits.py) compare with them.  Run it as
-``python -m tools.trackeval_agreement`` from the checkout, so that this checkout's refimpl is used.
+``python tests/tools/trackeval_agreement.py`` from the checkout, so that this checkout's refimpl is used.
 """
 
 from __future__ import annotations
@@ -26,6 +26,10 @@ import argparse
 import sys
 import tempfile
 from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+if str(REPO) not in sys.path:  # run as a script: this checkout's refimpl
+    sys.path.insert(0, str(REPO))
 
 import numpy as np
 
