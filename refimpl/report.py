@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .plots import MIN_OBSERVED, frame_relation_lines, halted_spans
-from .scene import Box, EgoRegion, Scene, SceneError, episodes, explain_episode, frame_runs, load_scene
+from .scene import Box, EgoRegion, Scene, SceneError, episodes, explain_episode, frame_runs
 from .scene.episodes import ENDINGS
 from .spec import natural_key
 
@@ -211,14 +211,3 @@ def build_report(scene: Scene, frame: int | None = None) -> Report:
                   tuple(float(v) for v in region) if region else None, chosen,
                   tuple(tuple(states[f]) for f in range(scene.first_frame, scene.last_frame + 1)),
                   tuple(relations), tuple(track_timelines(scene)), tuple(explanations(scene)), len(scene.events))
-
-
-def write_report(scene_path: str, out: str, frame: int | None = None) -> str:
-    """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line."""
-    from .outputs import check_outputs, write_atomic
-    from .report_html import render_html
-    check_outputs({"--out": out}, {"scene": scene_path})
-    report = build_report(load_scene(scene_path), frame)
-    write_atomic(out, render_html(report))
-    return (f"{report.name}: {len(report.tracks)} tracks, {report.events} events, frame {report.frame} "
-            f"({len(report.states_at(report.frame))} boxes) -> {out}")

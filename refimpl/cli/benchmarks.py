@@ -275,7 +275,7 @@ def cmd_detectors(args: argparse.Namespace) -> int:
         raise UserError("--p-max, --fp-per-frame and --noise must not be empty")
     progress = None if args.quiet else (lambda total, label: Progress(total, label))
     try:
-        print(dt.run_detectors(
+        print(sw.run_detectors(
             data=args.data, backend=args.backend, do_sweep=args.sweep, benchmarks=benches, sequences=sequences,
             max_frames=args.max_frames, sweep_datasets=datasets, p_max=p_max, fp_per_frame=fp, noise=noise,
             seed=args.seed, out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,

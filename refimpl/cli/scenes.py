@@ -31,7 +31,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     import sys
 
     from ..outputs import STDOUT
-    from ..report import write_report
+    from ..report_html import write_report
     summary = write_report(args.scene, args.out, frame=args.frame)
     print(summary, file=sys.stderr if args.out == STDOUT else sys.stdout)  # the page itself may be stdout
     return EXIT_OK
