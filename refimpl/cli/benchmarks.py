@@ -140,7 +140,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
             print(f"written: {args.out}")
         if args.write_presets:
-            from ..presets import write_preset
+            from ..calibrate import write_preset
             from dataclasses import replace
 
             from ..datasets import load_dataset
@@ -167,7 +167,7 @@ def _calibrate_default(args: argparse.Namespace) -> int:
         write_section(args.out, "<!-- calibrate:default:begin -->", "<!-- calibrate:default:end -->", text)
         print(f"written: {args.out}")
     if args.write_presets:
-        from ..presets import write_preset
+        from ..calibrate import write_preset
         print(f"preset default written: {write_preset(default_preset(choice))}")
     return EXIT_OK
 
