@@ -35,7 +35,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-from .datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS
+from .datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS, benchmark_sequences
 from .solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BACKEND, REFERENCE_BACKEND, TRACKERS, get_solver
 
 THROUGHPUT_TRACKERS = TRACKERS
@@ -367,7 +367,7 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
     for bench in benchmarks:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # KITTI files: dropped zero-area boxes are warned about
-            plan += [(bench, s.name, io.load_detections(s)) for s in io.benchmark_sequences(bench, data_root)]
+            plan += [(bench, s.name, io.load_detections(s)) for s in benchmark_sequences(bench, data_root)]
     bar = progress(len(plan) * len(trackers), "bench-throughput")
     runs: list[SequenceRun] = []
     started = time.perf_counter()

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
 
+from .datasets import BENCHMARKS, benchmark_sequences, tuning_split
 from .io import write_text_atomic
 from .presets import Preset, preset_entry, presets_path
 from .solvers import DEFAULT_BACKEND
@@ -127,13 +128,13 @@ def check_tunable(benchmark: str, data_root: str) -> None:
     reported, never tuned on)."""
     from . import io
     refuse_held_out(benchmark)
-    seqs = io.benchmark_sequences(benchmark, data_root) if benchmark in io.BENCHMARKS else []
+    seqs = benchmark_sequences(benchmark, data_root) if benchmark in BENCHMARKS else []
     if seqs and seqs[0].format == io.KITTI:  # KITTI has a held-out val split
         held_out = sorted(set(s.name for s in seqs) & set(io.kitti_val_sequences(data_root)))
         if held_out:
             raise CalibrationRefused(
                 f"{benchmark} holds the held-out val sequences {', '.join(held_out)}; calibrate on "
-                f"{io.tuning_split(benchmark)}")
+                f"{tuning_split(benchmark)}")
 
 
 def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:

@@ -30,6 +30,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from . import io
+from .datasets import benchmark_sequences
 from .detectors import (REAL_BEGIN, REAL_DETECTORS, REAL_END, SWEEP_BEGIN, SWEEP_END, DetectionQuality,
                         DetectorResult, ProgressStep, common_sequences, compare_detectors, detection_quality,
                         first_frames, fmt_pct, fmt_ratio, real_report, results_json, track_and_evaluate,
@@ -83,7 +84,7 @@ def sweep_data(dataset: str, data_root: str | os.PathLike, sequences: Sequence[s
             gt = dataclasses.replace(io.read_mot_ground_truth(folder / "gt" / "gt.txt", seqinfo=info), name=s)
             out.append((s, gt, (int(info["imWidth"]), int(info["imHeight"])), float(info["frameRate"])))
     elif dataset == "kitti-car":
-        listing = {s.name: s for s in io.benchmark_sequences("kitti-car", root)}
+        listing = {s.name: s for s in benchmark_sequences("kitti-car", root)}
         for s in names:
             if s not in listing:
                 raise ValueError(f"unknown KITTI sequence {s!r} (known: {', '.join(listing)})")

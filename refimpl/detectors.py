@@ -42,7 +42,7 @@ import numpy as np
 
 from . import io
 from .evaluate import _check_results, _frame_slices, _match, _preprocess, evaluate_many
-from .datasets import REAL_DETECTORS  # noqa: F401  (benchmark -> (key, file beside its detections or None, label))
+from .datasets import REAL_DETECTORS, benchmark_sequences  # noqa: F401  (benchmark -> (key, file beside its detections or None, label))
 from .solvers import BASELINE, DEFAULT_BACKEND
 
 IOU_THRESHOLD = 0.5
@@ -216,7 +216,7 @@ def _detector_files(benchmark: str, data_root: str | os.PathLike) -> list[tuple[
     out = []
     for key, filename, label in REAL_DETECTORS[benchmark]:
         seqs = {}
-        for s in io.benchmark_sequences(benchmark, root):
+        for s in benchmark_sequences(benchmark, root):
             path = s.dets_path if filename is None else s.dets_path.with_name(filename)
             if path.is_file() and s.gt_path.is_file():
                 seqs[s.name] = dataclasses.replace(s, dets_path=path)

@@ -30,6 +30,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from refimpl import io  # noqa: E402
+from refimpl.datasets import benchmark_sequences  # noqa: E402
 from refimpl.solvers import DEFAULT_BACKEND  # noqa: E402
 from refimpl.benchmarks import machine_note, write_section  # noqa: E402
 
@@ -42,7 +43,7 @@ def input_sets(data: str):
     out = []
     for bench, label, extra in (("mot15", "MOT15 train, 11 sequences", []),
                                 ("kitti-car", "KITTI train Car, 21 sequences", ["--format", "kitti", "--class", "Car"])):
-        seqs = io.benchmark_sequences(bench, data)
+        seqs = benchmark_sequences(bench, data)
         frames = sum(io.load_detections(s).num_frames for s in seqs)
         out.append((label, extra, [str(s.dets_path) for s in seqs], frames))
     return out
