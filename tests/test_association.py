@@ -75,7 +75,7 @@ def ev(event: str, t: int = 10) -> str:
 
 
 def check_well_formed(problem: FrameProblem, h: Hypothesis) -> None:
-    """Exactly one action per track and per detection; the cost vector has the five levels."""
+    """Exactly one action per track and per detection; the cost vector has every level of PRIORITIES."""
     assert tuple(p for p, _ in h.cost) == PRIORITIES
     per_trk = {t.id: 0 for t in problem.tracks}
     per_det = {d.id: 0 for d in problem.detections}

@@ -8,6 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from refimpl.io.datasets import benchmark_sequences
 from refimpl.tracking.baseline import SortTracker, associate, track_sequence
 
 # Two pedestrians-sized boxes moving apart by 5 px per frame (A left, B right).
@@ -158,7 +159,7 @@ def sort6_scores():
     from refimpl import io
 
     pairs = [(s.name, io.load_ground_truth(s), track_sequence(io.load_detections(s)))
-             for s in io.benchmark_sequences("mot15-sort6", DATA_ROOT)]
+             for s in benchmark_sequences("mot15-sort6", DATA_ROOT)]
     per_sequence, overall = evaluate.evaluate_many(pairs)
     return per_sequence, overall, {name: rows for name, _, rows in pairs}
 

@@ -145,5 +145,6 @@ def test_detectors_mistakes_end_in_one_line_and_exit_2(argv, fragment, shared_da
 
 
 def test_every_registered_detector_benchmark_is_a_known_benchmark():
+    from refimpl.io.datasets import BENCHMARKS
     from refimpl.experiments.detectors import REAL_DETECTORS
-    assert set(REAL_DETECTORS) <= set(io.BENCHMARKS)
+    assert set(REAL_DETECTORS) <= set(BENCHMARKS)

@@ -7,6 +7,7 @@ import dataclasses
 import pytest
 from pathlib import Path
 
+from refimpl.io.datasets import benchmark_sequences
 from refimpl import io
 from refimpl.cli import main
 from refimpl.experiments.diff import diff_sequence
@@ -16,7 +17,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def _campus(shared_data):
-    return io.load_detections(next(s for s in io.benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus"))
+    return io.load_detections(next(s for s in benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus"))
 
 
 def test_backends_agree_on_every_frame_of_a_real_sequence(shared_data):

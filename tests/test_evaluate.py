@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from refimpl.io.datasets import benchmark_sequences
 from refimpl.evaluation import evaluate as ev
 from refimpl import io
 from refimpl.io import GroundTruth
@@ -213,7 +214,7 @@ def test_motmetrics_runs_end_to_end_without_patching_numpy():
 def test_kitti_ground_truth_as_results_scores_perfect_with_vans_removed():
     import warnings
 
-    seq = io.benchmark_sequences("kitti-car", DATA)[0]
+    seq = benchmark_sequences("kitti-car", DATA)[0]
     gt = io.load_ground_truth(seq)
     # Feed every Car AND Van row back as a hypothesis: the 292 Van hypotheses match distractors
     # and are removed, the 243 Car hypotheses match their targets -> MOTA = 1, FP = 0.

@@ -28,6 +28,7 @@ from ortools.sat.python import cp_model
 
 from framegen import random_frame
 from plain_tiebreak import plain_tiebreak as _plain_tiebreak
+from refimpl.io.datasets import benchmark_sequences
 from refimpl.core.constants import resolve_constants
 from refimpl.knowledge.events import EventState
 from refimpl.core.geometry import intersection_area
@@ -287,7 +288,7 @@ def test_fast_path_equals_full_model_on_every_frame_of_a_real_sequence(shared_da
     from refimpl import io
     from refimpl.tracking.tracker import track_sequence
 
-    seqs = {s.name: s for s in io.benchmark_sequences(suite, shared_data)}
+    seqs = {s.name: s for s in benchmark_sequences(suite, shared_data)}
     if name not in seqs:
         pytest.skip(f"{suite} has no sequence {name} under {shared_data}")
     with warnings.catch_warnings():

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from refimpl.io.datasets import benchmark_sequences
 from refimpl.evaluation import evaluate as ev
 from refimpl import io
 from refimpl.cli import main
@@ -165,7 +166,7 @@ def test_mot15_folder_scores_equal_trackevals_pipeline(shared_data, tmp_path):
     seqs = ["KITTI-17", "TUD-Campus", "TUD-Stadtmitte", "ETH-Sunnyday"]
     gt_root = shared_data / "MOT15" / "train"
     results = tmp_path / "refimpl" / "data"
-    for s in io.benchmark_sequences("mot15", shared_data):
+    for s in benchmark_sequences("mot15", shared_data):
         if s.name in seqs:
             rows, _ = run_tracker(io.load_detections(s), "baseline")
             io.write_mot_results(results / f"{s.name}.txt", rows)

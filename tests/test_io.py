@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from refimpl.io.datasets import benchmark_sequences, tuning_split
 from refimpl import io
 from refimpl.io import InputFormatError, InputFormatWarning
 
@@ -143,14 +144,14 @@ def test_mot15_ground_truth_counts_rows_with_nonzero_flag():
 
 @needs_data
 def test_benchmark_sequences_list_the_documented_sequences():
-    mot15 = io.benchmark_sequences("mot15", DATA)
+    mot15 = benchmark_sequences("mot15", DATA)
     assert len(mot15) == 11
     assert all(s.dets_path.name == "det_sort_frcnn.txt" and s.format == "mot" for s in mot15)
-    sort6 = io.benchmark_sequences("mot15-sort6", DATA)
+    sort6 = benchmark_sequences("mot15-sort6", DATA)
     assert [s.name for s in sort6] == ["TUD-Campus", "ETH-Sunnyday", "ETH-Pedcross2", "ADL-Rundle-8",
                                        "Venice-2", "KITTI-17"]
     for name, cls, det_dir in (("kitti-car", "car", "Car"), ("kitti-ped", "pedestrian", "Pedestrian")):
-        seqs = io.benchmark_sequences(name, DATA)
+        seqs = benchmark_sequences(name, DATA)
         assert [s.name for s in seqs] == [f"{i:04d}" for i in range(21)]
         assert all(s.object_class == cls and s.dets_path.parent.name == det_dir for s in seqs)
 
@@ -158,13 +159,13 @@ def test_benchmark_sequences_list_the_documented_sequences():
 @needs_data
 def test_the_held_out_benchmarks_list_the_documented_sequences():
     # PROVENANCE.md: the official ACF det/det.txt is there for 7 of the 11 MOT15 training sequences
-    acf = io.benchmark_sequences("mot15-acf", DATA)
+    acf = benchmark_sequences("mot15-acf", DATA)
     assert [s.name for s in acf] == ["ETH-Sunnyday", "KITTI-13", "KITTI-17", "PETS09-S2L1", "TUD-Campus",
                                      "TUD-Stadtmitte", "Venice-2"]
     assert all(s.dets_path.name == "det.txt" and s.object_class == "pedestrian" for s in acf)
     kitti17 = io.load_detections(acf[2])  # det.txt of KITTI-17: 552 lines (PROVENANCE.md)
     assert kitti17.num_detections == 552 and kitti17.num_frames == 145
-    cyc = io.benchmark_sequences("kitti-cyc", DATA)
+    cyc = benchmark_sequences("kitti-cyc", DATA)
     assert [s.name for s in cyc] == [f"{i:04d}" for i in range(21)]
     assert all(s.object_class == "cyclist" and s.dets_path.parent.name == "Cyclist" for s in cyc)
     # 0012: 78 frames; det_02_pointrcnn/Cyclist/0012.txt has 56 rows, all of type 3; label_02/0012.txt
@@ -173,17 +174,17 @@ def test_the_held_out_benchmarks_list_the_documented_sequences():
     assert (dets.num_frames, dets.num_detections) == (78, 56)
     assert (gt.num_targets, len(gt.frames), int(gt.distractor.sum()), len(set(gt.ids))) == (41, 41, 0, 1)
     # nothing is tuned on them: no split to tune on instead, unlike a KITTI benchmark holding val sequences
-    assert io.tuning_split("kitti-cyc") is None and io.tuning_split("mot15-acf") is None
-    assert io.tuning_split("kitti-car-val") == "kitti-car-train"
+    assert tuning_split("kitti-cyc") is None and tuning_split("mot15-acf") is None
+    assert tuning_split("kitti-car-val") == "kitti-car-train"
 
 
 @needs_data
 def test_load_detections_and_ground_truth_of_a_benchmark_sequence():
-    seq = io.benchmark_sequences("kitti-ped", DATA)[12]
+    seq = benchmark_sequences("kitti-ped", DATA)[12]
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)
     # PROVENANCE: 0012 has 78 frames, 81 Pedestrian detections, 64 Pedestrian label rows
     assert (dets.num_frames, dets.num_detections, gt.num_targets) == (78, 81, 64)
-    mot = io.benchmark_sequences("mot15-sort6", DATA)[5]  # KITTI-17: 145 frames, 592 dets, 782 gt lines
+    mot = benchmark_sequences("mot15-sort6", DATA)[5]  # KITTI-17: 145 frames, 592 dets, 782 gt lines
     assert (io.load_detections(mot).num_detections, io.load_ground_truth(mot).num_frames) == (592, 145)
 
 
@@ -193,8 +194,8 @@ def test_kitti_val_and_train_splits_partition_the_21_sequences_by_the_seqmap():
     val = ["0001", "0006", "0008", "0010", "0012", "0013", "0014", "0015", "0016", "0018", "0019"]
     train = ["0000", "0002", "0003", "0004", "0005", "0007", "0009", "0011", "0017", "0020"]
     for cls, det_dir in (("car", "Car"), ("ped", "Pedestrian")):
-        assert [s.name for s in io.benchmark_sequences(f"kitti-{cls}-val", DATA)] == val
-        seqs = io.benchmark_sequences(f"kitti-{cls}-train", DATA)
+        assert [s.name for s in benchmark_sequences(f"kitti-{cls}-val", DATA)] == val
+        seqs = benchmark_sequences(f"kitti-{cls}-train", DATA)
         assert [s.name for s in seqs] == train
         assert all(s.dets_path.parent.name == det_dir for s in seqs)
 
@@ -205,25 +206,25 @@ def test_kitti_split_follows_the_seqmap_file_not_a_fixed_list(tmp_path):
         write(base / "det_02_pointrcnn" / "Car" / f"{name}.txt", "0,2,1,1,20,20,1.0,1,1,1,1,1,1,0,0\n")
         write(base / "label_02" / f"{name}.txt", "0 1 Car 0 0 0 1 1 20 20 1 1 1 1 1 1 0\n")
     seqmap = write(base / "evaluate_tracking.seqmap.val", "0005 empty 000000 000001\n")
-    assert [s.name for s in io.benchmark_sequences("kitti-car-val", tmp_path)] == ["0005"]
+    assert [s.name for s in benchmark_sequences("kitti-car-val", tmp_path)] == ["0005"]
     # the train split lists every other training sequence, so its missing files are reported
     with pytest.raises(InputFormatError, match="missing file of benchmark 'kitti-car-train'"):
-        io.benchmark_sequences("kitti-car-train", tmp_path)
+        benchmark_sequences("kitti-car-train", tmp_path)
     write(seqmap, "0005 empty\n0005 empty\n")
     with raises_at(seqmap, 2, "listed twice"):
-        io.benchmark_sequences("kitti-car-val", tmp_path)
+        benchmark_sequences("kitti-car-val", tmp_path)
     write(seqmap, "0042 empty\n")
     with raises_at(seqmap, 1, "not a KITTI training sequence"):
-        io.benchmark_sequences("kitti-car-val", tmp_path)
+        benchmark_sequences("kitti-car-val", tmp_path)
 
 
 def test_benchmark_sequences_reports_a_missing_data_root(tmp_path):
     with pytest.raises(InputFormatError, match="missing file of benchmark 'mot15'"):
-        io.benchmark_sequences("mot15", tmp_path)
+        benchmark_sequences("mot15", tmp_path)
     with pytest.raises(InputFormatError, match="data root"):
-        io.benchmark_sequences("kitti-car", tmp_path / "nowhere")
+        benchmark_sequences("kitti-car", tmp_path / "nowhere")
     with pytest.raises(ValueError, match="unknown benchmark"):
-        io.benchmark_sequences("mot99", tmp_path)
+        benchmark_sequences("mot99", tmp_path)
 
 
 def test_demo_sequence_is_bundled_and_readable():

@@ -16,15 +16,28 @@ from test_streaming import _walk
 from test_tracker import _occlusion_sequence
 
 
+PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "fill_hidden": 0}
+"""The values that make the plain tracker (SORT's filter and output, nothing filled in) for the
+options that are not switches; every switch (choices yes/no) is off."""
+
+
 def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker():
-    assert tuple(f.name for f in dataclasses.fields(TrackerOptions)) == TrackerOptions.names()
-    assert TrackerOptions().as_dict() == {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "backfill": False,
-                                          "fill_hidden": 0, "scene_velocity": False, "hold_hidden": False,
-                                          "reupdate_on_resume": False}
+    names = tuple(o.name for o in TRACKER_OPTIONS)
+    assert tuple(f.name for f in dataclasses.fields(TrackerOptions)) == TrackerOptions.names() == names
+    defaults = TrackerOptions().as_dict()
+    assert tuple(defaults) == names
+    switches = {o.name for o in TRACKER_OPTIONS if o.choices == ("yes", "no")}
+    assert {k: v for k, v in defaults.items() if k not in switches} == PLAIN_TRACKER
+    assert all(defaults[k] is False for k in switches)
     assert TrackerOptions().changed() == {}
-    assert option_flags() == ("--written-box, --velocity-noise, --area-noise, --backfill, --fill-hidden, "
-                              "--scene-velocity, --hold-hidden and --reupdate-on-resume")
-    assert option_flags("--const").startswith("--const, --written-box, ")
+
+
+def test_option_flags_list_every_row_in_table_order():
+    flags = [o.flag for o in TRACKER_OPTIONS]
+    assert flags[:3] == ["--written-box", "--velocity-noise", "--area-noise"]  # name -> flag: _ becomes -
+    # the flags joined by ", " with " and " before the last; the extra flags come first
+    assert option_flags() == ", ".join(flags[:-1]) + " and " + flags[-1]
+    assert option_flags("--const") == "--const, " + ", ".join(flags[:-1]) + " and " + flags[-1]
 
 
 def test_option_values_parse_from_their_text_and_round_trip_through_presets_json():
@@ -194,8 +207,7 @@ def test_cli_option_flags_are_refused_for_the_baseline_and_checked(tmp_path, cap
     out = str(tmp_path / "o.txt")
     assert main(["track", "--dets", str(DEMO), "--backend", "baseline", "--out", out, "--scene-velocity", "yes"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--img-size, --written-box, --velocity-noise, --area-noise, --backfill, --fill-hidden, " \
-        "--scene-velocity, --hold-hidden and --reupdate-on-resume need an abduction" in err
+    assert err.count("\n") == 1 and f"{option_flags('--img-size')} need an abduction" in err
     with pytest.raises(SystemExit) as exc:
         main(["track", "--dets", str(DEMO), "--out", out, "--backfill", "maybe"])
     assert exc.value.code == 2 and "invalid choice: 'maybe'" in capsys.readouterr().err

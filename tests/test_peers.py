@@ -154,7 +154,8 @@ def test_per_sequence_without_peers_is_a_one_line_user_error(capsys):
 
 
 def test_presets_are_chosen_by_format_and_class_and_const_overrides_them(tmp_path):
-    from refimpl.tracking.presets import Preset, constants_for, write_preset
+    from refimpl.experiments.calibrate import write_preset
+    from refimpl.tracking.presets import Preset, constants_for
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"conf_thresh_new_track": 60}, "kitti-car-train", "test"), path)
     write_preset(Preset("mot", "pedestrian", {"iou_thresh": 20000}, "mot15", "test"), path)

@@ -320,7 +320,7 @@ def test_clingos_time_limit_covers_grounding():
     # the 2-core test machine); with a 0.05 s limit the call must end within 0.05 + 1 + 1 s.
     pytest.importorskip("clingo")
     from refimpl.solvers.clingo_backend import ClingoSolver
-    from refimpl.solvers.clingo_worker import GRACE
+    from refimpl.solvers.clingo_process import GRACE
     from refimpl.solvers.fallback import obvious_hypothesis
 
     solver = ClingoSolver(decompose=False, inline_solves=0)  # every solve in the worker

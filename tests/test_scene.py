@@ -22,6 +22,7 @@ import sys
 
 import pytest
 
+from refimpl.io.datasets import benchmark_sequences
 from refimpl import cli
 from refimpl.scene import (EgoRegion, ReasoningConfig, SceneError, SceneTrack, anticipate, episodes, explain,
                            fluent_timelines, hidden_behind_at, hiding_episodes, load_scene, make_scene, query,
@@ -456,7 +457,7 @@ def test_real_sequence_hides_and_unhides_pair_up_on_the_same_track_pair(shared_d
     from refimpl import io
     from refimpl.scene import scene_from_result
     from refimpl.tracking.tracker import track_sequence
-    seq = next(s for s in io.benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus")
+    seq = next(s for s in benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus")
     dets = io.load_detections(seq)
     s = scene_from_result(dets, track_sequence(dets, backend="cpsat"))
     pairs = [h for h in hiding_episodes(s) if h.how == "unhides_from_behind"]

@@ -10,6 +10,8 @@ import pytest
 from refimpl.core.geometry import iou_matrix
 from refimpl.io import GroundTruth, InputFormatError, read_mot_ground_truth, read_seqinfo
 from refimpl.io.simulate import (
+    MOT17,
+    MOT20_01,
     DetectorParams,
     simulate_detections,
     simulated_benchmark_sequences,
@@ -221,13 +223,11 @@ def test_bad_parameters_are_rejected():
         DetectorParams(fp_per_frame=-1)
 
 
-def test_unknown_benchmark_and_missing_data(tmp_path):
-    with pytest.raises(ValueError, match="unknown simulated benchmark"):
-        simulated_benchmark_sequences("mot16", tmp_path)
+def test_missing_data_is_named(tmp_path):
     with pytest.raises(InputFormatError, match="ground truth of MOT17-02"):
-        simulated_benchmark_sequences("mot17", tmp_path)
-    with pytest.raises(InputFormatError, match="not found"):
-        simulated_benchmark_sequences("mot20-01", tmp_path / "nowhere")
+        simulated_benchmark_sequences(MOT17, tmp_path)
+    with pytest.raises(InputFormatError, match="data root for 'mot20-01-sim' not found"):
+        simulated_benchmark_sequences(MOT20_01, tmp_path / "nowhere", name="mot20-01-sim")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -264,7 +264,7 @@ def detections_per_frame_recall(seq, gt) -> float:
 
 @needs_mot
 def test_simulated_benchmarks_on_real_data():
-    mot17 = simulated_benchmark_sequences("mot17", DATA, seed=1)
+    mot17 = simulated_benchmark_sequences(MOT17, DATA, seed=1)
     assert [n for n, _, _ in mot17] == ["MOT17-02", "MOT17-04", "MOT17-05", "MOT17-09", "MOT17-10",
                                         "MOT17-11", "MOT17-13"]
     lengths = {"MOT17-02": 600, "MOT17-04": 1050, "MOT17-05": 837, "MOT17-09": 525, "MOT17-10": 654,
@@ -277,6 +277,6 @@ def test_simulated_benchmarks_on_real_data():
     # MOT17-02's gt is read from the FRCNN folder (the DPM copy lacks track 1's 600 rows)
     gt02 = mot17[0][2]
     assert int(np.sum(gt02.ids == 1)) == 600
-    ((name, dets, gt),) = simulated_benchmark_sequences("mot20-01", DATA)
+    ((name, dets, gt),) = simulated_benchmark_sequences(MOT20_01, DATA)
     assert name == "MOT20-01" and len(dets.frames) == 429 and gt.num_targets == 19870
     assert dets.name == "MOT20-01 (simulated dets, seed 0)"

@@ -196,6 +196,21 @@ def test_the_registry_builds_every_backend(backend):
         get_solver("bogus")
 
 
+def test_a_new_registry_entry_over_an_existing_class_answers_under_its_own_name(monkeypatch):
+    # an entry "cpsat-alias" wrapping CpSatSolver with cpsat-full's options: the class alone would
+    # call itself cpsat-full (fast_path=False); the registry tells it the entry's name instead
+    import refimpl.solvers as solvers
+
+    entry = solvers.BackendEntry("cpsat-alias", "refimpl.solvers.cpsat", "CpSatSolver", {"fast_path": False},
+                                 "test alias", "tab:grey", "ortools")
+    monkeypatch.setitem(solvers._REGISTRY, entry.name, entry)
+    solver = get_solver("cpsat-alias")
+    assert solver.name == "cpsat-alias" and solver.fast_path is False
+    # one track, no detection: the answer (halt, missed) carries the entry's name
+    p = FrameProblem(time=3, tracks=(TrackPrediction("trk_0", "car", "active", (10, 10, 20, 20)),))
+    assert solver.solve(p).backend == "cpsat-alias"
+
+
 # -- interrupts -------------------------------------------------------------------------------------
 
 @contextmanager

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from refimpl.io.datasets import benchmark_sequences
 from refimpl import io
 from refimpl.solvers.check import check_answer
 from refimpl.solvers import get_solver
@@ -31,7 +32,7 @@ def test_obvious_hypothesis_is_refused_where_it_breaks_a_rule(examples):
 
 
 def test_tracking_with_a_tiny_time_limit_runs_on_and_counts_unproven_frames(shared_data, backend):
-    seq = io.load_detections(next(s for s in io.benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus"))
+    seq = io.load_detections(next(s for s in benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus"))
     checked = []
 
     def observe(problem, hyp):

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from refimpl.io.datasets import benchmark_sequences
 from refimpl import io
 from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.io import write_event_log, write_event_log_json
@@ -92,7 +93,7 @@ def test_same_run_twice_gives_identical_results():
 
 
 def _real_sequence(shared_data, name):
-    seq = next(s for s in io.benchmark_sequences("mot15", shared_data) if s.name == name)
+    seq = next(s for s in benchmark_sequences("mot15", shared_data) if s.name == name)
     return io.load_detections(seq)
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
-from refimpl.tracking.options import TrackerOptions, WrittenBox
+from refimpl.tracking.options import TRACKER_OPTIONS, TrackerOptions, WrittenBox
 from refimpl.tracking.tracker import track_sequence
 
 # one object over three frames, moving right and getting wider (x, y, w, h)
@@ -69,7 +69,10 @@ def test_unknown_written_box_is_a_value_error_naming_the_choices():
 
 def test_streamed_rows_equal_result_rows_with_detection_boxes():
     # a walker missed now and then: bridged gaps interpolate between written (detection) boxes
-    from refimpl.experiments.measure_memory import frames as walk_frames
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tools"))
+    from measure_memory import frames as walk_frames
     seq = DetectionSequence("walk", tuple(walk_frames(80, 6, 3)), 1, (1920, 1080), 30.0)
     at_end = track_sequence(seq, backend="cpsat", written_box="detection")
     out = stdio.StringIO()
@@ -96,14 +99,15 @@ def test_api_tracker_returns_the_detection_box_when_asked():
 
 
 def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path):
-    from refimpl.tracking.presets import Preset, load_presets, options_for, write_preset
+    from refimpl.experiments.calibrate import write_preset
+    from refimpl.tracking.presets import Preset, load_presets, options_for
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"iou_thresh": 20000}, "kitti-car-train", "test",
                         TrackerOptions(WrittenBox.DETECTION)), path)
-    assert json.loads(path.read_text())["kitti/car"]["tracker"] == {"written_box": "detection", "velocity_noise": 1.0,
-                                                                         "area_noise": 1.0, "backfill": False, "fill_hidden": 0,
-                                                                         "scene_velocity": False, "hold_hidden": False,
-                                                                         "reupdate_on_resume": False}
+    # every option is written (the defaults too, in table order), written_box as its text
+    written = json.loads(path.read_text())["kitti/car"]["tracker"]
+    assert list(written) == [o.name for o in TRACKER_OPTIONS]
+    assert written == {**TrackerOptions().as_dict(), "written_box": "detection"}
     assert load_presets(path)["kitti/car"].tracker.written_box is WrittenBox.DETECTION
     assert options_for("kitti", "car", path=path).written_box is WrittenBox.DETECTION
     assert options_for("kitti", "car", path=path, use_preset=False) == TrackerOptions()

@@ -140,7 +140,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
             print(f"written: {args.out}")
         if args.write_presets:
-            from ..tracking.presets import write_preset
+            from ..experiments.calibrate import write_preset
             from dataclasses import replace
 
             from ..io.datasets import load_dataset
@@ -167,7 +167,7 @@ def _calibrate_default(args: argparse.Namespace) -> int:
         write_section(args.out, "<!-- calibrate:default:begin -->", "<!-- calibrate:default:end -->", text)
         print(f"written: {args.out}")
     if args.write_presets:
-        from ..tracking.presets import write_preset
+        from ..experiments.calibrate import write_preset
         print(f"preset default written: {write_preset(default_preset(choice))}")
     return EXIT_OK
 
@@ -275,7 +275,7 @@ def cmd_detectors(args: argparse.Namespace) -> int:
         raise UserError("--p-max, --fp-per-frame and --noise must not be empty")
     progress = None if args.quiet else (lambda total, label: Progress(total, label))
     try:
-        print(dt.run_detectors(
+        print(sw.run_detectors(
             data=args.data, backend=args.backend, do_sweep=args.sweep, benchmarks=benches, sequences=sequences,
             max_frames=args.max_frames, sweep_datasets=datasets, p_max=p_max, fp_per_frame=fp, noise=noise,
             seed=args.seed, out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,

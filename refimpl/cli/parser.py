@@ -8,6 +8,7 @@ from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cm
                          cmd_occlusion_suite, cmd_sweep, cmd_table6)
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..evaluation.devkits import DEVKITS
+from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
@@ -156,15 +157,7 @@ def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
     return name.strip(), parsed
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
-    p = _Parser(
-        prog="refimpl",
-        description="Online visual abduction for multi-object tracking: the paper's ASP model "
-                    "and an equivalent CP-SAT model.")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND")
-    sub.required = True
-
+def _add_solve(sub: "argparse._SubParsersAction") -> None:
     s = sub.add_parser("solve", help="abduce the best hypothesis for one frame problem (fact file)")
     s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
     s.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
@@ -176,6 +169,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="verify the answer with the independent checker; exit 1 on any violation")
     s.set_defaults(func=cmd_solve)
 
+
+def _add_track(sub: "argparse._SubParsersAction") -> None:
     t = sub.add_parser("track", help="track a detection file and write MOTChallenge results")
     t.add_argument("--dets", required=True, nargs="+", metavar="PATH",
                    help="detections: MOTChallenge det.txt or KITTI PointRCNN file (several with --out-dir); - reads "
@@ -219,6 +214,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_track)
 
+
+def _add_eval(sub: "argparse._SubParsersAction") -> None:
     e = sub.add_parser("eval", help="HOTA, CLEAR MOT and IDF1 of a results file, or of a folder of them "
                                      "(one <SEQ>.txt per sequence), against ground truth")
     e.add_argument("results", help="results file, or folder of <SEQ>.txt results files (MOTChallenge lines; "
@@ -236,6 +233,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "the same files, the numbers a TrackEval leaderboard gives")
     e.set_defaults(func=cmd_eval)
 
+
+def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
     b = sub.add_parser("benchmark", help="track and evaluate every sequence of a benchmark")
     b.add_argument("names", nargs="+", choices=BENCHMARKS, metavar="NAME",
                    help=f"one or more of {', '.join(BENCHMARKS)}; *-sim use simulated detections (refimpl.io.simulate); "
@@ -263,6 +262,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scaleout(b)
     b.set_defaults(func=cmd_benchmark)
 
+
+def _add_calibrate(sub: "argparse._SubParsersAction") -> None:
     cb = sub.add_parser("calibrate", help="grid-search the model's thresholds on a benchmark (its training split) "
                                           "and print the ranked table; the best point is the preset")
     cb.add_argument("--benchmark", required=True, nargs="+", choices=BENCHMARKS, metavar="NAME",
@@ -283,6 +284,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scaleout(cb)
     cb.set_defaults(func=cmd_calibrate)
 
+
+def _add_table6(sub: "argparse._SubParsersAction") -> None:
     t6 = sub.add_parser("table6", help="the paper's Table 6 on our data: baseline vs abduction on every dataset")
     t6.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     t6.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
@@ -292,6 +295,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scaleout(t6)
     t6.set_defaults(func=cmd_table6)
 
+
+def _add_diff(sub: "argparse._SubParsersAction") -> None:
     x = sub.add_parser("diff", help="track with one backend and re-solve every frame with the other; "
                                      "exit 1 on any cost disagreement")
     x.add_argument("--dets", nargs="+", metavar="PATH", help="detections of one or more sequences")
@@ -309,6 +314,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scaleout(x)
     x.set_defaults(func=cmd_diff)
 
+
+def _add_sweep(sub: "argparse._SubParsersAction") -> None:
     sw = sub.add_parser("sweep", help="track and score a benchmark for every combination of model constants "
                                       "(one task per setting and sequence); one table")
     sw.add_argument("--benchmark", required=True, choices=BENCHMARKS, metavar="NAME",
@@ -325,11 +332,15 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scaleout(sw)
     sw.set_defaults(func=cmd_sweep)
 
+
+def _add_demo(sub: "argparse._SubParsersAction") -> None:
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
     d.add_argument("--backends", default=f"{BASELINE},{DEFAULT_BACKEND}",
                    help=f"comma-separated trackers to run out of {','.join(TRACKERS)} (default {BASELINE},{DEFAULT_BACKEND})")
     d.set_defaults(func=cmd_demo)
 
+
+def _add_bench_scale(sub: "argparse._SubParsersAction") -> None:
     sc = sub.add_parser("bench-scale", help="time the backends on synthetic frames (or, with --throughput, "
                                              "the tracking loop on MOT15 and KITTI Car); writes docs/benchmarks.md")
     sc.add_argument("--sizes", default="5,10,20,50,100,200", help="tracks per frame (default 5,10,20,50,100,200)")
@@ -352,6 +363,8 @@ def build_parser() -> argparse.ArgumentParser:
     sc.add_argument("--quiet", action="store_true", help="no progress bar")
     sc.set_defaults(func=cmd_bench_scale)
 
+
+def _add_detectors(sub: "argparse._SubParsersAction") -> None:
     dt = sub.add_parser("detectors", help="which detector, and how much abduction helps it: real detectors side "
                                           "by side, or (--sweep) a simulated detector-quality grid")
     dt.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
@@ -375,6 +388,8 @@ def build_parser() -> argparse.ArgumentParser:
     dt.add_argument("--quiet", action="store_true", help="no progress bar")
     dt.set_defaults(func=cmd_detectors)
 
+
+def _add_occlusion_suite(sub: "argparse._SubParsersAction") -> None:
     oc = sub.add_parser("occlusion-suite", help="write the long-occlusion suite (docs/occlusion.md) as "
                                                 "MOTChallenge sequences: DIR/<scenario>/{det,gt,seqinfo.ini}")
     oc.add_argument("--out", required=True, metavar="DIR", help="folder to write the scenarios into")
@@ -382,6 +397,8 @@ def build_parser() -> argparse.ArgumentParser:
     oc.add_argument("--force", action="store_true", help="overwrite scenario folders that exist")
     oc.set_defaults(func=cmd_occlusion_suite)
 
+
+def _add_bench_occlusion(sub: "argparse._SubParsersAction") -> None:
     bo = sub.add_parser("bench-occlusion", help="baseline vs abduction on the long-occlusion suite: identity kept, "
                                                 "hide/unhide events on time (writes docs/occlusion.md)")
     bo.add_argument("--trackers", default=f"{BASELINE},{DEFAULT_BACKEND}",
@@ -393,6 +410,8 @@ def build_parser() -> argparse.ArgumentParser:
     bo.add_argument("--quiet", action="store_true", help="no progress bar")
     bo.set_defaults(func=cmd_bench_occlusion)
 
+
+def _add_query(sub: "argparse._SubParsersAction") -> None:
     q = sub.add_parser("query", help="ask a scene a question (docs/reasoning.md): tracks | track T | hidden_by T | "
                                       "holds_at T FRAME | events FROM TO [T] | relation T REL | "
                                       "anticipate T FRAME | situations")
@@ -405,11 +424,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the region in front of the ego vehicle, fractions of the image (default 0.333,0.667,0.5,1)")
     q.set_defaults(func=cmd_query)
 
+
+def _add_explain(sub: "argparse._SubParsersAction") -> None:
     xp = sub.add_parser("explain", help="the event log of a scene as plain English sentences")
     xp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
     xp.add_argument("--track", help="only the episodes of this track (13 or trk_13)")
     xp.set_defaults(func=cmd_explain)
 
+
+def _add_plot(sub: "argparse._SubParsersAction") -> None:
     pl = sub.add_parser("plot", help="a space-time picture of a scene, or its boxes and relations at one frame")
     pl.add_argument("scene", help="scene file written by 'refimpl track --scene'")
     pl.add_argument("--out", required=True, help="PNG file to write")
@@ -418,12 +441,48 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--frames", metavar="FROM:TO", help="frame range of the space-time picture")
     pl.set_defaults(func=cmd_plot)
 
+
+def _add_report(sub: "argparse._SubParsersAction") -> None:
     rp = sub.add_parser("report", help="one self-contained HTML page of a scene: the chosen frame's boxes and their "
                                        "state, the space-time picture, the events per track, the explanations")
     rp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
     rp.add_argument("--out", required=True, help="HTML file to write (- for standard output)")
     rp.add_argument("--frame", type=int, help="the frame shown first (default: the one with the most hidden tracks)")
     rp.set_defaults(func=cmd_report)
+
+
+_COMMANDS = (
+    _add_solve,
+    _add_track,
+    _add_eval,
+    _add_benchmark,
+    _add_calibrate,
+    _add_table6,
+    _add_diff,
+    _add_sweep,
+    _add_demo,
+    _add_bench_scale,
+    _add_detectors,
+    _add_occlusion_suite,
+    _add_bench_occlusion,
+    _add_query,
+    _add_explain,
+    _add_plot,
+    _add_report,
+)
+"""One function per command, each adding its subparser with its options and handler; the order of
+``refimpl --help``."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="refimpl",
+        description="Online visual abduction for multi-object tracking: the paper's ASP model "
+                    "and an equivalent CP-SAT model.")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for add in _COMMANDS:
+        add(sub)
     for command in sub.choices.values():
         _show_defaults(command)
     return p

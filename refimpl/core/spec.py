@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping
+from typing import Callable, Iterable, Mapping
 
 IOU_SCALE = 100_000
 """Matching likelihood unit: IoU 1.0 is written as 100000 (the paper's iou/3 facts)."""
@@ -321,153 +321,207 @@ class _Cursor:
         return Term(val)
 
 
-# predicate/arity -> argument kinds ('s' symbol, 'i' integer, 't' any term)
-_SIGNATURES = {
-    ("det", 3): "ssi",
-    ("box2d", 5): "siiii",
-    ("trk", 2): "ss",
-    ("trk_state", 2): "ss",
-    ("iou", 3): "ssi",
-    ("occurs_at", 2): "ti",
-    ("match_type", 2): "ss",
-}
-
-
 def _strip_comment(line: str) -> str:
     i = line.find("%")
     return line if i < 0 else line[:i]
 
 
+class _Facts:
+    """What parse_facts has read so far, each entry with the line it came from (private to this module)."""
+
+    def __init__(self, source: str):
+        self.source = source
+        self.consts: list[tuple[str, int]] = []
+        self.curr_time: int | None = None
+        self.dets: dict[str, tuple[str, int, int]] = {}
+        self.trks: dict[str, tuple[str, int]] = {}
+        self.states: dict[str, tuple[str, int]] = {}
+        self.boxes: dict[str, tuple[Box, int]] = {}
+        self.ious: list[tuple[str, str, int, int]] = []
+        self.iou_seen: set[tuple[str, str]] = set()
+        self.history: list[tuple[HistoryEvent, int]] = []
+        self.match_types: list[tuple[str, str]] = []
+
+    def fail(self, message: str, lineno: int | None) -> ProblemFormatError:
+        return ProblemFormatError(message, self.source, lineno)
+
+    def dup(self, ident: str, what: str, lineno: int) -> ProblemFormatError:
+        return self.fail(f"duplicate {what} for {ident}", lineno)
+
+
+# One reader per predicate: (facts so far, the fact, its checked argument values, line number).
+
+def _read_det(acc: _Facts, fact: Term, vals: list, lineno: int) -> None:
+    if vals[0] in acc.dets or vals[0] in acc.trks:
+        raise acc.dup(vals[0], "det/trk id", lineno)
+    if not 0 <= vals[2] <= 100:
+        raise acc.fail(f"{fact}: confidence must be 0..100", lineno)
+    acc.dets[vals[0]] = (vals[1], vals[2], lineno)
+
+
+def _read_trk(acc: _Facts, fact: Term, vals: list, lineno: int) -> None:
+    if vals[0] in acc.dets or vals[0] in acc.trks:
+        raise acc.dup(vals[0], "det/trk id", lineno)
+    acc.trks[vals[0]] = (vals[1], lineno)
+
+
+def _read_trk_state(acc: _Facts, fact: Term, vals: list, lineno: int) -> None:
+    if vals[0] in acc.states:
+        raise acc.dup(vals[0], "trk_state", lineno)
+    if vals[1] not in TRACK_STATES:
+        raise acc.fail(f"{fact}: state must be active or halted", lineno)
+    acc.states[vals[0]] = (vals[1], lineno)
+
+
+def _read_box2d(acc: _Facts, fact: Term, vals: list, lineno: int) -> None:
+    if vals[0] in acc.boxes:
+        raise acc.dup(vals[0], "box2d", lineno)
+    if vals[3] <= 0 or vals[4] <= 0:
+        raise acc.fail(f"{fact}: width and height must be > 0", lineno)
+    acc.boxes[vals[0]] = ((vals[1], vals[2], vals[3], vals[4]), lineno)
+
+
+def _read_iou(acc: _Facts, fact: Term, vals: list, lineno: int) -> None:
+    if (vals[0], vals[1]) in acc.iou_seen:
+        raise acc.dup(f"({vals[0]},{vals[1]})", "iou", lineno)
+    if not 0 <= vals[2] <= IOU_SCALE:
+        raise acc.fail(f"{fact}: IoU must be 0..{IOU_SCALE}", lineno)
+    acc.iou_seen.add((vals[0], vals[1]))
+    acc.ious.append((vals[0], vals[1], vals[2], lineno))
+
+
+def _read_occurs_at(acc: _Facts, fact: Term, vals: list, lineno: int) -> None:
+    acc.history.append((HistoryEvent(vals[0], vals[1]), lineno))
+
+
+def _read_match_type(acc: _Facts, fact: Term, vals: list, lineno: int) -> None:
+    acc.match_types.append((vals[0], vals[1]))
+
+
+@dataclass(frozen=True)
+class _Predicate:
+    """One row of the fact table: argument kinds ('s' symbol, 'i' integer, 't' any term) and its reader."""
+
+    kinds: str
+    read: Callable[[_Facts, Term, list, int], None]
+
+
+_PREDICATES = {
+    ("det", 3): _Predicate("ssi", _read_det),
+    ("box2d", 5): _Predicate("siiii", _read_box2d),
+    ("trk", 2): _Predicate("ss", _read_trk),
+    ("trk_state", 2): _Predicate("ss", _read_trk_state),
+    ("iou", 3): _Predicate("ssi", _read_iou),
+    ("occurs_at", 2): _Predicate("ti", _read_occurs_at),
+    ("match_type", 2): _Predicate("ss", _read_match_type),
+}
+"""predicate/arity -> its row: the facts a frame problem is made of (a new predicate is one row + its reader)."""
+
+
+def _read_const(acc: _Facts, line: str, lineno: int) -> str:
+    """Read one '#const name=value.' at the start of line; the rest of the line."""
+    m = _CONST.match(line)
+    if not m:
+        raise acc.fail(f"malformed #const: {line[:40]!r}", lineno)
+    name, value = m.group(1), _asp_int(m.group(2))
+    if not _SYMBOL.fullmatch(name):
+        raise acc.fail(f"#const {_symbol_error(name)}", lineno)
+    if value is None:
+        raise acc.fail(f"#const {name}: {_int_range_error(m.group(2))}", lineno)
+    if name == "curr_time":
+        if acc.curr_time is not None:
+            raise acc.fail("curr_time defined twice", lineno)
+        acc.curr_time = value
+    else:
+        if any(k == name for k, _ in acc.consts):
+            raise acc.fail(f"#const {name} defined twice", lineno)
+        acc.consts.append((name, value))
+    return line[m.end():].strip()
+
+
+def _predicate(acc: _Facts, fact: Term, lineno: int) -> _Predicate:
+    row = _PREDICATES.get((fact.name, len(fact.args)))
+    if row is None:
+        raise acc.fail(
+            f"unknown fact {fact.name}/{len(fact.args)} (expected one of "
+            + ", ".join(f"{n}/{a}" for n, a in _PREDICATES) + ")", lineno)
+    return row
+
+
+def _argument_values(acc: _Facts, fact: Term, row: _Predicate, lineno: int) -> list:
+    """The fact's arguments checked against its row's kinds: ints as int, symbols as str, terms as Term."""
+    vals: list = []
+    for arg, kind in zip(fact.args, row.kinds):
+        if kind == "i":
+            if not arg.is_int:
+                raise acc.fail(f"{fact}: {arg} must be an integer", lineno)
+            vals.append(arg.as_int())
+        elif kind == "s":
+            if arg.args or arg.is_int:
+                raise acc.fail(f"{fact}: {arg} must be a constant name", lineno)
+            vals.append(arg.name)
+        else:
+            vals.append(arg)
+    return vals
+
+
+def _read_fact(acc: _Facts, line: str, lineno: int) -> str:
+    """Read one fact at the start of line; the rest of the line."""
+    cur = _Cursor(line, acc.source, lineno)
+    fact = cur.term()
+    cur.expect(".")
+    row = _predicate(acc, fact, lineno)
+    row.read(acc, fact, _argument_values(acc, fact, row, lineno), lineno)
+    return line[cur.pos:].strip()
+
+
+def _check_references(acc: _Facts) -> None:
+    """Every id a fact names is declared, every object has its box (and a track its state)."""
+    for ident, (_, lineno) in acc.boxes.items():
+        if ident not in acc.dets and ident not in acc.trks:
+            raise acc.fail(f"box2d for unknown id {ident}", lineno)
+    for ident, (_, _, lineno) in acc.dets.items():
+        if ident not in acc.boxes:
+            raise acc.fail(f"detection {ident} has no box2d", lineno)
+    for ident, (_, lineno) in acc.trks.items():
+        if ident not in acc.boxes:
+            raise acc.fail(f"track {ident} has no box2d", lineno)
+        if ident not in acc.states:
+            raise acc.fail(f"track {ident} has no trk_state", lineno)
+    for ident, (_, lineno) in acc.states.items():
+        if ident not in acc.trks:
+            raise acc.fail(f"trk_state for unknown track {ident}", lineno)
+    for t, d, v, lineno in acc.ious:
+        if t not in acc.trks or d not in acc.dets:
+            unknown = t if t not in acc.trks else d
+            raise acc.fail(f"iou({t},{d},{v}) names unknown id {unknown}", lineno)
+
+
 def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
     """Parse the paper's fact syntax into a FrameProblem; errors name source and line."""
-    consts: list[tuple[str, int]] = []
-    curr_time: int | None = None
-    dets: dict[str, tuple[str, int, int]] = {}
-    trks: dict[str, tuple[str, int]] = {}
-    states: dict[str, tuple[str, int]] = {}
-    boxes: dict[str, tuple[Box, int]] = {}
-    ious: list[tuple[str, str, int]] = []
-    iou_seen: set[tuple[str, str]] = set()
-    history: list[tuple[HistoryEvent, int]] = []
-    match_types: list[tuple[str, str]] = []
-
+    acc = _Facts(source)
     for lineno, raw in enumerate(_LINE_BREAK.split(text), start=1):
         line = _strip_comment(raw).strip()
-        if not line:
-            continue
         while line:
-            if line.startswith("#const"):
-                m = _CONST.match(line)
-                if not m:
-                    raise ProblemFormatError(f"malformed #const: {line[:40]!r}", source, lineno)
-                name, value = m.group(1), _asp_int(m.group(2))
-                if not _SYMBOL.fullmatch(name):
-                    raise ProblemFormatError(f"#const {_symbol_error(name)}", source, lineno)
-                if value is None:
-                    raise ProblemFormatError(f"#const {name}: {_int_range_error(m.group(2))}", source, lineno)
-                if name == "curr_time":
-                    if curr_time is not None:
-                        raise ProblemFormatError("curr_time defined twice", source, lineno)
-                    curr_time = value
-                else:
-                    if any(k == name for k, _ in consts):
-                        raise ProblemFormatError(f"#const {name} defined twice", source, lineno)
-                    consts.append((name, value))
-                line = line[m.end():].strip()
-                continue
-            cur = _Cursor(line, source, lineno)
-            fact = cur.term()
-            cur.expect(".")
-            line = line[cur.pos:].strip()
-            key = (fact.name, len(fact.args))
-            sig = _SIGNATURES.get(key)
-            if sig is None:
-                raise ProblemFormatError(
-                    f"unknown fact {fact.name}/{len(fact.args)} (expected one of "
-                    + ", ".join(f"{n}/{a}" for n, a in _SIGNATURES) + ")", source, lineno)
-            vals: list = []
-            for arg, kind in zip(fact.args, sig):
-                if kind == "i":
-                    if not arg.is_int:
-                        raise ProblemFormatError(f"{fact}: {arg} must be an integer", source, lineno)
-                    vals.append(arg.as_int())
-                elif kind == "s":
-                    if arg.args or arg.is_int:
-                        raise ProblemFormatError(f"{fact}: {arg} must be a constant name", source, lineno)
-                    vals.append(arg.name)
-                else:
-                    vals.append(arg)
+            line = (_read_const if line.startswith("#const") else _read_fact)(acc, line, lineno)
 
-            def dup(ident: str, what: str) -> ProblemFormatError:
-                return ProblemFormatError(f"duplicate {what} for {ident}", source, lineno)
-
-            name = fact.name
-            if name == "det":
-                if vals[0] in dets or vals[0] in trks:
-                    raise dup(vals[0], "det/trk id")
-                if not 0 <= vals[2] <= 100:
-                    raise ProblemFormatError(f"{fact}: confidence must be 0..100", source, lineno)
-                dets[vals[0]] = (vals[1], vals[2], lineno)
-            elif name == "trk":
-                if vals[0] in dets or vals[0] in trks:
-                    raise dup(vals[0], "det/trk id")
-                trks[vals[0]] = (vals[1], lineno)
-            elif name == "trk_state":
-                if vals[0] in states:
-                    raise dup(vals[0], "trk_state")
-                if vals[1] not in TRACK_STATES:
-                    raise ProblemFormatError(f"{fact}: state must be active or halted", source, lineno)
-                states[vals[0]] = (vals[1], lineno)
-            elif name == "box2d":
-                if vals[0] in boxes:
-                    raise dup(vals[0], "box2d")
-                if vals[3] <= 0 or vals[4] <= 0:
-                    raise ProblemFormatError(f"{fact}: width and height must be > 0", source, lineno)
-                boxes[vals[0]] = ((vals[1], vals[2], vals[3], vals[4]), lineno)
-            elif name == "iou":
-                if (vals[0], vals[1]) in iou_seen:
-                    raise dup(f"({vals[0]},{vals[1]})", "iou")
-                if not 0 <= vals[2] <= IOU_SCALE:
-                    raise ProblemFormatError(f"{fact}: IoU must be 0..{IOU_SCALE}", source, lineno)
-                iou_seen.add((vals[0], vals[1]))
-                ious.append((vals[0], vals[1], vals[2], lineno))  # type: ignore[arg-type]
-            elif name == "occurs_at":
-                history.append((HistoryEvent(vals[0], vals[1]), lineno))
-            elif name == "match_type":
-                match_types.append((vals[0], vals[1]))
-
+    curr_time = acc.curr_time
     if curr_time is None:
-        raise ProblemFormatError("missing '#const curr_time=<int>.'", source)
-    for ident, (_, lineno) in boxes.items():
-        if ident not in dets and ident not in trks:
-            raise ProblemFormatError(f"box2d for unknown id {ident}", source, lineno)
-    for ident, (_, _, lineno) in dets.items():
-        if ident not in boxes:
-            raise ProblemFormatError(f"detection {ident} has no box2d", source, lineno)
-    for ident, (_, lineno) in trks.items():
-        if ident not in boxes:
-            raise ProblemFormatError(f"track {ident} has no box2d", source, lineno)
-        if ident not in states:
-            raise ProblemFormatError(f"track {ident} has no trk_state", source, lineno)
-    for ident, (_, lineno) in states.items():
-        if ident not in trks:
-            raise ProblemFormatError(f"trk_state for unknown track {ident}", source, lineno)
-    for t, d, v, lineno in ious:  # type: ignore[misc]
-        if t not in trks or d not in dets:
-            unknown = t if t not in trks else d
-            raise ProblemFormatError(f"iou({t},{d},{v}) names unknown id {unknown}", source, lineno)
-    for h, lineno in history:
+        raise acc.fail("missing '#const curr_time=<int>.'", None)
+    _check_references(acc)
+    for h, lineno in acc.history:
         if h.time >= curr_time:
-            raise ProblemFormatError(f"{h} is not before curr_time={curr_time}", source, lineno)
+            raise acc.fail(f"{h} is not before curr_time={curr_time}", lineno)
 
+    boxes = acc.boxes
     return FrameProblem(
         time=curr_time,
-        detections=tuple(Detection(i, ty, c, boxes[i][0]) for i, (ty, c, _) in dets.items()),
-        tracks=tuple(TrackPrediction(i, ty, states[i][0], boxes[i][0]) for i, (ty, _) in trks.items()),
-        iou=tuple((t, d, v) for t, d, v, _ in ious),  # type: ignore[misc]
-        constants=tuple(consts),
-        history=tuple(h for h, _ in history),
-        match_types=tuple(match_types),
+        detections=tuple(Detection(i, ty, c, boxes[i][0]) for i, (ty, c, _) in acc.dets.items()),
+        tracks=tuple(TrackPrediction(i, ty, acc.states[i][0], boxes[i][0]) for i, (ty, _) in acc.trks.items()),
+        iou=tuple((t, d, v) for t, d, v, _ in acc.ious),
+        constants=tuple(acc.consts),
+        history=tuple(h for h, _ in acc.history),
+        match_types=tuple(acc.match_types),
     )
 
 

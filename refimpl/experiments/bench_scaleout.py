@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from .. import io
+from ..io.datasets import benchmark_sequences
 from ..solvers import DEFAULT_BACKEND
 from .benchmarks import machine_note, write_section
 
@@ -41,7 +42,7 @@ def input_sets(data: str):
     out = []
     for bench, label, extra in (("mot15", "MOT15 train, 11 sequences", []),
                                 ("kitti-car", "KITTI train Car, 21 sequences", ["--format", "kitti", "--class", "Car"])):
-        seqs = io.benchmark_sequences(bench, data)
+        seqs = benchmark_sequences(bench, data)
         frames = sum(io.load_detections(s).num_frames for s in seqs)
         out.append((label, extra, [str(s.dets_path) for s in seqs], frames))
     return out

@@ -35,7 +35,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
-from ..io.datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS
+from ..io.datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS, benchmark_sequences
 from ..solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BACKEND, REFERENCE_BACKEND, TRACKERS, get_solver
 
 THROUGHPUT_TRACKERS = TRACKERS
@@ -283,14 +283,15 @@ def scale_report(result: ScaleResult, command: str) -> str:
 
 def plot_scale(result: ScaleResult, path: str | os.PathLike) -> None:
     """Log-scale ms/frame vs tracks: one line per backend x overlap, the paper's clingo as reference."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # the 'plot' extra: only when a plot is drawn
+    from matplotlib.figure import Figure
 
     rows = summarise_scale(result)
     colours = COLOURS
     styles = {0.2: ":", 0.5: "--", 0.8: "-"}
-    fig, ax = plt.subplots(figsize=(8.5, 5.5), dpi=110)
+    fig = Figure(figsize=(8.5, 5.5), dpi=110)
+    FigureCanvasAgg(fig)  # this figure's own Agg canvas: no pyplot, no process-wide backend
+    ax = fig.subplots()
     for b in result.backends:
         for ov in result.overlaps:
             pts = [(r.n, r.per_backend[b]["median"], r.per_backend[b]["optimal"]) for r in rows
@@ -324,7 +325,6 @@ def plot_scale(result: ScaleResult, path: str | os.PathLike) -> None:
     ax.legend(fontsize=7, ncol=2, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, format="png")
-    plt.close(fig)
 
 
 # ---------------------------------------------------------------------------------------
@@ -367,7 +367,7 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
     for bench in benchmarks:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # KITTI files: dropped zero-area boxes are warned about
-            plan += [(bench, s.name, io.load_detections(s)) for s in io.benchmark_sequences(bench, data_root)]
+            plan += [(bench, s.name, io.load_detections(s)) for s in benchmark_sequences(bench, data_root)]
     bar = progress(len(plan) * len(trackers), "bench-throughput")
     runs: list[SequenceRun] = []
     started = time.perf_counter()

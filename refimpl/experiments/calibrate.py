@@ -26,10 +26,16 @@ put back in grid order, so the outcome does not depend on the number of workers.
 from __future__ import annotations
 
 import itertools
+import json
 import math
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Mapping, Sequence
 
+from ..io.datasets import BENCHMARKS, benchmark_sequences, tuning_split
+from ..io import write_text_atomic
+from ..tracking.presets import Preset, preset_entry, presets_path
 from ..solvers import DEFAULT_BACKEND
 
 DEFAULT_GRID: dict[str, tuple] = {
@@ -122,13 +128,13 @@ def check_tunable(benchmark: str, data_root: str) -> None:
     reported, never tuned on)."""
     from .. import io
     refuse_held_out(benchmark)
-    seqs = io.benchmark_sequences(benchmark, data_root) if benchmark in io.BENCHMARKS else []
+    seqs = benchmark_sequences(benchmark, data_root) if benchmark in BENCHMARKS else []
     if seqs and seqs[0].format == io.KITTI:  # KITTI has a held-out val split
         held_out = sorted(set(s.name for s in seqs) & set(io.kitti_val_sequences(data_root)))
         if held_out:
             raise CalibrationRefused(
                 f"{benchmark} holds the held-out val sequences {', '.join(held_out)}; calibrate on "
-                f"{io.tuning_split(benchmark)}")
+                f"{tuning_split(benchmark)}")
 
 
 def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:
@@ -238,7 +244,6 @@ def calibration_report(cal: Calibration, command: str, top: int | None = None) -
 
 
 def chosen_preset(cal: Calibration):
-    from ..tracking.presets import Preset
     procedure = (f"grid of {len(cal.points)} points over {', '.join(cal.grid)} (refimpl calibrate), "
                  f"best by {cal.ranking} over {cal.benchmark}")
     if cal.loso:
@@ -355,10 +360,20 @@ def robust_report(choice: RobustChoice, command: str) -> str:
 def default_preset(choice: RobustChoice):
     """The chosen candidate as the stored `default` preset (its values, the procedure said)."""
     from ..tracking.options import TrackerOptions
-    from ..tracking.presets import Preset, load_presets
+    from ..tracking.presets import load_presets
     name = choice.candidates[choice.chosen]
     source = load_presets().get(name)
     procedure = (f"the stored preset with the best mean rank of HOTA over {', '.join(choice.benchmarks)} "
                  f"(refimpl calibrate --default): {name}")
     return Preset("*", "*", dict(source.constants) if source else {}, "+".join(choice.benchmarks), procedure,
                   source.tracker if source else TrackerOptions())
+
+
+def write_preset(preset: Preset, path: str | os.PathLike | None = None) -> Path:
+    """Add or replace one preset in the presets file (model/presets.json unless ``path``; keys
+    sorted; written atomically): what ``refimpl calibrate --write-presets`` writes."""
+    p = Path(path) if path is not None else presets_path()
+    data = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
+    data[preset.name] = preset_entry(preset)
+    write_text_atomic(p, json.dumps(dict(sorted(data.items())), indent=2) + "\n")
+    return p

@@ -5,7 +5,9 @@ the detection probability ``p_max`` (1 - miss rate of a fully visible object), f
 frame and localisation noise (centre and log-size std. dev. as a fraction of the box), on MOT17
 train and KITTI Car ground truth, serially.  At every point: the measured recall / precision of
 the simulated detections (as refimpl.experiments.detectors counts them), and the SORT baseline vs the
-abduction tracker (HOTA, MOTA, IDF1, IDs + Frag).  ``refimpl detectors --sweep`` runs it.
+abduction tracker (HOTA, MOTA, IDF1, IDs + Frag).  ``refimpl detectors --sweep`` runs it, and
+``refimpl detectors`` runs either report through :func:`run_detectors` here (this module builds on
+refimpl.experiments.detectors, never the other way round).
 
 Limits of what it says: the simulator's false positives are drawn independently in every frame
 (they never persist from one frame to the next, as a real detector's repeated false alarm on a
@@ -20,15 +22,20 @@ import dataclasses
 import math
 import os
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from .. import io
-from .detectors import (DetectionQuality, ProgressStep, fmt_pct, fmt_ratio, detection_quality, first_frames,
-                        track_and_evaluate)
+from ..io.datasets import benchmark_sequences
+from .detectors import (REAL_BEGIN, REAL_DETECTORS, REAL_END, SWEEP_BEGIN, SWEEP_END, DetectionQuality,
+                        DetectorResult, ProgressStep, common_sequences, compare_detectors, detection_quality,
+                        first_frames, fmt_pct, fmt_ratio, real_report, results_json, track_and_evaluate,
+                        write_section)
+from ..io.simulate import MOT17_GT_VARIANT, MOT17_TRAIN, DetectorParams, simulate_detections
 from ..solvers import BASELINE, DEFAULT_BACKEND
 
 
@@ -65,7 +72,6 @@ class SweepPoint:
 def sweep_data(dataset: str, data_root: str | os.PathLike, sequences: Sequence[str] | None = None
                ) -> list[tuple[str, io.GroundTruth, tuple[int, int] | None, float | None]]:
     """(name, ground truth, image size, fps) of the sweep's sequences."""
-    from ..io.simulate import MOT17_GT_VARIANT, MOT17_TRAIN
     names = list(sequences) if sequences else list(SWEEP_SUBSETS[dataset])
     root = Path(data_root)
     out = []
@@ -78,7 +84,7 @@ def sweep_data(dataset: str, data_root: str | os.PathLike, sequences: Sequence[s
             gt = dataclasses.replace(io.read_mot_ground_truth(folder / "gt" / "gt.txt", seqinfo=info), name=s)
             out.append((s, gt, (int(info["imWidth"]), int(info["imHeight"])), float(info["frameRate"])))
     elif dataset == "kitti-car":
-        listing = {s.name: s for s in io.benchmark_sequences("kitti-car", root)}
+        listing = {s.name: s for s in benchmark_sequences("kitti-car", root)}
         for s in names:
             if s not in listing:
                 raise ValueError(f"unknown KITTI sequence {s!r} (known: {', '.join(listing)})")
@@ -89,7 +95,6 @@ def sweep_data(dataset: str, data_root: str | os.PathLike, sequences: Sequence[s
 
 
 def detector_params(dataset: str, p_max: float, fp_per_frame: float, noise: float):
-    from ..io.simulate import DetectorParams
     extra = KITTI_CAR_FALSE_POSITIVES if dataset == "kitti-car" else {}
     return DetectorParams(p_max=p_max, fp_per_frame=fp_per_frame, centre_sigma=noise, size_sigma=noise, **extra)
 
@@ -99,7 +104,6 @@ def sweep(dataset: str, data_root: str | os.PathLike, backend: str = DEFAULT_BAC
           noise: Sequence[float] = DEFAULT_NOISE, seed: int = 0, sequences: Sequence[str] | None = None,
           max_frames: int | None = None, step: ProgressStep | None = None) -> list[SweepPoint]:
     """Baseline vs abduction at every grid point (serially, in grid order; seed fixed per point)."""
-    from ..io.simulate import simulate_detections
     data = sweep_data(dataset, data_root, sequences)
     otype = "car" if dataset == "kitti-car" else "pedestrian"
     points = []
@@ -158,16 +162,18 @@ def plot_sweep(points: Sequence[SweepPoint], path: str | os.PathLike) -> str:
     detector recall, one line per FP rate and noise level, one row of panels per dataset.
     Written atomically (a temporary file in the same folder, then renamed).  Returns the metric
     used for the first column."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib import colormaps  # the 'plot' extra: only when a plot is drawn
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     key = "hota" if _has_hota(points) else "mota"
     datasets = list(dict.fromkeys(p.dataset for p in points))
-    fig, axes = plt.subplots(len(datasets), 2, figsize=(10, 3.8 * len(datasets)), dpi=100, squeeze=False)
+    fig = Figure(figsize=(10, 3.8 * len(datasets)), dpi=100)
+    FigureCanvasAgg(fig)  # this figure's own Agg canvas: no pyplot, no process-wide backend
+    axes = fig.subplots(len(datasets), 2, squeeze=False)
     fps_levels = sorted({p.fp_per_frame for p in points})
     noise_levels = sorted({p.noise for p in points})
-    colours = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, max(len(fps_levels), 1)))
+    colours = colormaps["viridis"](np.linspace(0.0, 0.85, max(len(fps_levels), 1)))
     styles = ["-", "--", ":", "-."]
     for row, ds in enumerate(datasets):
         for col, metric in enumerate((key, "idf1")):
@@ -198,8 +204,6 @@ def plot_sweep(points: Sequence[SweepPoint], path: str | os.PathLike) -> str:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
-    finally:
-        plt.close(fig)
     return key
 
 
@@ -217,3 +221,53 @@ def sweep_report(points: Sequence[SweepPoint], command: str, seconds: float, see
     if plot:
         text += f"\n![abduction's gain against detector recall]({Path(plot).name})\n"
     return text
+
+def run_detectors(*, data: str = "../shared/data", backend: str = DEFAULT_BACKEND, do_sweep: bool = False,
+                  benchmarks: Sequence[str] = tuple(REAL_DETECTORS), sequences: Sequence[str] | None = None,
+                  max_frames: int | None = None, sweep_datasets: Sequence[str] | None = None,
+                  p_max: Sequence[float] | None = None, fp_per_frame: Sequence[float] | None = None,
+                  noise: Sequence[float] | None = None, seed: int = 0, out: str | None = None,
+                  plot: str | None = None, json_path: str | None = None, command: str = "refimpl detectors",
+                  with_ungated: bool = False,
+                  progress: Callable[[int, str], object] | None = None) -> str:
+    """Run one of the two reports; write its section of ``out`` (and the sweep's plot); return the text.
+    Sweep options left None take this module's defaults."""
+    sweep_datasets = SWEEP_DATASETS if sweep_datasets is None else sweep_datasets
+    p_max = DEFAULT_P_MAX if p_max is None else p_max
+    fp_per_frame = DEFAULT_FP_PER_FRAME if fp_per_frame is None else fp_per_frame
+    noise = DEFAULT_NOISE if noise is None else noise
+    started = time.perf_counter()
+    real: list[DetectorResult] = []
+    points: list = []
+    if not do_sweep:
+        for bench in benchmarks:
+            n = len(common_sequences(bench, data, sequences)) * len(REAL_DETECTORS[bench]) * (3 if with_ungated else 2)
+            bar = progress(n, f"detectors {bench}") if progress else None
+            real += compare_detectors(bench, data, backend, sequences, max_frames, bar.step if bar else None,
+                                      with_ungated)
+        report = real_report(real, command, time.perf_counter() - started)
+        if out:
+            write_section(out, REAL_BEGIN, REAL_END, report)
+    else:
+        used = {}
+        for ds in sweep_datasets:
+            names = [name for name, *_ in sweep_data(ds, data, sequences)]
+            used[ds] = names
+            n = len(p_max) * len(fp_per_frame) * len(noise)
+            bar = progress(n, f"sweep {ds}") if progress else None
+            points += sweep(ds, data, backend, p_max, fp_per_frame, noise, seed, sequences, max_frames,
+                            bar.step if bar else None)
+        plot_path = plot or (str(Path(out).with_name("detectors-sweep.png")) if out else None)
+        if plot_path:
+            metric = plot_sweep(points, plot_path)
+        report = sweep_report(points, command, time.perf_counter() - started, seed, used, max_frames,
+                              plot_path if out else None)
+        if out:
+            write_section(out, SWEEP_BEGIN, SWEEP_END, report)
+        if plot_path:
+            report += f"\nplot ({metric.upper()} and IDF1 gain against detector recall): {plot_path}\n"
+    if json_path:
+        io.write_text_atomic(json_path, results_json(real, points))
+    if out:
+        report += f"written: {out}\n"
+    return report

@@ -42,7 +42,7 @@ import numpy as np
 
 from .. import io
 from ..evaluation.evaluate import _check_results, _frame_slices, _match, _preprocess, evaluate_many
-from ..io.datasets import REAL_DETECTORS  # noqa: F401  (benchmark -> (key, file beside its detections or None, label))
+from ..io.datasets import REAL_DETECTORS, benchmark_sequences  # noqa: F401  (benchmark -> (key, file beside its detections or None, label))
 from ..solvers import BASELINE, DEFAULT_BACKEND
 
 IOU_THRESHOLD = 0.5
@@ -216,7 +216,7 @@ def _detector_files(benchmark: str, data_root: str | os.PathLike) -> list[tuple[
     out = []
     for key, filename, label in REAL_DETECTORS[benchmark]:
         seqs = {}
-        for s in io.benchmark_sequences(benchmark, root):
+        for s in benchmark_sequences(benchmark, root):
             path = s.dets_path if filename is None else s.dets_path.with_name(filename)
             if path.is_file() and s.gt_path.is_file():
                 seqs[s.name] = dataclasses.replace(s, dets_path=path)
@@ -366,56 +366,3 @@ def real_report(results: Sequence[DetectorResult], command: str, seconds: float)
             f"matched detections with confidence > conf_thresh_new_track = {thr} (only they can start a track "
             "under abduction; SORT ignores confidences). fps: frames / wall-clock seconds of tracking "
             "(files read beforehand, evaluation excluded). HOTA: '-' where the evaluator does not provide it.\n")
-
-
-def run_detectors(*, data: str = "../shared/data", backend: str = DEFAULT_BACKEND, do_sweep: bool = False,
-                  benchmarks: Sequence[str] = tuple(REAL_DETECTORS), sequences: Sequence[str] | None = None,
-                  max_frames: int | None = None, sweep_datasets: Sequence[str] | None = None,
-                  p_max: Sequence[float] | None = None, fp_per_frame: Sequence[float] | None = None,
-                  noise: Sequence[float] | None = None, seed: int = 0, out: str | None = None,
-                  plot: str | None = None, json_path: str | None = None, command: str = "refimpl detectors",
-                  with_ungated: bool = False,
-                  progress: Callable[[int, str], object] | None = None) -> str:
-    """Run one of the two reports; write its section of ``out`` (and the sweep's plot); return the text.
-    Sweep options left None take refimpl.experiments.detector_sweep's defaults."""
-    from . import detector_sweep as ds_
-    from .detector_sweep import plot_sweep, sweep, sweep_data, sweep_report
-    sweep_datasets = ds_.SWEEP_DATASETS if sweep_datasets is None else sweep_datasets
-    p_max = ds_.DEFAULT_P_MAX if p_max is None else p_max
-    fp_per_frame = ds_.DEFAULT_FP_PER_FRAME if fp_per_frame is None else fp_per_frame
-    noise = ds_.DEFAULT_NOISE if noise is None else noise
-    started = time.perf_counter()
-    real: list[DetectorResult] = []
-    points: list = []
-    if not do_sweep:
-        for bench in benchmarks:
-            n = len(common_sequences(bench, data, sequences)) * len(REAL_DETECTORS[bench]) * (3 if with_ungated else 2)
-            bar = progress(n, f"detectors {bench}") if progress else None
-            real += compare_detectors(bench, data, backend, sequences, max_frames, bar.step if bar else None,
-                                      with_ungated)
-        report = real_report(real, command, time.perf_counter() - started)
-        if out:
-            write_section(out, REAL_BEGIN, REAL_END, report)
-    else:
-        used = {}
-        for ds in sweep_datasets:
-            names = [name for name, *_ in sweep_data(ds, data, sequences)]
-            used[ds] = names
-            n = len(p_max) * len(fp_per_frame) * len(noise)
-            bar = progress(n, f"sweep {ds}") if progress else None
-            points += sweep(ds, data, backend, p_max, fp_per_frame, noise, seed, sequences, max_frames,
-                            bar.step if bar else None)
-        plot_path = plot or (str(Path(out).with_name("detectors-sweep.png")) if out else None)
-        if plot_path:
-            metric = plot_sweep(points, plot_path)
-        report = sweep_report(points, command, time.perf_counter() - started, seed, used, max_frames,
-                              plot_path if out else None)
-        if out:
-            write_section(out, SWEEP_BEGIN, SWEEP_END, report)
-        if plot_path:
-            report += f"\nplot ({metric.upper()} and IDF1 gain against detector recall): {plot_path}\n"
-    if json_path:
-        io.write_text_atomic(json_path, results_json(real, points))
-    if out:
-        report += f"written: {out}\n"
-    return report

@@ -19,6 +19,7 @@ from typing import Sequence
 
 from .. import io
 from .calibrate import refuse_held_out
+from ..io.datasets import BENCHMARKS, benchmark_sequences
 from .tasks import RunRequest, RunSummary, run_requests
 
 SPLITS = ("all", "tune", "val")
@@ -55,8 +56,8 @@ def split_dataset(benchmark: str, dataset, data_root: str | Path, split: str):
         return list(dataset)
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}")
-    kitti = benchmark in io.BENCHMARKS and all(
-        s.format == io.KITTI for s in io.benchmark_sequences(benchmark, data_root))
+    kitti = benchmark in BENCHMARKS and all(
+        s.format == io.KITTI for s in benchmark_sequences(benchmark, data_root))
     if not kitti:
         raise ValueError(f"--split {split} is defined for the KITTI benchmarks only (its seqmap.val)")
     val = set(val_sequences(data_root))

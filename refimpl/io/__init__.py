@@ -12,8 +12,9 @@ One concern per module (each imports only the ones listed before it):
 * :mod:`.results`      - results readers and writers (MOTChallenge, KITTI), ResultWriter;
 * :mod:`.formats`      - the format registry (FORMATS, MOT, KITTI, get_format): each format's readers,
   writers, frame numbering, ground-truth layout and side files in one row;
-* :mod:`.catalogue`    - the dataset catalogue (BENCHMARKS, benchmark_sequences, the KITTI splits),
-  load_detections / load_ground_truth and the bundled demo.
+* :mod:`.catalogue`    - the files of the public benchmarks (Benchmark, benchmark_files; the names are
+  refimpl.io.datasets.CATALOGUE's), the KITTI splits, load_detections / load_ground_truth and the
+  bundled demo.
 
 Every public name is importable from ``refimpl.io`` itself.
 
@@ -112,9 +113,9 @@ from .results import (ResultWriter, format_kitti_results, format_mot_results, re
                       read_mot_results, write_kitti_results, write_mot_results, write_text_atomic)
 from .formats import (FORMAT_NAMES, FORMATS, KITTI, MOT, RESULT_FORMATS, DataFormat, get_format, read_results,
                       results_formatter, write_results)
-from .catalogue import (BENCHMARKS, KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_SORT6, MOT15_TRAIN, BenchmarkSequence,
-                        benchmark_sequences, demo_sequence_paths, kitti_val_sequences, load_detections,
-                        load_ground_truth, tuning_split)
+from .catalogue import (KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_ACF, MOT15_SORT6, MOT15_TRAIN, Benchmark,
+                        BenchmarkSequence, benchmark_files, demo_sequence_paths, kitti_val_sequences, load_detections,
+                        load_ground_truth)
 
 __all__ = [
     "InputFormatError", "InputFormatWarning",
@@ -129,7 +130,6 @@ __all__ = [
     "read_mot_results", "read_results", "results_formatter", "write_kitti_results", "write_mot_results",
     "write_results", "write_text_atomic",
     "FORMAT_NAMES", "FORMATS", "KITTI", "MOT", "DataFormat", "get_format",
-    "BENCHMARKS", "KITTI_TRAIN", "KITTI_VAL_SEQMAP", "MOT15_SORT6", "MOT15_TRAIN", "BenchmarkSequence",
-    "benchmark_sequences", "demo_sequence_paths", "kitti_val_sequences", "load_detections", "load_ground_truth",
-    "tuning_split",
+    "KITTI_TRAIN", "KITTI_VAL_SEQMAP", "MOT15_ACF", "MOT15_SORT6", "MOT15_TRAIN", "Benchmark", "BenchmarkSequence",
+    "benchmark_files", "demo_sequence_paths", "kitti_val_sequences", "load_detections", "load_ground_truth",
 ]

@@ -1,6 +1,7 @@
-"""The dataset catalogue: named benchmarks (MOT15 with two detectors, KITTI tracking and its val /
-train splits; one row each in a table) under a data root, reading a catalogued sequence, and the
-bundled demo sequence."""
+"""The files of the public benchmarks: where a benchmark's sequences are under a data root
+(:class:`Benchmark`, the files part of a row of refimpl.io.datasets.CATALOGUE, which names every
+dataset), the KITTI val / train splits, reading a benchmark sequence, and the bundled demo
+sequence."""
 
 from __future__ import annotations
 
@@ -42,8 +43,9 @@ are the split tuned on (``kitti-*-train``)."""
 
 
 @dataclass(frozen=True)
-class _Benchmark:
-    """Where a named benchmark's files are under the data root."""
+class Benchmark:
+    """Where a public benchmark's files are under the data root: the files part of a dataset row
+    (refimpl.io.datasets.CATALOGUE names every dataset; this module reads the files)."""
 
     format: str
     """MOT: MOT15/train/<sequence>/{det/<detections>, gt/gt.txt, seqinfo.ini}; KITTI:
@@ -54,25 +56,6 @@ class _Benchmark:
     sequences: tuple[str, ...]
     split: str = "all"
     """KITTI: all the listed sequences, or those in the val seqmap (val) or not in it (train)."""
-    tune_on: str | None = None
-    """The benchmark anything tuned for this one is tuned on instead (a KITTI benchmark holding val
-    sequences); None where there is none."""
-
-
-_TABLE: dict[str, _Benchmark] = {
-    "mot15": _Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_TRAIN),
-    "mot15-sort6": _Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_SORT6),
-    "kitti-car": _Benchmark(KITTI, "car", "Car", KITTI_TRAIN, tune_on="kitti-car-train"),
-    "kitti-ped": _Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, tune_on="kitti-ped-train"),
-    "kitti-car-val": _Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "val", tune_on="kitti-car-train"),
-    "kitti-ped-val": _Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "val", tune_on="kitti-ped-train"),
-    "kitti-car-train": _Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "train", tune_on="kitti-car-train"),
-    "kitti-ped-train": _Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "train",
-                                  tune_on="kitti-ped-train"),
-    "kitti-cyc": _Benchmark(KITTI, "cyclist", "Cyclist", KITTI_TRAIN),
-    "mot15-acf": _Benchmark(MOT, "pedestrian", "det.txt", MOT15_ACF),
-}
-BENCHMARKS = tuple(_TABLE)
 
 
 def kitti_val_sequences(root: str | os.PathLike) -> tuple[str, ...]:
@@ -93,7 +76,7 @@ def kitti_val_sequences(root: str | os.PathLike) -> tuple[str, ...]:
     return tuple(names)
 
 
-def _mot15(root: Path, b: _Benchmark) -> list[BenchmarkSequence]:
+def _mot15(root: Path, b: Benchmark) -> list[BenchmarkSequence]:
     out = []
     for name in b.sequences:
         seq = root / "MOT15" / "train" / name
@@ -103,7 +86,7 @@ def _mot15(root: Path, b: _Benchmark) -> list[BenchmarkSequence]:
     return out
 
 
-def _kitti(root: Path, b: _Benchmark) -> list[BenchmarkSequence]:
+def _kitti(root: Path, b: Benchmark) -> list[BenchmarkSequence]:
     base = root / "KITTI" / "tracking" / "training"
     names = b.sequences
     if b.split != "all":
@@ -115,37 +98,19 @@ def _kitti(root: Path, b: _Benchmark) -> list[BenchmarkSequence]:
         for name in names]
 
 
-def tuning_split(name: str) -> str | None:
-    """The benchmark to tune on instead of a KITTI benchmark holding val sequences
-    (``kitti-car`` / ``kitti-car-val`` -> ``kitti-car-train``); None for any other benchmark."""
-    b = _TABLE.get(name.strip().lower())
-    return b.tune_on if b is not None else None
-
-
-def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
-    """The sequences of a named benchmark under data_root (layout of /work/shared/data).
-
-    ``mot15`` (11 MOT15 train sequences, SORT Faster R-CNN dets), ``mot15-sort6`` (the six
-    sequences of the SORT paper's comparison), ``mot15-acf`` (the 7 MOT15 train sequences with the
-    official ACF ``det/det.txt``), ``kitti-car`` / ``kitti-ped`` / ``kitti-cyc`` (KITTI tracking
-    train 0000-0020, PointRCNN dets, label_02 ground truth), ``kitti-car-val`` / ``kitti-ped-val``
-    (the sequences listed in ``KITTI/tracking/training/evaluate_tracking.seqmap.val``: 11) and
-    ``kitti-car-train`` / ``kitti-ped-train`` (the other training sequences: 10), the split that
-    anything tuned is tuned on.  Every file must exist.
-    """
+def benchmark_files(name: str, b: Benchmark, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
+    """The sequences of benchmark ``b`` (called ``name`` in messages) under data_root (layout of
+    /work/shared/data: ``Benchmark.format``); every file must exist.  By name:
+    refimpl.io.datasets.benchmark_sequences."""
     root = Path(data_root)
-    key = name.strip().lower()
-    b = _TABLE.get(key)
-    if b is None:
-        raise ValueError(f"unknown benchmark {name!r} (known: {', '.join(BENCHMARKS)})")
     if not root.is_dir():
-        raise InputFormatError(f"data root for benchmark {key!r} not found", root)
+        raise InputFormatError(f"data root for benchmark {name!r} not found", root)
     seqs = _mot15(root, b) if b.format == MOT else _kitti(root, b)
     for s in seqs:
         for p in (s.dets_path, s.gt_path, s.seqinfo_path):
             if p is not None and not p.is_file():
                 raise InputFormatError(
-                    f"missing file of benchmark {key!r} (sequence {s.name}); is {root} the benchmark "
+                    f"missing file of benchmark {name!r} (sequence {s.name}); is {root} the benchmark "
                     f"data root (holding MOT15/ and KITTI/)?", p)
     return seqs
 

@@ -8,14 +8,20 @@ detections do not ship here; always labelled as such), whether it is HELD OUT (n
 KITTI Cyclist, MOT15 with ACF; labelled as such too), and how to load it as
 ``[(sequence name, DetectionSequence, GroundTruth)]``.
 The CLI's choices, the benchmarks, Table 6, the sweeps, the calibration and the peer comparison
-all read it; adding a dataset is one ``Dataset`` row here (plus its files in ``refimpl.io``).
+all read it.  This is the one place a dataset name is spelled: a row holds where its files are
+(``io.Benchmark``: layout, class, detection file, sequences, split; or ``simulate.SimulatedBenchmark``:
+the ground truth to simulate from), and ``refimpl.io`` / ``refimpl.io.simulate`` read them.  Adding a
+dataset is one ``Dataset`` row here.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 from .. import io
+from . import KITTI, KITTI_TRAIN, MOT, MOT15_ACF, MOT15_SORT6, MOT15_TRAIN, Benchmark
+from .simulate import MOT17, MOT20_01, SimulatedBenchmark, simulated_benchmark_sequences
 
 
 HELD_OUT = "held out: never used for tuning"
@@ -26,8 +32,9 @@ HELD_OUT = "held out: never used for tuning"
 class Dataset:
     name: str
     title: str
-    simulated: bool = False
-    """Detections simulated from ground truth (refimpl.io.simulate), never public ones."""
+    files: Benchmark | SimulatedBenchmark
+    """Its public benchmark files (io.Benchmark), or the ground truth its detections are simulated
+    from (simulate.SimulatedBenchmark)."""
     table6: bool = False
     """A row of the paper's Table 6 on our data (refimpl table6)."""
     throughput: bool = False
@@ -39,35 +46,53 @@ class Dataset:
     held_out: bool = False
     """Never used for tuning or for designing a rule: run only to report (issue 25's rule; refimpl
     calibrate and refimpl sweep refuse it).  Its title says so."""
+    tune_on: str | None = None
+    """The dataset anything tuned for this one is tuned on instead (a KITTI benchmark holding val
+    sequences); None where there is none."""
+
+    @property
+    def simulated(self) -> bool:
+        """Detections simulated from ground truth (refimpl.io.simulate), never public ones."""
+        return isinstance(self.files, SimulatedBenchmark)
 
 
 _ROWS = (
-    Dataset("mot15", "MOT15 train, 11 sequences (SORT's Faster R-CNN detections)", table6=True, throughput=True,
+    Dataset("mot15", "MOT15 train, 11 sequences (SORT's Faster R-CNN detections)",
+            Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_TRAIN), table6=True, throughput=True,
             detectors=(("acf", "det.txt", "ACF (official MOT15 public detections)"),
                        ("frcnn", "det_sort_frcnn.txt", "Faster R-CNN (SORT's detections)"))),
-    Dataset("mot15-sort6", "MOT15 train, SORT's six sequences (SORT's Faster R-CNN detections)"),
-    Dataset("kitti-car", "KITTI tracking train, Car, 21 sequences (PointRCNN detections)", table6=True,
-            throughput=True, detectors=(("pointrcnn", None, "PointRCNN (AB3DMOT's detections)"),)),
-    Dataset("kitti-ped", "KITTI tracking train, Pedestrian, 21 sequences (PointRCNN detections)", table6=True),
-    Dataset("kitti-car-val", "KITTI tracking train, Car, the 11 val-split sequences (PointRCNN detections)"),
-    Dataset("kitti-ped-val", "KITTI tracking train, Pedestrian, the 11 val-split sequences (PointRCNN detections)"),
+    Dataset("mot15-sort6", "MOT15 train, SORT's six sequences (SORT's Faster R-CNN detections)",
+            Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_SORT6)),
+    Dataset("kitti-car", "KITTI tracking train, Car, 21 sequences (PointRCNN detections)",
+            Benchmark(KITTI, "car", "Car", KITTI_TRAIN), table6=True, throughput=True,
+            detectors=(("pointrcnn", None, "PointRCNN (AB3DMOT's detections)"),), tune_on="kitti-car-train"),
+    Dataset("kitti-ped", "KITTI tracking train, Pedestrian, 21 sequences (PointRCNN detections)",
+            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN), table6=True, tune_on="kitti-ped-train"),
+    Dataset("kitti-car-val", "KITTI tracking train, Car, the 11 val-split sequences (PointRCNN detections)",
+            Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "val"), tune_on="kitti-car-train"),
+    Dataset("kitti-ped-val", "KITTI tracking train, Pedestrian, the 11 val-split sequences (PointRCNN detections)",
+            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "val"), tune_on="kitti-ped-train"),
     Dataset("kitti-car-train",
-            "KITTI tracking train, Car, the 10 sequences outside the val split (PointRCNN detections)"),
+            "KITTI tracking train, Car, the 10 sequences outside the val split (PointRCNN detections)",
+            Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "train"), tune_on="kitti-car-train"),
     Dataset("kitti-ped-train",
-            "KITTI tracking train, Pedestrian, the 10 sequences outside the val split (PointRCNN detections)"),
+            "KITTI tracking train, Pedestrian, the 10 sequences outside the val split (PointRCNN detections)",
+            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "train"), tune_on="kitti-ped-train"),
     Dataset("kitti-cyc", f"KITTI tracking train, Cyclist, 21 sequences (PointRCNN detections; {HELD_OUT})",
-            held_out=True),
+            Benchmark(KITTI, "cyclist", "Cyclist", KITTI_TRAIN), held_out=True),
     Dataset("mot15-acf",
             f"MOT15 train, the 7 sequences with the official ACF detections (det/det.txt; {HELD_OUT})",
-            held_out=True),
-    Dataset("mot17-sim", "MOT17 train, 7 sequences (SIMULATED detections, seed 0)", simulated=True, table6=True),
-    Dataset("mot20-01-sim", "MOT20-01 (SIMULATED detections, seed 0)", simulated=True, table6=True),
+            Benchmark(MOT, "pedestrian", "det.txt", MOT15_ACF), held_out=True),
+    Dataset("mot17-sim", "MOT17 train, 7 sequences (SIMULATED detections, seed 0)", MOT17, table6=True),
+    Dataset("mot20-01-sim", "MOT20-01 (SIMULATED detections, seed 0)", MOT20_01, table6=True),
 )
 
 CATALOGUE: dict[str, Dataset] = {d.name: d for d in _ROWS}
 """dataset name -> Dataset."""
 
 DATASETS = tuple(CATALOGUE)
+BENCHMARKS = tuple(d.name for d in _ROWS if not d.simulated)
+"""The datasets with public benchmark files (io.Benchmark)."""
 SIMULATED = tuple(d.name for d in _ROWS if d.simulated)
 TITLES = {d.name: d.title for d in _ROWS}
 TABLE6_DATASETS = tuple(d.name for d in _ROWS if d.table6)
@@ -77,7 +102,6 @@ HELD_OUT_DATASETS = tuple(d.name for d in _ROWS if d.held_out)
 """The datasets run only to report, never tuned on (Dataset.held_out)."""
 REAL_DETECTORS: dict[str, tuple[tuple[str, str | None, str], ...]] = {d.name: d.detectors for d in _ROWS if d.detectors}
 """dataset -> its real detectors side by side (Dataset.detectors)."""
-SIMULATED_SUFFIX = "-sim"
 
 
 def dataset(name: str) -> Dataset:
@@ -88,17 +112,43 @@ def dataset(name: str) -> Dataset:
         raise ValueError(f"unknown dataset {name!r} (choose from {', '.join(DATASETS)})") from None
 
 
+def benchmark_sequences(name: str, data_root: str | os.PathLike) -> list[io.BenchmarkSequence]:
+    """The sequences of a dataset with public files under data_root (layout of /work/shared/data).
+
+    ``mot15`` (11 MOT15 train sequences, SORT Faster R-CNN dets), ``mot15-sort6`` (the six
+    sequences of the SORT paper's comparison), ``mot15-acf`` (the 7 MOT15 train sequences with the
+    official ACF ``det/det.txt``), ``kitti-car`` / ``kitti-ped`` / ``kitti-cyc`` (KITTI tracking
+    train 0000-0020, PointRCNN dets, label_02 ground truth), ``kitti-car-val`` / ``kitti-ped-val``
+    (the sequences listed in ``KITTI/tracking/training/evaluate_tracking.seqmap.val``: 11) and
+    ``kitti-car-train`` / ``kitti-ped-train`` (the other training sequences: 10), the split that
+    anything tuned is tuned on.  Every file must exist (io.benchmark_files).
+    """
+    key = name.strip().lower()
+    entry = CATALOGUE.get(key)
+    if entry is None or entry.simulated:
+        raise ValueError(f"unknown benchmark {name!r} (known: {', '.join(BENCHMARKS)})")
+    return io.benchmark_files(key, entry.files, data_root)
+
+
+def tuning_split(name: str) -> str | None:
+    """The dataset to tune on instead of a KITTI benchmark holding val sequences
+    (``kitti-car`` / ``kitti-car-val`` -> ``kitti-car-train``); None for any other dataset."""
+    entry = CATALOGUE.get(name.strip().lower())
+    return entry.tune_on if entry is not None else None
+
+
 def load_dataset(name: str, data_root: str, seed: int = 0):
     """[(sequence name, DetectionSequence, GroundTruth)] of a dataset."""
-    if dataset(name).simulated:
-        from .simulate import simulated_benchmark_sequences
-        return simulated_benchmark_sequences(name[: -len(SIMULATED_SUFFIX)], data_root, seed=seed)
-    return [(s.name, io.load_detections(s), io.load_ground_truth(s)) for s in io.benchmark_sequences(name, data_root)]
+    entry = dataset(name)
+    if entry.simulated:
+        return simulated_benchmark_sequences(entry.files, data_root, seed=seed, name=name)
+    return [(s.name, io.load_detections(s), io.load_ground_truth(s)) for s in benchmark_sequences(name, data_root)]
 
 
 def dataset_kind(name: str, data_root: str) -> tuple[str, str]:
     """(format, object class) of a dataset: what selects its preset (refimpl.tracking.presets)."""
-    if dataset(name).simulated:
+    entry = dataset(name)
+    if entry.simulated:
         return io.MOT, "pedestrian"
-    first = io.benchmark_sequences(name, data_root)[0]
+    first = benchmark_sequences(name, data_root)[0]
     return first.format, first.object_class

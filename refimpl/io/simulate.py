@@ -53,10 +53,24 @@ import numpy as np
 
 from . import DetectionFrame, DetectionSequence, GroundTruth, InputFormatError, read_mot_ground_truth, read_seqinfo
 
-SIMULATED_BENCHMARKS = ("mot17", "mot20-01")
 MOT17_TRAIN = ("MOT17-02", "MOT17-04", "MOT17-05", "MOT17-09", "MOT17-10", "MOT17-11", "MOT17-13")
 MOT17_GT_VARIANT = "FRCNN"
 """Which of the identical gt copies to read: MOT17-02-DPM's gt is incomplete (PROVENANCE.md)."""
+
+
+@dataclass(frozen=True)
+class SimulatedBenchmark:
+    """The ground truth a simulated dataset draws its detections from: (sequence name, its
+    MOTChallenge folder under the data root, holding gt/gt.txt and seqinfo.ini) per sequence.  The
+    simulated part of a row of refimpl.io.datasets.CATALOGUE (which names every dataset)."""
+
+    sequences: tuple[tuple[str, str], ...]
+
+
+MOT17 = SimulatedBenchmark(tuple((s, f"MOT17/train/{s}-{MOT17_GT_VARIANT}") for s in MOT17_TRAIN))
+"""The 7 MOT17 train sequences (ground truth of the -FRCNN folders; the gt is the same in all
+variants except the broken MOT17-02-DPM copy)."""
+MOT20_01 = SimulatedBenchmark((("MOT20-01", "MOT20/train/MOT20-01"),))
 
 
 @dataclass(frozen=True)
@@ -256,28 +270,21 @@ def _require(path: Path, what: str, root: Path) -> Path:
     return path
 
 
-def simulated_benchmark_sequences(name: str, data_root: str | os.PathLike, seed: int = 0,
-                                  params: DetectorParams = DetectorParams()
+def simulated_benchmark_sequences(benchmark: SimulatedBenchmark, data_root: str | os.PathLike, seed: int = 0,
+                                  params: DetectorParams = DetectorParams(), name: str = "simulated benchmark"
                                   ) -> list[tuple[str, DetectionSequence, GroundTruth]]:
-    """(name, simulated DetectionSequence, GroundTruth) for every sequence of a simulated benchmark.
+    """(name, simulated DetectionSequence, GroundTruth) for every sequence of a simulated benchmark
+    (:data:`MOT17`, :data:`MOT20_01`; by dataset name: refimpl.io.datasets.load_dataset).
 
-    ``mot17``: the 7 MOT17 train sequences (ground truth of the -FRCNN folders; the gt is the
-    same in all variants except the broken MOT17-02-DPM copy); ``mot20-01``: MOT20-01.  Names
-    are the plain sequence names ('MOT17-02'); the detections are named
+    Names are the plain sequence names ('MOT17-02'); the detections are named
     'MOT17-02 (simulated dets, seed 0)'.  Every sequence uses default_rng(seed), so one sequence
     is reproduced by simulate_detections(gt, seed) with the seqinfo's image size.  A missing
-    file raises io.InputFormatError naming it.
+    file raises io.InputFormatError naming it; ``name`` (the dataset's) is what a message calls it.
     """
     root = Path(data_root)
-    key = name.strip().lower()
-    if key == "mot17":
-        folders = [(s, root / "MOT17" / "train" / f"{s}-{MOT17_GT_VARIANT}") for s in MOT17_TRAIN]
-    elif key == "mot20-01":
-        folders = [("MOT20-01", root / "MOT20" / "train" / "MOT20-01")]
-    else:
-        raise ValueError(f"unknown simulated benchmark {name!r} (known: {', '.join(SIMULATED_BENCHMARKS)})")
+    folders = [(s, root / folder) for s, folder in benchmark.sequences]
     if not root.is_dir():
-        raise InputFormatError(f"data root for simulated benchmark {key!r} not found", root)
+        raise InputFormatError(f"data root for {name!r} not found", root)
     paths = [(s, _require(f / "gt" / "gt.txt", f"ground truth of {s}", root),
               _require(f / "seqinfo.ini", f"seqinfo.ini of {s}", root)) for s, f in folders]
     out = []

@@ -46,7 +46,8 @@ from .anticipation import (DEFAULT_CONFIG, Anticipation, EgoRegion, Predictor, R
                            hidden_behind_at, kalman_predictor, no_anticipation_reason, reasoning_config,
                            velocity_predictor)
 from .situations import Situation, hidden_entity_situations, situations, sudden_stop_situations
-from .queries import (LIFETIME, MOVEMENT, MOVEMENT_WINDOW, QUERY_FORMS, RCC_SHORT_NAME, RELATION_NAMES, SPATIAL,
+from .queries import (LIFETIME, MOVEMENT, MOVEMENT_WINDOW, QUERIES, QUERY_FORMS, RCC_SHORT_NAME, RELATION_NAMES,
+                      SPATIAL,
                       Answer, frame_relations, holds_at, query, query_usage, related, track_summary)
 from .scoring import (DURATION_BUCKETS, EpisodeOutcome, evaluate_anticipation, format_evaluation, main,
                       score_scene, summarise_outcomes)
@@ -61,7 +62,7 @@ __all__ = [
     "DEFAULT_CONFIG", "Anticipation", "EgoRegion", "Predictor", "ReasoningConfig", "anticipate", "hidden_behind_at",
     "kalman_predictor", "no_anticipation_reason", "reasoning_config", "velocity_predictor",
     "Situation", "hidden_entity_situations", "situations", "sudden_stop_situations",
-    "LIFETIME", "MOVEMENT", "MOVEMENT_WINDOW", "QUERY_FORMS", "RCC_SHORT_NAME", "RELATION_NAMES", "SPATIAL",
+    "LIFETIME", "MOVEMENT", "MOVEMENT_WINDOW", "QUERIES", "QUERY_FORMS", "RCC_SHORT_NAME", "RELATION_NAMES", "SPATIAL",
     "Answer", "frame_relations", "holds_at", "query", "query_usage", "related", "track_summary",
     "DURATION_BUCKETS", "EpisodeOutcome", "evaluate_anticipation", "format_evaluation", "main", "score_scene",
     "summarise_outcomes",

@@ -1,5 +1,5 @@
 """Queries on a scene: the relation registry between tracks (Table 2), track summaries and the
-query language (:data:`QUERY_FORMS`, :func:`query`)."""
+query language (:data:`QUERIES`, :func:`query`)."""
 
 from __future__ import annotations
 
@@ -121,18 +121,6 @@ def related(scene: Scene, x: str, name: str) -> list[tuple[str, list[tuple[int, 
 # Queries
 # ---------------------------------------------------------------------------------------
 
-QUERY_FORMS = (
-    ("tracks", "every track: type, life, observed / hidden frames"),
-    ("track T", "T's life: start, hidden and missing spans, end"),
-    ("hidden_by T", "which tracks T hid, and when (frames where hidden_by(X,T) holds)"),
-    ("holds_at T FRAME", "every fluent of T at FRAME (holds_at, events before FRAME)"),
-    ("events FROM TO [T]", "the events of frames FROM..TO (of track T only)"),
-    ("relation T REL", "which tracks Y were ever in relation 'Y REL T', and at which frames"),
-    ("anticipate T FRAME", "anticipate(unhides_from_behind(T,T2),T') for T hidden at FRAME, with the warning"),
-    ("situations", "safety-critical situations: HIDDEN_ENTITY, SUDDEN_STOP with their frames"),
-)
-
-
 def query_usage() -> str:
     """The one-line list of query forms."""
     return "query forms: " + " | ".join(form for form, _ in QUERY_FORMS)
@@ -216,82 +204,151 @@ def holds_at(scene: Scene, trk: str, frame: int) -> dict[str, list[str]]:
     return out
 
 
+def _answer_tracks(scene: Scene, config: ReasoningConfig) -> tuple[list[str], object]:
+    data = [track_summary(scene, t.id) for t in scene.tracks]
+    lines = []
+    for s in data:
+        hidden = sum(1 for h in s["halts"] if h["kind"] == "hidden")
+        lines.append(f"{s['track']} ({s['type']}): frames {s['first_frame']}-{s['last_frame']}, observed "
+                     f"{s['observed_frames']}, hidden {hidden} time{'s' if hidden != 1 else ''}"
+                     + (f", {s['ended_by'] or 'ended'} at {s['ended_at']}" if s["ended_at"] is not None else ""))
+    return lines, data
+
+
+def _answer_track(scene: Scene, config: ReasoningConfig, x: str) -> tuple[list[str], object]:
+    data = track_summary(scene, x)
+    return _summary_lines(data), data
+
+
+def _answer_hidden_by(scene: Scene, config: ReasoningConfig, x: str) -> tuple[list[str], object]:
+    lines, data = [], []
+    for t in scene.tracks:
+        runs = [(a, b) for a, b, v in scene.timeline(f"hidden_by({t.id},{x})") if v == "true"]
+        if runs:
+            data.append({"track": t.id, "frames": [list(r) for r in runs]})
+            lines.append(f"{t.id} hidden by {x}: {_frames_of(runs)}")
+    if not data:
+        lines.append(f"no track was hidden by {x}")
+    return lines, data
+
+
+def _answer_holds_at(scene: Scene, config: ReasoningConfig, x: str, f: int) -> tuple[list[str], object]:
+    data = holds_at(scene, x, f)
+    lines = [f"{k} = {' | '.join(v)}" for k, v in data.items()]
+    hidden = [k for k in data if k.startswith("hidden_by")]
+    if not hidden:
+        lines.append(f"hidden_by({x},X) = false for every other track X")
+    where = scene.track(x).box_at(f)
+    lines.append(f"{x} at {f}: " + (f"{where[0]} box {_fmt_box(where[1])}" if where else "no box"))
+    return lines, data
+
+
+def _answer_events(scene: Scene, config: ReasoningConfig, a: int, b: int,
+                   who: str | None = None) -> tuple[list[str], object]:
+    sel = [e for e in scene.events if a <= e.time <= b
+           and (who is None or who in (str(x) for x in e.event.args))]
+    data = [{"time": e.time, "event": str(e.event)} for e in sel]
+    return [str(e) for e in sel] or [f"no events in frames {a}-{b}"], data
+
+
+def _answer_relation(scene: Scene, config: ReasoningConfig, x: str, rel_name: str) -> tuple[list[str], object]:
+    name = rel_name.lower()
+    if name not in RELATION_NAMES:
+        raise SceneError(f"unknown relation {rel_name!r} (relations: {', '.join(RELATION_NAMES)})")
+    found = related(scene, x, name)
+    data = [{"track": y, "frames": [list(r) for r in runs]} for y, runs in found]
+    return [f"{y} {name} {x}: {_frames_of(runs)}" for y, runs in found] or [f"no track is {name} {x}"], data
+
+
+def _answer_anticipate(scene: Scene, config: ReasoningConfig, x: str, f: int) -> tuple[list[str], object]:
+    ant = anticipate(scene, x, f, config)
+    if ant is None:
+        return [no_anticipation_reason(scene, x, f, config)], None
+    data = {"track": ant.track, "hider": ant.hider, "now": ant.now, "at": ant.at, "box": list(ant.box),
+            "position": list(ant.position), "in_front": ant.in_front, "warning": ant.warning,
+            "atoms": ant.atoms()}
+    lines = ant.atoms() + [f"({x} predicted to reappear from behind {ant.hider} at frame {ant.at}, "
+                           f"{ant.at - f} frame{'' if ant.at - f == 1 else 's'} after {f}, at ({ant.position[0]:.0f}, "
+                           f"{ant.position[1]:.0f}) px; {'in front' if ant.in_front else 'not in front'})"]
+    return lines, data
+
+
+def _answer_situations(scene: Scene, config: ReasoningConfig) -> tuple[list[str], object]:
+    found = situations(scene, config)
+    data = [{"situation": s.kind, "objects": list(s.objects), "from": s.start, "to": s.end} for s in found]
+    return [s.describe() for s in found] or ["no safety-critical situations"], data
+
+
+_ARGUMENT_PARSERS: dict[str, Callable[[Scene, str], object]] = {
+    "T": track_id,
+    "FRAME": lambda scene, text: _frame(text),
+    "FROM": lambda scene, text: _frame(text, "FROM"),
+    "TO": lambda scene, text: _frame(text, "TO"),
+    "REL": lambda scene, text: text,
+}
+"""A placeholder of a query form's usage -> how its word is read (a track id, a frame number, a name)."""
+
+
+@dataclass(frozen=True)
+class QueryForm:
+    """One row of the query registry: its usage (name, then placeholders of _ARGUMENT_PARSERS, an
+    optional one in [brackets]), what it answers, and the handler that answers it from the parsed words."""
+
+    usage: str
+    description: str
+    answer: Callable[..., tuple[list[str], object]]
+
+    @property
+    def name(self) -> str:
+        return self.usage.split()[0]
+
+    @property
+    def placeholders(self) -> tuple[str, ...]:
+        return tuple(w.strip("[]") for w in self.usage.split()[1:])
+
+    @property
+    def arity(self) -> tuple[int, int]:
+        """(fewest, most) words after the name."""
+        words = self.usage.split()[1:]
+        return sum(1 for w in words if not w.startswith("[")), len(words)
+
+    def parse(self, scene: Scene, args: Sequence[str]) -> list[object]:
+        """The words read left to right by their placeholders' parsers (the first bad word raises)."""
+        return [_ARGUMENT_PARSERS[ph](scene, word) for ph, word in zip(self.placeholders, args)]
+
+
+QUERIES = {q.name: q for q in (
+    QueryForm("tracks", "every track: type, life, observed / hidden frames", _answer_tracks),
+    QueryForm("track T", "T's life: start, hidden and missing spans, end", _answer_track),
+    QueryForm("hidden_by T", "which tracks T hid, and when (frames where hidden_by(X,T) holds)", _answer_hidden_by),
+    QueryForm("holds_at T FRAME", "every fluent of T at FRAME (holds_at, events before FRAME)", _answer_holds_at),
+    QueryForm("events FROM TO [T]", "the events of frames FROM..TO (of track T only)", _answer_events),
+    QueryForm("relation T REL", "which tracks Y were ever in relation 'Y REL T', and at which frames",
+              _answer_relation),
+    QueryForm("anticipate T FRAME",
+              "anticipate(unhides_from_behind(T,T2),T') for T hidden at FRAME, with the warning", _answer_anticipate),
+    QueryForm("situations", "safety-critical situations: HIDDEN_ENTITY, SUDDEN_STOP with their frames",
+              _answer_situations),
+)}
+"""The query language: form name -> its row (a new query is one row and its handler)."""
+
+QUERY_FORMS = tuple((q.usage, q.description) for q in QUERIES.values())
+"""(usage, description) of every query form, in registry order."""
+
+
 def query(scene: Scene, text: str, config: ReasoningConfig = DEFAULT_CONFIG) -> Answer:
     """Answer one query (forms: :data:`QUERY_FORMS`); SceneError for a malformed query."""
     words = text.split()
     if not words:
         raise SceneError(f"empty query; {query_usage()}")
-    form, args = words[0].lower(), words[1:]
-    arity = {"tracks": (0, 0), "track": (1, 1), "hidden_by": (1, 1), "holds_at": (2, 2), "events": (2, 3),
-             "relation": (2, 2), "anticipate": (2, 2), "situations": (0, 0)}
-    if form not in arity:
+    name, args = words[0].lower(), words[1:]
+    form = QUERIES.get(name)
+    if form is None:
         raise SceneError(f"unknown query {words[0]!r}; {query_usage()}")
-    lo, hi = arity[form]
+    lo, hi = form.arity
     if not lo <= len(args) <= hi:
-        usage = next(f for f, _ in QUERY_FORMS if f.split()[0] == form)
-        raise SceneError(f"query {form!r} takes the form '{usage}', got {text.strip()!r}; {query_usage()}")
-    lines: list[str] = []
-    data: object
-    if form == "tracks":
-        data = [track_summary(scene, t.id) for t in scene.tracks]
-        for s in data:
-            hidden = sum(1 for h in s["halts"] if h["kind"] == "hidden")
-            lines.append(f"{s['track']} ({s['type']}): frames {s['first_frame']}-{s['last_frame']}, observed "
-                         f"{s['observed_frames']}, hidden {hidden} time{'s' if hidden != 1 else ''}"
-                         + (f", {s['ended_by'] or 'ended'} at {s['ended_at']}" if s["ended_at"] is not None else ""))
-    elif form == "track":
-        data = track_summary(scene, track_id(scene, args[0]))
-        lines = _summary_lines(data)
-    elif form == "hidden_by":
-        x = track_id(scene, args[0])
-        data = []
-        for t in scene.tracks:
-            runs = [(a, b) for a, b, v in scene.timeline(f"hidden_by({t.id},{x})") if v == "true"]
-            if runs:
-                data.append({"track": t.id, "frames": [list(r) for r in runs]})
-                lines.append(f"{t.id} hidden by {x}: {_frames_of(runs)}")
-        if not data:
-            lines.append(f"no track was hidden by {x}")
-    elif form == "holds_at":
-        x, f = track_id(scene, args[0]), _frame(args[1])
-        data = holds_at(scene, x, f)
-        lines = [f"{k} = {' | '.join(v)}" for k, v in data.items()]
-        hidden = [k for k in data if k.startswith("hidden_by")]
-        if not hidden:
-            lines.append(f"hidden_by({x},X) = false for every other track X")
-        where = scene.track(x).box_at(f)
-        lines.append(f"{x} at {f}: " + (f"{where[0]} box {_fmt_box(where[1])}" if where else "no box"))
-    elif form == "events":
-        a, b = _frame(args[0], "FROM"), _frame(args[1], "TO")
-        who = track_id(scene, args[2]) if len(args) == 3 else None
-        sel = [e for e in scene.events if a <= e.time <= b
-               and (who is None or who in (str(x) for x in e.event.args))]
-        data = [{"time": e.time, "event": str(e.event)} for e in sel]
-        lines = [str(e) for e in sel] or [f"no events in frames {a}-{b}"]
-    elif form == "relation":
-        x, name = track_id(scene, args[0]), args[1].lower()
-        if name not in RELATION_NAMES:
-            raise SceneError(f"unknown relation {args[1]!r} (relations: {', '.join(RELATION_NAMES)})")
-        found = related(scene, x, name)
-        data = [{"track": y, "frames": [list(r) for r in runs]} for y, runs in found]
-        lines = [f"{y} {name} {x}: {_frames_of(runs)}" for y, runs in found] or [f"no track is {name} {x}"]
-    elif form == "anticipate":
-        x, f = track_id(scene, args[0]), _frame(args[1])
-        ant = anticipate(scene, x, f, config)
-        if ant is None:
-            data = None
-            lines = [no_anticipation_reason(scene, x, f, config)]
-        else:
-            data = {"track": ant.track, "hider": ant.hider, "now": ant.now, "at": ant.at, "box": list(ant.box),
-                    "position": list(ant.position), "in_front": ant.in_front, "warning": ant.warning,
-                    "atoms": ant.atoms()}
-            lines = ant.atoms() + [f"({x} predicted to reappear from behind {ant.hider} at frame {ant.at}, "
-                                   f"{ant.at - f} frame{'' if ant.at - f == 1 else 's'} after {f}, at ({ant.position[0]:.0f}, "
-                                   f"{ant.position[1]:.0f}) px; {'in front' if ant.in_front else 'not in front'})"]
-    else:  # situations
-        found = situations(scene, config)
-        data = [{"situation": s.kind, "objects": list(s.objects), "from": s.start, "to": s.end} for s in found]
-        lines = [s.describe() for s in found] or ["no safety-critical situations"]
+        raise SceneError(f"query {name!r} takes the form '{form.usage}', got {text.strip()!r}; {query_usage()}")
+    lines, data = form.answer(scene, config, *form.parse(scene, args))
     return Answer(text.strip(), tuple(lines), data)
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .plots import MIN_OBSERVED, frame_relation_lines, halted_spans
-from . import Box, EgoRegion, Scene, SceneError, episodes, explain_episode, frame_runs, load_scene
+from . import Box, EgoRegion, Scene, SceneError, episodes, explain_episode, frame_runs
 from .episodes import ENDINGS
 from ..core.spec import natural_key
 
@@ -211,4 +211,3 @@ def build_report(scene: Scene, frame: int | None = None) -> Report:
                   tuple(float(v) for v in region) if region else None, chosen,
                   tuple(tuple(states[f]) for f in range(scene.first_frame, scene.last_frame + 1)),
                   tuple(relations), tuple(track_timelines(scene)), tuple(explanations(scene)), len(scene.events))
-

@@ -10,7 +10,8 @@ that hold), the space-time picture (one row per track; a click picks the frame),
 track (a click on an event picks its frame) and the explanations.  A filter field keeps one
 track's rows; ``report.html#frame=274&track=129`` opens the page at that frame with that filter.  When the script has drawn the page it sets ``data-report="rendered"`` on the
 ``<html>`` element and fills ``#report-status`` (a script error sets ``data-report="error: ..."``):
-what a headless browser test reads.
+what a headless browser test reads.  :func:`write_report` is the command: load the scene, build
+its report (refimpl.scene.report), write the page.
 """
 
 from __future__ import annotations
@@ -20,8 +21,9 @@ import json
 
 from ..knowledge.events import EVENT_TABLE
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
-from . import load_scene
+from ..io.outputs import check_outputs, write_atomic
 from .report import ACTIVE, HALTED, HIDDEN, MISSING, STATES, Report, TrackTimeline, build_report
+from . import load_scene
 
 STATE_COLOURS = {ACTIVE: OBSERVED_COLOUR, HIDDEN: EVENT_TABLE["hides_behind"].colour,
                  MISSING: EVENT_TABLE["missing_detections"].colour, HALTED: ENDED_COLOUR}
@@ -399,7 +401,6 @@ SCRIPT = r"""
 
 def write_report(scene_path: str, out: str, frame: int | None = None) -> str:
     """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line."""
-    from ..io.outputs import check_outputs, write_atomic
     check_outputs({"--out": out}, {"scene": scene_path})
     report = build_report(load_scene(scene_path), frame)
     write_atomic(out, render_html(report))

@@ -11,7 +11,7 @@ import sys
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
-from ..io.datasets import THROUGHPUT_DATASETS
+from ..io.datasets import THROUGHPUT_DATASETS, benchmark_sequences
 from ..solvers import DEFAULT_BACKEND
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate
 from .episodes import hiding_episodes
@@ -150,7 +150,7 @@ def _benchmark_scenes(name: str, data_root: str, cache: str | None, progress: bo
     from .. import io
     from ..tracking.pipeline import Setup, run_sequence
     out = []
-    for s in io.benchmark_sequences(name, data_root):
+    for s in benchmark_sequences(name, data_root):
         path = os.path.join(cache, f"{name}-{s.name}.scene.json") if cache else None
         if path and os.path.isfile(path):
             out.append(load_scene(path))

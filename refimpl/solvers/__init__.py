@@ -44,7 +44,7 @@ from ..core.hypothesis import Hypothesis
 from ..core.spec import FrameProblem
 
 CPSAT, CPSAT_FULL, CLINGO = "cpsat", "cpsat-full", "clingo"
-"""The backend names; the only place they are spelled (the classes read their own from here)."""
+"""The backend names; the only place they are spelled (``get_solver`` tells a solver its entry's name)."""
 
 
 @dataclass(frozen=True)
@@ -122,8 +122,10 @@ def check_time_limit(time_limit: float | None) -> float | None:
 
 
 def get_solver(name: str, **options) -> Solver:
-    """A backend by name (one of BACKENDS); ``options`` go to its constructor."""
+    """A backend by name (one of BACKENDS); ``options`` go to its constructor, and so does the
+    entry's name: the solver answers under the name it was asked by, so an entry wrapping another
+    entry's class is told its own."""
     if name not in _REGISTRY:
         raise ValueError(f"unknown backend {name!r} (choose from {', '.join(BACKENDS)})")
     entry = _REGISTRY[name]
-    return getattr(importlib.import_module(entry.module), entry.cls)(**{**entry.options, **options})
+    return getattr(importlib.import_module(entry.module), entry.cls)(name=entry.name, **{**entry.options, **options})

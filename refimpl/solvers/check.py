@@ -190,7 +190,7 @@ def _well_formed_event(atom: str) -> bool:
 
 
 def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) -> Cost:
-    """The five-level cost vector of an answer (docs/model-spec.md section 5)."""
+    """The cost vector of an answer, every level of PRIORITIES (docs/model-spec.md section 5)."""
     iou = problem.iou_map
     level = dict.fromkeys(PRIORITIES, 0)
     for atom in actions:

@@ -24,11 +24,13 @@ import time
 from pathlib import Path
 from typing import Sequence
 
+from .check import recompute_cost
 from ..core.constants import model_dir, resolve_constants
 from ..core.ranges import OutOfClingoRange, clingo_overflow
 from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..core.spec import FrameProblem
 from . import CLINGO, NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
+from .clingo_process import DEFAULT_RECYCLE, ClingoWorker
 from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
@@ -111,14 +113,12 @@ class ClingoSolver:
     Options: ``threads`` (clingo's --parallel-mode), ``model_files``, ``decompose`` (default True:
     per sub-problem of independent components, ``part_nodes`` own nodes each), ``isolate``
     (default True: after ``inline_solves`` solves in this process, clingo runs in a child process
-    replaced every ``recycle`` solves, see refimpl.solvers.clingo_worker; False: always in this
+    replaced every ``recycle`` solves, see refimpl.solvers.clingo_worker and clingo_process; False: always in this
     process, whose memory then grows with every symbol clingo sees)."""
-
-    name = CLINGO
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
-                 recycle: int | None = None, inline_solves: int = INLINE_SOLVES):
+                 recycle: int | None = None, inline_solves: int = INLINE_SOLVES, name: str = CLINGO):
         try:
             import clingo
         except ImportError:
@@ -126,6 +126,8 @@ class ClingoSolver:
         if int(threads) < 1:
             raise ValueError(f"threads must be >= 1, got {threads}")
         self._clingo = clingo
+        self.name = name
+        """The registry name it answers under (``get_solver`` passes its entry's)."""
         self.threads = int(threads)
         self.decompose = decompose
         self.part_nodes = int(part_nodes)
@@ -136,8 +138,7 @@ class ClingoSolver:
         self.inline_solves = int(inline_solves)
         self._calls = 0
         self._worker = None
-        if isolate:  # clingo in a child process (refimpl.solvers.clingo_worker): bounded memory
-            from .clingo_worker import DEFAULT_RECYCLE, ClingoWorker
+        if isolate:  # clingo in a child process (refimpl.solvers.clingo_process): bounded memory
             self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files},
                                         DEFAULT_RECYCLE if recycle is None else recycle)
 
@@ -212,7 +213,6 @@ class ClingoSolver:
         if whole and cost and optimal is not None and found is not None:
             levels = {p: cost.get(p, 0) for p in PRIORITIES}
         else:  # several parts (or the fallback): the levels of the merged answer
-            from .check import recompute_cost
             names = [event_term(e).split("(", 1)[0] for e in events]
             levels = dict(recompute_cost(problem, actions, names, events, resolve_constants(problem)))
         levels[TIEBREAK_LEVEL] = tiebreak_level(problem, actions, events)

@@ -51,9 +51,11 @@ from typing import Iterable, NamedTuple, Sequence
 
 import numpy as np
 
-from ..knowledge.events import EFFECTS, EVENT_NAMES
+from ..core.constants import resolve_constants
+from ..knowledge.events import EFFECTS, EVENT_NAMES, EventState
 from ..core.ranges import EXPLANATION_LIMIT
 from ..core.spec import Box, FrameProblem, natural_key
+from .admissibility import assignment_constraints, resume_constraints  # the rules, one place
 
 
 def intersection_matrix(boxes: Sequence[Box]) -> np.ndarray:
@@ -90,9 +92,6 @@ class Component:
 def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
     """The (trk, det) pairs that can take a pair action: an iou/3 fact and the assign or resume
     integrity constraint (whether a resume can be explained is not asked: a superset is safe)."""
-    from ..core.constants import resolve_constants
-    from .cpsat import assignment_constraints, resume_constraints  # the rules, one place
-
     constants = resolve_constants(problem)
     iou = problem.iou_map
     tracks = {t.id: t for t in problem.tracks}
@@ -107,7 +106,6 @@ def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
             ok = assignment_constraints(problem, constants, iou, trk, det)
         else:
             if state is None and det.conf <= constants["conf_thresh_resume"]:
-                from ..knowledge.events import EventState
                 state = EventState.from_problem(problem)
             ok = resume_constraints(problem, constants, iou, trk, det, state, tracks)
         if ok:

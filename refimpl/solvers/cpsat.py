@@ -12,7 +12,7 @@ exactly one action per track and per detection, and every explanation rule as a 
 "sum of the action's explaining events == the action" (which also forbids events without their
 action).
 
-Solving (``solve_lexicographic``): the five objectives priority by priority (10, 3, 2, 1, 0):
+Solving (``solve_lexicographic``): one objective per level of ``PRIORITIES``, priority by priority (10, 5, 3, 2, 1, 0):
 solve, fix the level at its optimum (as the bound ``objective <= optimum``, equivalent to the
 equality), hint the solution to the next level.  A level is
 proven only if CP-SAT answers OPTIMAL; anything less is reported as ``optimal=False``.
@@ -63,12 +63,14 @@ from .cpsat_model import (  # noqa: F401  (re-exported: refimpl.solvers.cpsat is
     _span,
     _solution,
     _trivial_solution,
-    assignment_constraints,
     build_model,
-    match_type,
     objective_groups,
-    resume_constraints,
     solve_lexicographic,
+)
+from .admissibility import (  # noqa: F401  (re-exported)
+    assignment_constraints,
+    match_type,
+    resume_constraints,
     start_constraints,
 )
 from .decompose import DEFAULT_PART_NODES, Part, own_atoms, split
@@ -100,7 +102,7 @@ class CpSatSolver:
     """
 
     def __init__(self, workers: int = 1, seed: int = 0, fast_path: bool = True, decompose: bool = True,
-                 part_nodes: int = DEFAULT_PART_NODES):
+                 part_nodes: int = DEFAULT_PART_NODES, name: str | None = None):
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = workers
@@ -108,7 +110,9 @@ class CpSatSolver:
         self.fast_path = fast_path
         self.decompose = decompose
         self.part_nodes = int(part_nodes)
-        self.name = CPSAT if fast_path else CPSAT_FULL
+        self.name = name if name is not None else (CPSAT if fast_path else CPSAT_FULL)
+        """The registry name it answers under (``get_solver`` passes its entry's; built directly,
+        the name of the entry with these options)."""
         if not fast_path:
             # the full model needs OR-Tools on every frame: import it now, with the backend, not in
             # the middle of a run (a Ctrl-C landing inside a C extension's import becomes an

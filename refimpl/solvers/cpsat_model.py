@@ -1,8 +1,7 @@
 """The abduction model as a CP-SAT model and its lexicographic solve (refimpl.solvers.cpsat).
 
-The admissibility of actions (docs/model-spec.md section 1: match_type, assignment_constraints,
-resume_constraints, start_constraints), ``build_model`` (one Boolean per candidate action and
-event, the explanation rules as linear equalities, the five objectives) and
+``build_model`` (one Boolean per candidate action and event, the actions' admissibility read from
+refimpl.solvers.admissibility, the explanation rules as linear equalities, one objective per level of PRIORITIES) and
 ``solve_lexicographic`` (priority by priority).  The contract is in refimpl/solvers/cpsat.py.
 """
 
@@ -20,12 +19,13 @@ import numpy as np
 if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
-from ..knowledge.events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
+from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
-from ..knowledge.relations import area
-from ..core.spec import Detection, FrameProblem, TrackPrediction
+from ..core.spec import FrameProblem, TrackPrediction
 from . import NoAdmissibleHypothesis, SolveTimeout
+from .admissibility import assignment_constraints, resume_constraints, start_constraints
 from .common import intersection_matrix, tiebreak_weights
+from .fallback import obvious_answer
 
 _EVENT_AT = PRIORITIES.index(EVENT_LEVEL)
 _TIE_AT = PRIORITIES.index(TIEBREAK_LEVEL)
@@ -88,64 +88,12 @@ class CpSatFailure(RuntimeError):
 
 
 # ---------------------------------------------------------------------------------------
-# Integrity constraints of the actions (docs/model-spec.md section 1)
-# ---------------------------------------------------------------------------------------
-
-def match_type(problem: FrameProblem, trk_type: str, det_type: str) -> bool:
-    """match_type(TrkType, DetType): equal types or a match_type/2 fact of the problem."""
-    return trk_type == det_type or (trk_type, det_type) in problem.match_types
-
-
-def _pair_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
-                      trk: TrackPrediction, det: Detection, state: str, conf: str, iou_key: str) -> bool:
-    """A track in ``state``, a detection of a matching type above the ``conf`` threshold, and an
-    iou/3 fact above the ``iou_key`` threshold: the shape both pair actions share."""
-    v = iou.get((trk.id, det.id))
-    return (
-        trk.state == state
-        and match_type(problem, trk.type, det.type)
-        and det.conf > constants[conf]
-        and v is not None and v > constants[iou_key]
-    )
-
-
-def assignment_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
-                           trk: TrackPrediction, det: Detection) -> bool:
-    """Appendix A assignment_constraints(Trk, Det)."""
-    return _pair_constraints(problem, constants, iou, trk, det, "active", "conf_thresh_assign", "iou_thresh")
-
-
-def resume_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
-                       trk: TrackPrediction, det: Detection, state: EventState | None = None,
-                       by_id: Mapping[str, TrackPrediction] | None = None) -> bool:
-    """Appendix A resume_constraints(Trk, Det) plus refimpl's IoU condition (docs/model-spec.md);
-    refimpl rule (docs/model.md 3.17): a track anticipated to unhide now (events.anticipated_unhide)
-    resumes with any detection above conf_thresh_new_track.  ``state``/``by_id``: the frame's event
-    state and tracks by id (computed from the problem when not given, only if needed)."""
-    if _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_resume", "iou_thresh_resume"):
-        return True
-    if not _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_new_track",
-                             "iou_thresh_resume"):
-        return False
-    if state is None:
-        state = EventState.from_problem(problem)
-    if by_id is None:
-        by_id = {t.id: t for t in problem.tracks}
-    return anticipated_unhide(state, constants, trk, by_id)
-
-
-def start_constraints(constants: Mapping[str, int], det: Detection) -> bool:
-    """Appendix A start_constraints(Det): confidence and size(bigger, Det, size_threshold) as area."""
-    return det.conf > constants["conf_thresh_new_track"] and area(det.box) > constants["size_threshold"]
-
-
-# ---------------------------------------------------------------------------------------
 # Model building
 # ---------------------------------------------------------------------------------------
 
 @dataclass
 class AbductionModel:
-    """A built CP-SAT model with its variables by atom string and its five objectives."""
+    """A built CP-SAT model with its variables by atom string and its objectives (one per level)."""
 
     model: cp_model.CpModel
     time: int
@@ -310,23 +258,13 @@ def _level_value(terms: list[tuple[int, cp_model.IntVar]], values: Mapping[int, 
 
 
 def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, int] | None:
-    """A solution found without search, if the obvious one exists: every detection ignored, every
-    halted track ignored, every active track halted (missing_detections, else the first possible
-    hides_behind); None if some active track cannot be halted."""
-    chosen = {f"ignore_det({d.id})" for d in problem.detections}
-    for t in problem.tracks:
-        if f"ignore_trk({t.id})" in am.actions:
-            chosen.add(f"ignore_trk({t.id})")
-            again = [e for e in am.events if e.startswith(f"hides_behind({t.id},")]  # explain_ignore
-            if again:
-                chosen.add(again[0])
-            continue
-        if f"halt({t.id})" not in am.actions:
-            return None
-        chosen.add(f"halt({t.id})")
-        expl = [e for e in am.events if e == f"missing_detections({t.id})"]
-        expl += [e for e in am.events if e.startswith(f"hides_behind({t.id},")]
-        chosen.add(expl[0])
+    """The obvious answer (fallback.obvious_answer: everything ignored or halted) as a solution of
+    the model, found without search; None if the model has no variable for one of its atoms (some
+    active track cannot be halted)."""
+    actions, events = obvious_answer(problem)
+    if not all(a in am.actions for a in actions) or not all(e in am.events for e in events):
+        return None
+    chosen = set(actions) | set(events)
     return {v.index: int(atom in chosen) for atom, v in list(am.actions.items()) + list(am.events.items())}
 
 

@@ -15,8 +15,8 @@ from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, f
 from ..core.hypothesis import PRIORITIES
 from ..core.spec import FrameProblem
 from .common import DisjointSets, intersection_matrix, tiebreak_weights
-from .cpsat_model import (_cost, _explanations, _overlapping_top_matrix, assignment_constraints,
-                          resume_constraints, start_constraints)
+from .admissibility import assignment_constraints, resume_constraints, start_constraints
+from .cpsat_model import _cost, _explanations, _overlapping_top_matrix
 
 # ---------------------------------------------------------------------------------------
 # The fast exact path
@@ -32,7 +32,7 @@ from .cpsat_model import (_cost, _explanations, _overlapping_top_matrix, assignm
 #   detection, and each of those takes exactly one action.  With the pair actions as edges, an
 #   answer is a matching of tracks to detections; every unmatched track or detection takes its
 #   best "solo" action (halt / end / ignore_trk; start / ignore_det).
-# * All five levels, the tie-break level 0 included, are sums over the chosen variables, so the
+# * All the levels (PRIORITIES), the tie-break level 0 included, are sums over the chosen variables, so the
 #   cost of an answer is a sum of per-option vectors, and minimising the levels one after another
 #   is minimising that vector sum lexicographically.  Integer vectors are mapped into one Python
 #   integer (base B larger than twice any level's range), which keeps the lexicographic order

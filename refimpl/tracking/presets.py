@@ -8,7 +8,7 @@ NAME=VALUE`` and the tracker option flags (``--written-box``, ...; refimpl.track
 ``--no-preset``, runs with the model's defaults and the tracker's default options.
 
 The presets live in model/presets.json, written by ``refimpl calibrate ... --write-presets``
-(refimpl.experiments.calibrate), each with where it was tuned and how, so the file says what was tuned on
+(refimpl.experiments.calibrate.write_preset; this module reads them and writes no files), each with where it was tuned and how, so the file says what was tuned on
 what.  The procedure, search space and tables are in docs/peers.md.
 """
 
@@ -143,18 +143,13 @@ def options_for(fmt: str, object_class: str, overrides: Mapping[str, object] | N
     return merge_options(resolve_preset(fmt, object_class, path) if use_preset else None, overrides)
 
 
-def write_preset(preset: Preset, path: str | Path | None = None) -> Path:
-    """Add or replace one preset in the presets file (keys sorted; written atomically)."""
-    from ..io import write_text_atomic
-
-    p = Path(path) if path is not None else presets_path()
-    data = json.loads(p.read_text(encoding="utf-8")) if p.is_file() else {}
-    data[preset.name] = {
-        "constants": dict(sorted(preset.constants.items())), "tracker": preset.tracker.as_dict(),
-        "tuned_on": preset.tuned_on, "procedure": preset.procedure,
-        **({"startable": round(preset.startable, 4)} if preset.startable is not None else {})}
-    write_text_atomic(p, json.dumps(dict(sorted(data.items())), indent=2) + "\n")
-    return p
+def preset_entry(preset: Preset) -> dict[str, object]:
+    """The preset as its entry of the presets file (what :func:`load_presets` reads back); the
+    file itself is written by the calibration (refimpl.experiments.calibrate.write_preset): this module
+    writes no files."""
+    return {"constants": dict(sorted(preset.constants.items())), "tracker": preset.tracker.as_dict(),
+            "tuned_on": preset.tuned_on, "procedure": preset.procedure,
+            **({"startable": round(preset.startable, 4)} if preset.startable is not None else {})}
 
 
 STARTABLE_FACTOR = 4.0
