@@ -204,5 +204,5 @@ def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) 
         if spec.likelihood_level is not None:
             level[spec.likelihood_level] -= iou.get(args, 0)
     level[TIEBREAK_LEVEL] += tiebreak_level(problem, actions, event_atoms)  # the canonical tie-break
-    level[EVENT_LEVEL] += sum(c[EVENT_TABLE[name].cost_constant] for name in event_names)
+    level[EVENT_LEVEL] += sum(c[EVENT_TABLE[name].cost_constant] for name in event_names if name in EVENT_TABLE)
     return tuple((p, level[p]) for p in PRIORITIES)

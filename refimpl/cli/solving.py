@@ -56,6 +56,17 @@ def cmd_diff(args: argparse.Namespace) -> int:
     if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
         raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
                         f"got {args.backends!r}")
+    asp_model = None
+    if args.asp_model is not None:
+        from ..solvers import CLINGO
+        from ..solvers.asp_model import AspModelError, load_asp_model
+        if CLINGO not in backends:
+            raise UserError(f"--asp-model runs your encoding on the {CLINGO} backend: add it to --backends "
+                            f"(got {args.backends!r})")
+        try:
+            asp_model = load_asp_model(args.asp_model)
+        except AspModelError as exc:
+            raise UserError(str(exc)) from None
     plan = _plan(args)
     if args.benchmark:
         from ..datasets import load_dataset  # real and simulated (*-sim) benchmarks alike
@@ -64,9 +75,9 @@ def cmd_diff(args: argparse.Namespace) -> int:
         seqs = [_load_sequence(args, path) for path in args.dets]
     else:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
-    total = DiffReport(backends)
-    reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit) for seq in seqs], plan,
+    reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit, asp_model) for seq in seqs], plan,
                         label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name)
+    total = DiffReport(reports[0].backends, levels=reports[0].levels) if reports else DiffReport(backends)
     for seq, report in zip(seqs, reports):
         total.add(report)
         print(f"{seq.name}: {report.summary()}")
