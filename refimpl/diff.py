@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 from .check import check_answer
+from .check_optimum import FrameOptimum
 from .hypothesis import PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
 from .ranges import OutOfClingoRange
 from .solvers import CLINGO, ORACLE_PAIR, Solver, get_solver
@@ -88,6 +89,11 @@ class DiffReport:
     """Rule violations (or cost vectors the checker does not confirm) in any backend's answers."""
     checked: int = 0
     """Answers passed through the checker."""
+    enumerated: int = 0
+    """Frames whose every component the checker enumerated (refimpl.check_optimum)."""
+    false_optima: int = 0
+    """Answers flagged optimal, rule-abiding, that the checker's enumeration beats (a cheaper
+    admissible answer on some component of at most check_optimum.MAX_NODES nodes)."""
     first_divergence: Divergence | None = None
     divergences: list[int] = field(default_factory=list)
     unproven_frames: list[tuple[int, tuple[str, ...]]] = field(default_factory=list)
@@ -98,12 +104,13 @@ class DiffReport:
 
     @property
     def ok(self) -> bool:
-        return self.disagreements == 0 and self.violations == 0
+        return self.disagreements == 0 and self.violations == 0 and self.false_optima == 0
 
     def add(self, other: "DiffReport") -> None:
         for name in ("frames", "proven", "cost_equal", "answer_equal", "ties", "disagreements", "not_proven",
                      "out_of_range",
-                     "out_of_range_parts", "violations", "checked"):
+                     "out_of_range_parts", "violations", "checked", "enumerated",
+                     "false_optima"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.divergences += other.divergences
         self.unproven_frames += other.unproven_frames
@@ -122,7 +129,8 @@ class DiffReport:
                 f"{self.ties} ties ({tied}); {self.disagreements} disagreements{_frames(self.disagreement_frames)}; "
                 f"{self.not_proven} not proven "
                 f"optimal within the time limit{self._unproven()};{self._out_of_range()} {self.violations} "
-                f"rule violations in {self.checked} checked answers")
+                f"rule violations in {self.checked} checked answers; {self.false_optima} answers flagged optimal that "
+                f"the checker's enumeration beats ({self.enumerated} frames enumerated)")
 
     def _out_of_range(self) -> str:
         if not self.out_of_range:
@@ -192,6 +200,15 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
         bad = [f"{h.backend} breaks {', '.join(sorted({v.rule for v in c.violations}) or ['cost_vector'])}"
                for c, h in zip(checks, answers) if c.violations or c.cost != h.cost]
         report.violations += sum(len(c.violations) + (c.cost != h.cost) for c, h in zip(checks, answers))
+        claimed = [h for c, h in zip(checks, answers) if h.optimal and c.ok and c.cost == h.cost]
+        if claimed:  # the checker's own optimum where the components are small enough
+            optimum = FrameOptimum.of(problem)
+            report.enumerated += not optimum.skipped
+            for h in claimed:
+                verdict = optimum.verdict(h, len(levels))
+                if verdict.better is not None:
+                    report.false_optima += 1
+                    bad.append(f"{h.backend} claims optimal, but {verdict.detail}")
         explanation = "; ".join(bad) if bad else None
         if refused:
             report.out_of_range += 1

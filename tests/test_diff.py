@@ -146,9 +146,12 @@ def test_a_changed_rule_is_reported_on_exactly_the_frames_where_it_matters(tmp_p
     assert len(matters) >= 5
     report = diff_sequence(seq, asp_model=load_asp_model(folder))
     assert report.disagreement_frames == matters and report.disagreements == len(matters)
-    # missing_detections is an admissible explanation there, one cost unit dearer at level 1
+    # missing_detections is an admissible explanation there, one cost unit dearer at level 1; the
+    # checker's enumeration (refimpl.check_optimum) finds the cheaper hides_behind on its own
     assert report.violations == 0 and not report.ok
-    assert "clingo[nohide]'s answer is worse at priority 1" in report.first_divergence.explanation
+    assert 0 < report.false_optima <= len(matters)
+    assert ("clingo[nohide] claims optimal, but a cheaper answer exists at priority 1"
+            in report.first_divergence.explanation)
     assert f"{len(matters)} disagreements (frame {matters[0]}, " in report.summary()
 
 

@@ -33,6 +33,13 @@ def cmd_solve(args: argparse.Namespace) -> int:
         violations = report.messages
         if report.cost != hyp.cost:
             violations += (f"[cost_vector] the answer's cost is {list(report.cost)}, not {list(hyp.cost)}",)
+        optimum = ""
+        if not violations and hyp.optimal:  # the checker's own enumeration where components are small
+            from ..check_optimum import FrameOptimum
+            verdict = FrameOptimum.of(problem).verdict(hyp)
+            if verdict.better is not None:
+                violations += (f"[optimum] flagged optimal, but {verdict.detail}",)
+            optimum = f"; {verdict.detail}"
     if args.json:
         print(hyp.to_json())
     else:
@@ -42,7 +49,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         print("events:  " + (" ".join(hyp.events) or "-"))
         print("cost:    " + " ".join(f"{v}@{p}" for p, v in hyp.cost))
     if args.check:
-        print("check:   " + ("; ".join(violations) if violations else "every rule holds, cost vector confirmed"),
+        print("check:   " + ("; ".join(violations) if violations else
+                             "every rule holds, cost vector confirmed" + optimum),
               file=sys.stderr if args.json else sys.stdout)
     return EXIT_FAILURE if violations else EXIT_OK
 
