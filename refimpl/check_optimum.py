@@ -25,12 +25,12 @@ constants, the events' preconditions and the tie-break weights with the solvers,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .check import FrameRules, check_answer, recompute_cost
 from .events import EVENT_TABLE, poss
 from .hypothesis import PRIORITIES, Cost, Hypothesis
-from .solvers.common import event_term, tiebreak_weights
+from .solvers.common import TiebreakWeights, event_term, tiebreak_weights
 from .spec import FrameProblem
 
 MAX_NODES = 8
@@ -69,18 +69,18 @@ class FrameOptimum:
     components: tuple[ComponentOptimum, ...]
     skipped: tuple[int, ...]
     """The sizes (tracks + detections) of the components larger than max_nodes."""
+    rules: FrameRules = field(repr=False, compare=False, default=None)
+    weights: TiebreakWeights = field(repr=False, compare=False, default=None)
 
     @classmethod
     def of(cls, problem: FrameProblem, max_nodes: int = MAX_NODES) -> "FrameOptimum":
         rules = FrameRules.of(problem)
-        weights = tiebreak_weights(problem)
-        done, skipped = [], []
-        for tracks, dets, pairs in _components(rules):
-            if len(tracks) + len(dets) > max_nodes:
-                skipped.append(len(tracks) + len(dets))
-            else:
-                done.append(_enumerate(rules, weights, tracks, dets, pairs))
-        return cls(problem, tuple(done), tuple(skipped))
+        comps = list(_components(rules))
+        small = [c for c in comps if len(c[0]) + len(c[1]) <= max_nodes]
+        skipped = [len(c[0]) + len(c[1]) for c in comps if len(c[0]) + len(c[1]) > max_nodes]
+        weights = tiebreak_weights(problem) if small else None  # the shared table, only when needed
+        done = [_enumerate(rules, weights, *c) for c in small]
+        return cls(problem, tuple(done), tuple(skipped), rules, weights)
 
     @property
     def ties(self) -> tuple[ComponentOptimum, ...]:
@@ -90,8 +90,7 @@ class FrameOptimum:
         """Compare an answer that refimpl.check.check_answer passed with the enumerated optima, on
         the first ``levels`` levels of PRIORITIES (5: levels 10..1, an encoding without the
         tie-break; the least cost on a prefix of the levels is the prefix of the least cost)."""
-        rules = FrameRules.of(self.problem)
-        weights = tiebreak_weights(self.problem)
+        rules, weights = self.rules, self.weights
         atoms = hyp.actions + hyp.events
         unique = True
         for comp in self.components:
@@ -131,24 +130,30 @@ def _components(rules: FrameRules):
 
     def find(x):
         while root[x] != x:
+            root[x] = root[root[x]]
             x = root[x]
         return x
 
-    pairs = []
-    for t in rules.tracks:
-        for d in rules.dets:
+    pairs, seen = [], set()
+    for t, d, _ in rules.problem.iou:  # both pair actions need the pair's iou/3 fact
+        if t in rules.tracks and d in rules.dets and (t, d) not in seen:
+            seen.add((t, d))
             if any(rules.action_violation(a, (t, d)) is None for a in ("assign", "resume")):
                 pairs.append((t, d))
                 a, b = find(t), find(d)
                 if a != b:
                     root[b] = a
+    rank = {x: k for k, x in enumerate(order)}
+    pairs.sort(key=lambda p: (rank[p[0]], rank[p[1]]))
     groups: dict[str, list[str]] = {}
     for x in order:
         groups.setdefault(find(x), []).append(x)
-    for members in groups.values():
-        inside = set(members)
+    by_root: dict[str, list[tuple[str, str]]] = {}
+    for p in pairs:
+        by_root.setdefault(find(p[0]), []).append(p)
+    for r, members in groups.items():
         yield (tuple(x for x in members if x in rules.tracks), tuple(x for x in members if x in rules.dets),
-               tuple(p for p in pairs if p[0] in inside))
+               tuple(by_root.get(r, ())))
 
 
 def _explanations(rules: FrameRules, action: str, subject: str) -> list[tuple[str, ...]]:
