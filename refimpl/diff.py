@@ -27,7 +27,7 @@ from .check import check_answer
 from .check_optimum import FrameOptimum
 from .hypothesis import PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
 from .ranges import OutOfClingoRange
-from .solvers import CLINGO, ORACLE_PAIR, Solver, get_solver
+from .solvers import CLINGO, ORACLE_PAIR, NoAdmissibleHypothesis, Solver, get_solver
 from .solvers.asp_model import AspModel
 from .spec import FrameProblem
 from .pipeline import Setup, run_sequence
@@ -189,12 +189,23 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
     def observe(problem: FrameProblem, hyp: Hypothesis) -> None:
         answers: tuple[Hypothesis, ...] = (hyp,)
         refused = []
+        unanswered = []  # backends that find no admissible answer where the first found one
         for s in solvers[1:]:
             try:
                 answers += (s.solve(problem, time_limit=time_limit),)
             except OutOfClingoRange as exc:
                 refused.append(exc)
+            except NoAdmissibleHypothesis:
+                unanswered.append(s.name)
         report.frames += 1
+        if unanswered:
+            report.disagreements += 1
+            report.disagreement_frames.append(problem.time)
+            report.divergences.append(problem.time)
+            if report.first_divergence is None:
+                report.first_divergence = Divergence(problem.time, problem, answers,
+                                                     f"{', '.join(unanswered)} finds no admissible answer, "
+                                                     f"{hyp.backend} does")
         checks = [check_answer(problem, h) for h in answers]
         report.checked += len(answers)
         bad = [f"{h.backend} breaks {', '.join(sorted({v.rule for v in c.violations}) or ['cost_vector'])}"
@@ -214,6 +225,8 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
             report.out_of_range += 1
             report.out_of_range_parts += sum(exc.components for exc in refused)
             report.out_of_range_frames.append(problem.time)
+        elif unanswered:
+            pass  # a disagreement already (above), not compared further
         elif not all(h.optimal for h in answers):
             report.not_proven += 1
             report.unproven_frames.append((problem.time, tuple(h.backend for h in answers if not h.optimal)))

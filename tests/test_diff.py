@@ -206,3 +206,19 @@ def test_asp_model_needs_clingo_among_the_backends(tmp_path, capsys):
     folder = _copy_model(tmp_path / "mine")
     assert main(["diff", "--dets", "x", "--backends", "cpsat,cpsat-full", "--asp-model", str(folder)]) == 2
     assert "add it to --backends" in capsys.readouterr().err
+
+
+def test_an_encoding_without_any_answer_is_a_disagreement_not_a_crash(tmp_path):
+    # ':- det(D, _, _).' forbids every frame with a detection; each of the first 5 demo frames has
+    # some, and the oracle answers each: 5 disagreements, none compared, the run goes on
+    pytest.importorskip("clingo")
+    from refimpl.solvers.asp_model import load_asp_model
+    folder = _copy_model(tmp_path / "none", lambda name, text: text + (
+        "\n:- det(D, _, _).\n" if name == "association.lp" else ""))
+    seq = io.load_detections(io.demo_sequence_paths())
+    seq = dataclasses.replace(seq, frames=seq.frames[:5])
+    assert all(len(f.boxes) for f in seq.frames)
+    report = diff_sequence(seq, asp_model=load_asp_model(folder))
+    assert report.frames == 5 and report.disagreements == 5 and report.proven == 0 and not report.ok
+    assert report.disagreement_frames == [f.frame for f in seq.frames]
+    assert report.first_divergence.explanation == "clingo[none] finds no admissible answer, cpsat-full does"
