@@ -89,3 +89,114 @@ def test_malformed_events_are_reported_not_crashed_on(bus, event):
 def test_an_event_at_another_time_is_reported(bus):
     events = ("occurs_at(enters_fov(det_5),235)", "occurs_at(hides_behind(trk_13,trk_12),234)")
     assert "event_time" in _rules(bus, _hyp(events=events))
+
+
+# ---------------------------------------------------------------------------------------------
+# The checker's own optimality proof (refimpl.solvers.check_optimum): every answer of a small component
+# ---------------------------------------------------------------------------------------------
+
+from refimpl.solvers.check_optimum import MAX_NODES, FrameOptimum  # noqa: E402
+
+
+def _checked(problem, actions, events):
+    """A hypothesis with the cost the checker gives it, after making sure it breaks no rule."""
+    report = check_answer(problem, Hypothesis(problem.time, tuple(actions), tuple(events), (), optimal=True))
+    assert report.ok, report.messages
+    return Hypothesis(problem.time, tuple(actions), tuple(events), report.cost, optimal=True)
+
+
+def test_the_proven_optimum_of_the_bus_frame_is_confirmed(bus):
+    # the frame has 7 components of 1-2 nodes (five assign pairs, trk_13 alone: its only pair
+    # iou(trk_13,det_1) = 3022 is below iou_thresh, det_5 alone): all enumerated
+    optimum = FrameOptimum.of(bus)
+    assert len(optimum.components) == 7 and optimum.skipped == ()
+    verdict = optimum.verdict(_hyp())
+    assert verdict.confirmed and verdict.better is None
+
+
+@pytest.mark.parametrize("actions, events, level", [
+    # halt(trk_13) explained by missing_detections (possible: trk_13 is neither clipped nor hidden
+    # before t=235) instead of hides_behind(trk_13,trk_12): levels 10..2 equal, level 1 costs
+    # cost_missing_detections 2 instead of cost_hides_behind 1 -> 3 instead of 2
+    (BUS_ACTIONS, ("occurs_at(enters_fov(det_5),235)", "occurs_at(missing_detections(trk_13),235)"), 1),
+    # trk_3 halted (missing_detections) and det_3 started instead of assign(trk_3,det_3): level 10
+    # loses its ML 94981 + 1, i.e. -359498 instead of -454480: worse at the top level
+    (_swap("assign(trk_3,det_3)", "halt(trk_3)") + ("start(det_3)",),
+     BUS_EVENTS + ("occurs_at(missing_detections(trk_3),235)", "occurs_at(enters_fov(det_3),235)"), 10),
+    # det_5 ignored instead of started: 10@3 instead of 5@2 + enters_fov 1@1: worse at level 3
+    (_swap("start(det_5)", "ignore_det(det_5)"), BUS_EVENTS[1:], 3),
+])
+def test_a_suboptimal_answer_obeying_every_rule_is_caught_without_any_solver(bus, actions, events, level):
+    hyp = _checked(bus, actions, events)
+    verdict = FrameOptimum.of(bus).verdict(hyp)
+    assert verdict.better is not None and not verdict.confirmed
+    assert f"a cheaper answer exists at priority {level} " in verdict.detail
+    # the enumeration's better answer is the paper's optimum, and the checker confirms it
+    assert verdict.better.answer == _hyp().answer and verdict.better.cost == BUS_COST
+
+
+def _two_identical_detections():
+    """The shape of issue 26 item 1: a halted track (missed by the detector at t=39, started at
+    t=10) and two detections with identical boxes on its prediction."""
+    from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+    box = (50, 50, 30, 40)
+    return FrameProblem(
+        time=40, tracks=(TrackPrediction("trk_1", "car", "halted", box),),
+        detections=(Detection("det_0", "car", 90, box), Detection("det_1", "car", 90, box)),
+        iou=(("trk_1", "det_0", 100000), ("trk_1", "det_1", 100000)),
+        history=(HistoryEvent(Term("enters_fov", (Term("trk_1"),)), 10),
+                 HistoryEvent(Term("missing_detections", (Term("trk_1"),)), 39)))
+
+
+def test_a_choice_worse_only_at_the_tiebreak_is_caught():
+    # resume(trk_1,det_1) + start(det_0) vs resume(trk_1,det_0) + start(det_1): levels 10..1 equal
+    # (the same ML 100000 at level 5, one resume and one start at level 2, recover and enters_fov
+    # at level 1).  Level 0: the component's pairs in (trk, det) order are (trk_1,det_0) rank 0,
+    # weight 2^0, and (trk_1,det_1) rank 1, weight 2^1; enters_fov has the same index for either
+    # detection.  So resuming det_1 costs (2 - 1) << E more: worse at priority 0 only.
+    problem = _two_identical_detections()
+    events = ("occurs_at(recover(trk_1),40)", "occurs_at(enters_fov({}),40)")
+    worse = _checked(problem, ("resume(trk_1,det_1)", "start(det_0)"), (events[0], events[1].format("det_0")))
+    best = _checked(problem, ("resume(trk_1,det_0)", "start(det_1)"), (events[0], events[1].format("det_1")))
+    assert worse.cost[:5] == best.cost[:5] and worse.cost[5][1] > best.cost[5][1]
+    optimum = FrameOptimum.of(problem)
+    verdict = optimum.verdict(worse)
+    assert "a cheaper answer exists at priority 0 " in verdict.detail and verdict.better.answer == best.answer
+    assert optimum.verdict(best).confirmed
+    # compared on levels 10..1 only (an encoding without the tie-break), the two are equally good
+    assert optimum.verdict(worse, levels=5).better is None
+
+
+def test_the_enumeration_confirms_cpsat_full_on_small_generated_frames():
+    # 80 adversarial frames (tests/adversarial.py: halted tracks, identical detections, large
+    # coefficient groups) and 80 random frames with histories (tests/framegen.py): on every frame
+    # whose components all have <= MAX_NODES nodes, cpsat-full's answer must be the unique least
+    # sub-answer of every component; on the others, no component may hold a cheaper answer.
+    import random
+    from adversarial import adversarial_frame
+    from framegen import random_frame
+    from refimpl.solvers import NoAdmissibleHypothesis, get_solver
+
+    solver = get_solver("cpsat-full")
+    confirmed = partial = 0
+    for make in (adversarial_frame, lambda rng: random_frame(rng, with_history=True)):
+        rng = random.Random(26)
+        for _ in range(80):
+            problem = make(rng)
+            try:
+                hyp = solver.solve(problem)
+            except NoAdmissibleHypothesis:
+                continue
+            assert hyp.optimal and check_answer(problem, hyp).ok
+            optimum = FrameOptimum.of(problem)
+            verdict = optimum.verdict(hyp)
+            assert verdict.better is None, verdict.detail
+            assert optimum.ties == ()  # the canonical tie-break: one least sub-answer per component
+            if optimum.skipped:
+                assert min(optimum.skipped) > MAX_NODES
+                partial += 1
+            else:
+                assert verdict.confirmed
+                confirmed += 1
+    # half the adversarial frames have 2-4 tracks and 2-5 detections; random frames 2-6 of each
+    assert confirmed >= 80 and partial >= 5

@@ -88,3 +88,138 @@ def test_frames_beyond_clingos_sums_are_counted_not_fatal(shared_data):
     assert report.out_of_range_parts >= report.out_of_range
     assert report.ok and report.violations == 0
     assert f"{report.out_of_range} beyond clingo's 32-bit range, not compared" in report.summary()
+
+
+# ---------------------------------------------------------------------------------------------
+# diff --asp-model: clingo on a user's own encoding against the oracle
+# ---------------------------------------------------------------------------------------------
+
+HALT_CHOICE = """1 { occurs_at(hides_behind(Trk, Trk2), curr_time) : event(hides_behind(Trk, Trk2));
+    occurs_at(missing_detections(Trk), curr_time) } 1 :- halt(Trk)."""
+
+
+def _copy_model(folder: Path, edit=None) -> Path:
+    """model/*.lp copied into folder, with ``edit(name, text) -> text`` applied to each file."""
+    folder.mkdir()
+    for lp in sorted((REPO / "model").glob("*.lp")):
+        text = lp.read_text()
+        (folder / lp.name).write_text(edit(lp.name, text) if edit else text)
+    return folder
+
+
+def _demo40():
+    seq = io.load_detections(io.demo_sequence_paths())
+    return dataclasses.replace(seq, frames=seq.frames[:40])
+
+
+def test_an_unchanged_copy_of_the_model_gives_no_disagreement(tmp_path):
+    pytest.importorskip("clingo")
+    from refimpl.solvers.asp_model import load_asp_model
+    model = load_asp_model(_copy_model(tmp_path / "mine"))
+    assert model.tiebreak  # optimisation.lp's [level0_tiebreak] reads tiebreak_pair / tiebreak_event
+    report = diff_sequence(_demo40(), asp_model=model)
+    assert report.backends == ("cpsat-full", "clingo[mine]")
+    assert report.frames == report.proven == report.answer_equal == 40
+    assert report.disagreements == report.ties == report.violations == 0 and report.ok
+
+
+def test_a_changed_rule_is_reported_on_exactly_the_frames_where_it_matters(tmp_path):
+    # The copy's explain_halt offers only missing_detections: a halt can no longer be explained by
+    # hides_behind.  Its answers are a subset of the model's, so on a frame whose (unique) optimum
+    # has no halt explained by hides_behind that optimum is the copy's too: the same answer.  On a
+    # frame whose optimum has one, the copy cannot return it: a disagreement.  The frames where it
+    # matters are read off the oracle's own answers, tracked here without the diff.
+    pytest.importorskip("clingo")
+    from refimpl.tracking.pipeline import Setup, run_sequence
+    from refimpl.solvers.asp_model import load_asp_model
+    assert HALT_CHOICE in (REPO / "model/events.lp").read_text()
+    folder = _copy_model(tmp_path / "nohide", lambda name, text: text.replace(
+        HALT_CHOICE, "1 { occurs_at(missing_detections(Trk), curr_time) } 1 :- halt(Trk)."))
+    seq = _demo40()
+    matters = []
+
+    def observe(problem, hyp):
+        halted = set(hyp.halts)
+        if any(name == "hides_behind" and args[0] in halted for name, args in hyp.event_terms):
+            matters.append(problem.time)
+
+    run_sequence(seq, Setup("cpsat-full", ()), observer=observe)
+    assert len(matters) >= 5
+    report = diff_sequence(seq, asp_model=load_asp_model(folder))
+    assert report.disagreement_frames == matters and report.disagreements == len(matters)
+    # missing_detections is an admissible explanation there, one cost unit dearer at level 1; the
+    # checker's enumeration (refimpl.solvers.check_optimum) finds the cheaper hides_behind on its own
+    assert report.violations == 0 and not report.ok
+    assert 0 < report.false_optima <= len(matters)
+    assert ("clingo[nohide] claims optimal, but a cheaper answer exists at priority 1"
+            in report.first_divergence.explanation)
+    assert f"{len(matters)} disagreements (frame {matters[0]}, " in report.summary()
+
+
+def test_an_encoding_without_the_tiebreak_counts_ties_not_disagreements(tmp_path, capsys):
+    # optimisation.lp without its level-0 statements ([level0_tiebreak] and the 0@0 line): clingo
+    # picks any answer optimal on levels 10..1.  Where the frame has several, it may pick another
+    # than the oracle's: a tie, counted, not a disagreement.
+    pytest.importorskip("clingo")
+    from refimpl.solvers.asp_model import load_asp_model
+
+    def drop_tiebreak(name, text):
+        if name != "optimisation.lp":
+            return text
+        return text[:text.index("% [level0_tiebreak]")].replace("#minimize { 0@0 }.\n", "")
+
+    folder = _copy_model(tmp_path / "notb", drop_tiebreak)
+    model = load_asp_model(folder)
+    assert not model.tiebreak
+    seq = _demo40()
+    report = diff_sequence(seq, asp_model=model)
+    assert report.levels == (10, 5, 3, 2, 1)
+    assert report.proven == report.cost_equal == 40  # equal on levels 10..1 on every frame
+    assert report.ties > 0 and report.ties == len(report.tie_frames)
+    assert report.answer_equal + report.ties == 40
+    assert report.disagreements == 0 and report.violations == 0 and report.ok
+    # on those frames the full model's tie-break picks the oracle's answer (the test above: 0 ties)
+    full = diff_sequence(dataclasses.replace(seq, frames=seq.frames[:max(report.tie_frames) + 1]))
+    assert full.ties == 0 and full.answer_equal == full.proven
+    # the command says the same, exit 0
+    assert main(["diff", "--dets", str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--asp-model", str(folder),
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "equal cost vectors on levels 10..1" in out and "; 0 disagreements;" in out
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda d: d, "no such folder"),
+    (lambda d: (d.mkdir(), d)[1], "no .lp files in it"),
+    (lambda d: (d.mkdir(), (d / "a.lp").write_text("foo(X :- bar.\n"), d)[2], "a.lp:1:7-9: error: syntax error"),
+    (lambda d: (d.mkdir(), (d / "a.lp").write_text("foo(X) :- not bar(X).\n"), d)[2], "unsafe variables"),
+])
+def test_a_bad_asp_model_folder_is_one_line_and_exit_2(tmp_path, capsys, make, message):
+    pytest.importorskip("clingo")
+    folder = make(tmp_path / "mine")
+    assert main(["diff", "--dets", str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--asp-model", str(folder),
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0] and str(folder) in err[0]
+
+
+def test_asp_model_needs_clingo_among_the_backends(tmp_path, capsys):
+    folder = _copy_model(tmp_path / "mine")
+    assert main(["diff", "--dets", "x", "--backends", "cpsat,cpsat-full", "--asp-model", str(folder)]) == 2
+    assert "add it to --backends" in capsys.readouterr().err
+
+
+def test_an_encoding_without_any_answer_is_a_disagreement_not_a_crash(tmp_path):
+    # ':- det(D, _, _).' forbids every frame with a detection; each of the first 5 demo frames has
+    # some, and the oracle answers each: 5 disagreements, none compared, the run goes on
+    pytest.importorskip("clingo")
+    from refimpl.solvers.asp_model import load_asp_model
+    folder = _copy_model(tmp_path / "none", lambda name, text: text + (
+        "\n:- det(D, _, _).\n" if name == "association.lp" else ""))
+    seq = io.load_detections(io.demo_sequence_paths())
+    seq = dataclasses.replace(seq, frames=seq.frames[:5])
+    assert all(len(f.boxes) for f in seq.frames)
+    report = diff_sequence(seq, asp_model=load_asp_model(folder))
+    assert report.frames == 5 and report.disagreements == 5 and report.proven == 0 and not report.ok
+    assert report.disagreement_frames == [f.frame for f in seq.frames]
+    assert report.first_divergence.explanation == "clingo[none] finds no admissible answer, cpsat-full does"

@@ -310,6 +310,10 @@ def _add_diff(sub: "argparse._SubParsersAction") -> None:
     x.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                    help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
                         "is reported as such")
+    x.add_argument("--asp-model", metavar="DIR",
+                   help="the clingo backend runs your own encoding, every DIR/*.lp, instead of model/ "
+                        "(docs/model.md, 'Your own encoding'); without refimpl's tie-break it is compared on "
+                        "levels 10..1 and equal-cost different answers are counted as ties")
     x.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scaleout(x)
     x.set_defaults(func=cmd_diff)

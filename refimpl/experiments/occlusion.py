@@ -21,6 +21,9 @@ long occlusions, so refimpl generates its own, seeded, as MOTChallenge sequences
   hide_frame + L - 1, have the target more than half covered, and the reappearance frame is
   hide_frame + L.  The generator recomputes the cover from the written (rounded) ground-truth boxes
   and checks this; tests re-derive it independently.
+* **Missed before hiding** (``missed_before``, one scenario): the detector also misses the target in
+  the frames just before hide_frame, when it is still mostly visible, so the tracker halts it as
+  missing before the occluder covers it; that exercises the re-explained ignore (docs/model.md 3.16).
 * **Detections** come from ``refimpl.io.simulate.simulate_detections`` (the same simulated detector
   as MOT17-sim), fed only the objects covered by at most half (by any one box in front of it:
   bottom edge lower), each fully visible to it -- so an object is never detected while mostly
@@ -83,6 +86,9 @@ class ScenarioSpec:
     v_target: float
     rel_sign: int
     unrelated: int = 4
+    missed_before: int = 0
+    """The detector misses the target in this many frames just before hide_frame, while it is still
+    covered by at most half: it goes missing before its occluder covers it (module docstring)."""
 
     @property
     def dv(self) -> float:
@@ -115,8 +121,15 @@ SCENARIOS: tuple[ScenarioSpec, ...] = (
     ScenarioSpec("occl150-ped-right-overtaken", 150, PED, (375.0, 160.0), 1.0, -1),
     ScenarioSpec("occl150-ped-left-overtakes", 150, PED_BIG, (300.0, 180.0), -3.0, -1),
     ScenarioSpec("occl150-car-right-overtakes", 150, CAR_BIG, (450.0, 140.0), 4.0, +1),
+    # missed just before it hides: 8 px/frame relative speed, 36 px wide, so the cover grows by
+    # 8/36 = 0.22 a frame: 0.61 at hide_frame, 0.39 and 0.17 the two frames before, none at
+    # hide_frame - 3.  Missed from hide_frame - 3 on, the target is halted as missing_detections
+    # (nothing covers it), and a frame later, still missed and now covered from the front, its
+    # ignore must be re-explained as hides_behind (events.lp [explain_ignore], docs/model.md 3.16).
+    ScenarioSpec("occl030-ped-right-missed", 30, PED, (240.0, 160.0), 3.0, +1, missed_before=3),
 )
-"""The suite: occlusions of 30, 45, 60, 90, 120 and 150 frames, both directions, three kinds of passing."""
+"""The suite: occlusions of 30, 45, 60, 90, 120 and 150 frames, both directions, three kinds of passing,
+and one target the detector misses just before it hides (the re-explained ignore)."""
 
 
 @dataclass(frozen=True)
@@ -209,6 +222,7 @@ def build_scenario(spec: ScenarioSpec, seed: int = 0, index: int | None = None) 
     # the detector's sources: only objects covered by at most half (so no false positive is
     # placed "near" a hidden object either), each detected with probability p_max
     seen = visibility >= 1.0 - HIDDEN_COVER
+    seen &= ~((g_ids == TARGET_ID) & (g_frames >= hide - spec.missed_before) & (g_frames < hide))
     detectable = GroundTruth(spec.name, g_frames, g_ids, g_boxes, seen, ~ones, np.zeros((0, 5)), 1, n,
                              np.ones(len(g_frames)))
     sim = simulate_detections(detectable, seed=int(rng.integers(2**31)), params=DETECTOR,

@@ -25,6 +25,7 @@ from ..io import DetectionSequence, GroundTruth
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import NONE, Setup, run_sequence
 from ..solvers import BASELINE
+from ..solvers.asp_model import AspModel
 
 
 # ---------------------------------------------------------------------------------------
@@ -195,12 +196,14 @@ class DiffJob:
     backends: tuple[str, ...]
     time_limit: float | None = 20.0
     """Per-frame limit of every backend (refimpl.experiments.diff)."""
+    asp_model: AspModel | None = None
+    """A user's encoding for the clingo backend (refimpl.solvers.asp_model.AspModel), or None."""
 
 
 def diff_job(job: DiffJob):
     """refimpl.experiments.diff.diff_sequence of one sequence (a DiffReport)."""
     from .diff import diff_sequence
-    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit)
+    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit, asp_model=job.asp_model)
 
 
 def constants_tuple(constants: Mapping[str, int] | None) -> tuple[tuple[str, int], ...]:

@@ -60,17 +60,70 @@ class Violation:
     """What breaks it: the atoms (in the fact syntax) and why."""
 
 
+@dataclass(frozen=True)
+class FrameRules:
+    """What the rules of one frame read: its constants, the event-calculus state, tracks and
+    detections by id, the IoU map.  ``action_violation`` and ``ignore_needs_explanation`` are the
+    per-action rules check_answer applies; refimpl.solvers.check_optimum enumerates answers with them."""
+
+    problem: FrameProblem
+    c: dict
+    state: EventState
+    tracks: dict
+    dets: dict
+    iou: dict
+
+    @classmethod
+    def of(cls, problem: FrameProblem) -> "FrameRules":
+        return cls(problem, resolve_constants(problem), EventState.from_problem(problem),
+                   {t.id: t for t in problem.tracks}, {d.id: d for d in problem.detections}, problem.iou_map)
+
+    def match_type(self, a: str, b: str) -> bool:
+        return a == b or (a, b) in self.problem.match_types
+
+    def action_violation(self, name: str, args: tuple[str, ...]) -> Violation | None:
+        """The integrity constraint the action (of known ids) breaks, or None."""
+        c, tracks, dets, iou, state = self.c, self.tracks, self.dets, self.iou, self.state
+        atom = f"{name}({','.join(args)})"
+        if name == "assign":
+            t, d = tracks[args[0]], dets[args[1]]
+            if not (t.state == "active" and self.match_type(t.type, d.type) and d.conf > c["conf_thresh_assign"]
+                    and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh"]):
+                return Violation("assignment_constraints", f"{atom} is not admissible")
+        elif name == "resume":
+            t, d = tracks[args[0]], dets[args[1]]
+            # the confidence a resume needs: conf_thresh_new_track where the track is anticipated to
+            # unhide now (hidden, and at least half of its predicted box out of a current track it is
+            # hidden_by), else conf_thresh_resume (association.lp resume_constraints)
+            unhiding = state.holds_at(("visibility", t.id), "not_visible") and any(
+                o != t.id and state.holds_at(("hidden_by", t.id, o), "true")
+                and 2 * _inter(t.box, tracks[o].box) <= t.box[2] * t.box[3] for o in tracks)
+            need = min(c["conf_thresh_resume"], c["conf_thresh_new_track"]) if unhiding else c["conf_thresh_resume"]
+            if not (t.state == "halted" and self.match_type(t.type, d.type) and d.conf > need
+                    and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh_resume"]):
+                return Violation("resume_constraints", f"{atom} is not admissible")
+        elif name == "start":
+            d = dets[args[0]]
+            if not (d.conf > c["conf_thresh_new_track"] and d.box[2] * d.box[3] > c["size_threshold"]):
+                return Violation("start_constraints", f"{atom} is not admissible")
+        elif name in ("end", "ignore_trk") and tracks[args[0]].state != "halted":
+            return Violation(f"{name}_constraints", f"{atom} needs a halted track")
+        elif name == "halt" and tracks[args[0]].state != "active":
+            return Violation("halt_constraints", f"{atom} needs an active track")
+        return None
+
+    def ignore_needs_explanation(self, trk: str) -> bool:
+        """explain_ignore: an ignored track that is clipped needs one explanation iff one is possible."""
+        return self.state.holds_at(("clipped", trk), "true") and any(
+            poss(f"{e}({trk},{o})", self.problem, self.state, self.c) for e, spec in EVENT_TABLE.items()
+            if "ignore_trk" in spec.also_explains for o in self.tracks if o != trk)
+
+
 def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
     """Every rule the answer breaks, and the cost vector it really has."""
-    c = resolve_constants(problem)
-    state = EventState.from_problem(problem)
-    tracks = {t.id: t for t in problem.tracks}
-    dets = {d.id: d for d in problem.detections}
-    iou = problem.iou_map
+    rules = FrameRules.of(problem)
+    c, state, tracks, dets = rules.c, rules.state, rules.tracks, rules.dets
     bad: list[Violation] = []
-
-    def match_type(a: str, b: str) -> bool:
-        return a == b or (a, b) in problem.match_types
 
     # -- actions ---------------------------------------------------------------------------
     per_track: dict[str, list[str]] = defaultdict(list)
@@ -108,32 +161,9 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
             bad.append(Violation("actions_per_detection", f"{d} has {len(per_det[d])} actions: {per_det[d]}"))
 
     for name, args in actions:
-        atom = f"{name}({','.join(args)})"
-        if name == "assign":
-            t, d = tracks[args[0]], dets[args[1]]
-            if not (t.state == "active" and match_type(t.type, d.type) and d.conf > c["conf_thresh_assign"]
-                    and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh"]):
-                bad.append(Violation("assignment_constraints", f"{atom} is not admissible"))
-        elif name == "resume":
-            t, d = tracks[args[0]], dets[args[1]]
-            # the confidence a resume needs: conf_thresh_new_track where the track is anticipated to
-            # unhide now (hidden, and at least half of its predicted box out of a current track it is
-            # hidden_by), else conf_thresh_resume (association.lp resume_constraints)
-            unhiding = state.holds_at(("visibility", t.id), "not_visible") and any(
-                o != t.id and state.holds_at(("hidden_by", t.id, o), "true")
-                and 2 * _inter(t.box, tracks[o].box) <= t.box[2] * t.box[3] for o in tracks)
-            need = min(c["conf_thresh_resume"], c["conf_thresh_new_track"]) if unhiding else c["conf_thresh_resume"]
-            if not (t.state == "halted" and match_type(t.type, d.type) and d.conf > need
-                    and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh_resume"]):
-                bad.append(Violation("resume_constraints", f"{atom} is not admissible"))
-        elif name == "start":
-            d = dets[args[0]]
-            if not (d.conf > c["conf_thresh_new_track"] and d.box[2] * d.box[3] > c["size_threshold"]):
-                bad.append(Violation("start_constraints", f"{atom} is not admissible"))
-        elif name in ("end", "ignore_trk") and tracks[args[0]].state != "halted":
-            bad.append(Violation(f"{name}_constraints", f"{atom} needs a halted track"))
-        elif name == "halt" and tracks[args[0]].state != "active":
-            bad.append(Violation("halt_constraints", f"{atom} needs an active track"))
+        v = rules.action_violation(name, args)
+        if v is not None:
+            bad.append(v)
 
     # -- events ----------------------------------------------------------------------------
     explanations: dict[tuple[str, str], list[str]] = defaultdict(list)  # (action, subject) -> events
@@ -164,9 +194,7 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
     subjects = {(n, a[0]) for n, a in actions if n in _EXPLAINED_ACTIONS}
     # explain_ignore: an ignored track that is clipped needs one explanation iff one is possible
     for n, a in actions:
-        if n == "ignore_trk" and state.holds_at(("clipped", a[0]), "true") and any(
-                poss(f"{e}({a[0]},{o})", problem, state, c) for e, spec in EVENT_TABLE.items()
-                if "ignore_trk" in spec.also_explains for o in tracks if o != a[0]):
+        if n == "ignore_trk" and rules.ignore_needs_explanation(a[0]):
             subjects.add((n, a[0]))
     for action, subject in sorted(subjects | set(explanations)):
         found = explanations.get((action, subject), [])
@@ -189,8 +217,10 @@ def _well_formed_event(atom: str) -> bool:
     return _EVENT_ARITY.get(event.name) == len(event.args)
 
 
-def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) -> Cost:
-    """The cost vector of an answer, every level of PRIORITIES (docs/model-spec.md section 5)."""
+def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c, weights=None) -> Cost:
+    """The cost vector of an answer, every level of PRIORITIES (docs/model-spec.md section 5); every
+    level is a sum over the answer's atoms, so it is also the cost of part of an answer.  ``weights``:
+    the frame's tie-break weights (refimpl.solvers.common.tiebreak_weights), when the caller has them."""
     iou = problem.iou_map
     level = dict.fromkeys(PRIORITIES, 0)
     for atom in actions:
@@ -203,6 +233,6 @@ def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c) 
             level[spec.level] += spec.weight
         if spec.likelihood_level is not None:
             level[spec.likelihood_level] -= iou.get(args, 0)
-    level[TIEBREAK_LEVEL] += tiebreak_level(problem, actions, event_atoms)  # the canonical tie-break
-    level[EVENT_LEVEL] += sum(c[EVENT_TABLE[name].cost_constant] for name in event_names)
+    level[TIEBREAK_LEVEL] += tiebreak_level(problem, actions, event_atoms, weights)  # the canonical tie-break
+    level[EVENT_LEVEL] += sum(c[EVENT_TABLE[name].cost_constant] for name in event_names if name in EVENT_TABLE)
     return tuple((p, level[p]) for p in PRIORITIES)

@@ -114,11 +114,15 @@ class ClingoSolver:
     per sub-problem of independent components, ``part_nodes`` own nodes each), ``isolate``
     (default True: after ``inline_solves`` solves in this process, clingo runs in a child process
     replaced every ``recycle`` solves, see refimpl.solvers.clingo_worker and clingo_process; False: always in this
-    process, whose memory then grows with every symbol clingo sees)."""
+    process, whose memory then grows with every symbol clingo sees), ``checked_costs`` (default
+    False; True: the cost vector is always the independent checker's, refimpl.solvers.check.recompute_cost,
+    never the priorities clingo reports: for a user's encoding, refimpl.solvers.asp_model), ``name``
+    (the backend name its answers carry: ``get_solver`` passes its entry's, a user's encoding its label)."""
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
-                 recycle: int | None = None, inline_solves: int = INLINE_SOLVES, name: str = CLINGO):
+                 recycle: int | None = None, inline_solves: int = INLINE_SOLVES, checked_costs: bool = False,
+                 name: str = CLINGO):
         try:
             import clingo
         except ImportError:
@@ -135,6 +139,7 @@ class ClingoSolver:
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
         self.isolate = isolate
+        self.checked_costs = bool(checked_costs)
         self.inline_solves = int(inline_solves)
         self._calls = 0
         self._worker = None
@@ -210,7 +215,7 @@ class ClingoSolver:
                 acts, evs = own_atoms(part, acts, evs)
             actions += acts
             events += evs
-        if whole and cost and optimal is not None and found is not None:
+        if whole and cost and optimal is not None and found is not None and not self.checked_costs:
             levels = {p: cost.get(p, 0) for p in PRIORITIES}
         else:  # several parts (or the fallback): the levels of the merged answer
             names = [event_term(e).split("(", 1)[0] for e in events]

@@ -229,8 +229,9 @@ def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> 
 def pair_atom(atom: str) -> tuple[str, str] | None:
     """(trk, det) of an assign/resume atom, else None."""
     if atom.startswith(("assign(", "resume(")):
-        t, d = atom[atom.index("(") + 1:-1].split(",")
-        return t, d
+        args = atom[atom.index("(") + 1:-1].split(",")
+        if len(args) == 2:  # anything else is no pair action (a user's encoding may show one; the checker says so)
+            return args[0], args[1]
     return None
 
 
