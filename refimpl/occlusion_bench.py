@@ -15,6 +15,11 @@ For every scenario of refimpl.occlusion and every tracker variant:
   as "lost +k" (k frames after hide_frame), or the unhide.
 * **pass**: one identity and both events on time (for the baseline: one identity).
 
+_HIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.explains == "halt" and e.occluder is not None)
+_UNHIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.unhides)
+_AFTER = frozenset(e.name for e in EVENT_TABLE.values() if e.explains in ("resume", "end"))
+"""The events of the target track that can close its occlusion: a resume or an end."""
+
 Variants: ``baseline`` (SORT, refimpl.baseline) and an abduction backend from
 refimpl.solvers.BACKENDS, optionally with ``+hold`` (motion while hidden) and/or ``+oru``
 (observation-centric re-update on resume), e.g. ``cpsat+hold+oru``, and ``+persist``
@@ -29,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .evaluate import evaluate_sequence
+from .events import EVENT_TABLE
 from .geometry import iou_matrix
 from .occlusion import Scenario, build_suite
 from .solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
@@ -114,10 +120,9 @@ def score(scenario: Scenario, variant: str, rows: np.ndarray, events=()) -> Scen
     if variant != BASELINE and before:
         trk = f"trk_{before[-1]}"
         mine = [e for e in events if e.event.args and e.event.args[0].name == trk]
-        hide = _nearest([e.time for e in mine if e.event.name == "hides_behind"], t.hide_frame)
-        unhide = _nearest([e.time for e in mine if e.event.name == "unhides_from_behind"], t.reappear_frame)
-        after = [e for e in mine if e.time >= t.hide_frame - TOLERANCE
-                 and e.event.name in ("lost", "unhides_from_behind", "recover", "leaves_fov")]
+        hide = _nearest([e.time for e in mine if e.event.name in _HIDES], t.hide_frame)
+        unhide = _nearest([e.time for e in mine if e.event.name in _UNHIDES], t.reappear_frame)
+        after = [e for e in mine if e.time >= t.hide_frame - TOLERANCE and e.event.name in _AFTER]
         if after:
             e = min(after, key=lambda e: e.time)
             ended = f"{e.event.name} {e.time - t.hide_frame:+d}"

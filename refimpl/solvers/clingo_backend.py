@@ -27,9 +27,9 @@ from typing import Sequence
 from ..constants import model_dir, resolve_constants
 from ..ranges import OutOfClingoRange, clingo_overflow
 from ..hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
-from ..spec import FrameProblem
+from ..spec import FrameProblem, event_of, parse_atom
 from . import CLINGO, NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
-from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
+from .common import tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
 
@@ -203,8 +203,8 @@ class ClingoSolver:
             else:
                 atoms, cost, part_optimal = found
             optimal = optimal and part_optimal
-            acts = [a for a in atoms if not a.startswith("occurs_at(")]
-            evs = [a for a in atoms if a.startswith("occurs_at(")]
+            evs = [a for a in atoms if parse_atom(a).name == "occurs_at"]
+            acts = [a for a in atoms if parse_atom(a).name != "occurs_at"]
             if not whole:
                 acts, evs = own_atoms(part, acts, evs)
             actions += acts
@@ -213,7 +213,7 @@ class ClingoSolver:
             levels = {p: cost.get(p, 0) for p in PRIORITIES}
         else:  # several parts (or the fallback): the levels of the merged answer
             from ..check import recompute_cost
-            names = [event_term(e).split("(", 1)[0] for e in events]
+            names = [event_of(e).name for e in events]
             levels = dict(recompute_cost(problem, actions, names, events, resolve_constants(problem)))
         levels[TIEBREAK_LEVEL] = tiebreak_level(problem, actions, events)
         return Hypothesis(

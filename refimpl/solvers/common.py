@@ -53,7 +53,7 @@ import numpy as np
 
 from ..events import EFFECTS, EVENT_NAMES
 from ..ranges import EXPLANATION_LIMIT
-from ..spec import Box, FrameProblem, natural_key
+from ..spec import Box, FrameProblem, event_of, natural_key, parse_atom
 
 
 def intersection_matrix(boxes: Sequence[Box]) -> np.ndarray:
@@ -230,17 +230,16 @@ def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> 
 
 def pair_atom(atom: str) -> tuple[str, str] | None:
     """(trk, det) of an assign/resume atom, else None."""
-    if atom.startswith(("assign(", "resume(")):
-        t, d = atom[atom.index("(") + 1:-1].split(",")
+    term = parse_atom(atom)
+    if term.name in ("assign", "resume") and len(term.args) == 2:
+        t, d = term.arg_names
         return t, d
     return None
 
 
 def event_term(atom: str) -> str:
-    """The event of 'occurs_at(E,T)' (or E itself)."""
-    if atom.startswith("occurs_at("):
-        return atom[len("occurs_at("):atom.rindex(",")]
-    return atom
+    """The event of 'occurs_at(E,T)' (or E itself), as text."""
+    return str(event_of(atom))
 
 
 def tiebreak_level(problem: FrameProblem, actions: Iterable[str], events: Iterable[str],

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 from ..events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
 from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..relations import area
-from ..spec import Detection, FrameProblem, TrackPrediction
+from ..spec import Detection, FrameProblem, TrackPrediction, parse_atom
 from . import NoAdmissibleHypothesis, SolveTimeout
 from .common import intersection_matrix, tiebreak_weights
 
@@ -42,11 +42,11 @@ def _cost(action: str, likelihood: int = 0, event: int = 0, tiebreak: int = 0) -
 def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
                      state: EventState) -> Sequence[TrackPrediction]:
     """The second tracks worth testing poss for a pair event of tracks[i]: every other track, narrowed
-    (as a speed-up only, same answers) by what the precondition needs first: hides_behind needs
-    overlapping_top (the top matrix), unhides_from_behind needs the track not_visible."""
-    if spec.name == "hides_behind":
+    (as a speed-up only, same answers) by the condition its precondition implies (EventType.prefilter):
+    'overlapping_top' (hides_behind: the top matrix), 'hidden' (unhides_from_behind: the track not_visible)."""
+    if spec.prefilter == "overlapping_top":
         return [tracks[j] for j in np.flatnonzero(top[i]).tolist()]
-    if spec.name == "unhides_from_behind" and not _hidden(state, tracks[i].id):
+    if spec.prefilter == "hidden" and not _hidden(state, tracks[i].id):
         return ()
     return [t2 for t2 in tracks if t2.id != tracks[i].id]
 
@@ -311,21 +311,27 @@ def _level_value(terms: list[tuple[int, cp_model.IntVar]], values: Mapping[int, 
 
 def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, int] | None:
     """A solution found without search, if the obvious one exists: every detection ignored, every
-    halted track ignored, every active track halted (missing_detections, else the first possible
-    hides_behind); None if some active track cannot be halted."""
+    halted track ignored, every active track halted (by its first possible one-track halting event,
+    else its first possible pair one: missing_detections, else hides_behind); None if some active
+    track cannot be halted."""
     chosen = {f"ignore_det({d.id})" for d in problem.detections}
+    mine: dict[str, dict[str, list[str]]] = {}  # track -> event name -> its event atoms, in model order
+    for e in am.events:
+        term = parse_atom(e)
+        mine.setdefault(str(term.args[0]), {}).setdefault(term.name, []).append(e)
+    halts = sorted(explaining("halt"), key=lambda spec: spec.arity)  # stable: table order within an arity
     for t in problem.tracks:
+        own = mine.get(t.id, {})
         if f"ignore_trk({t.id})" in am.actions:
             chosen.add(f"ignore_trk({t.id})")
-            again = [e for e in am.events if e.startswith(f"hides_behind({t.id},")]  # explain_ignore
+            again = [e for spec in explaining("ignore_trk") for e in own.get(spec.name, ())]  # explain_ignore
             if again:
                 chosen.add(again[0])
             continue
         if f"halt({t.id})" not in am.actions:
             return None
         chosen.add(f"halt({t.id})")
-        expl = [e for e in am.events if e == f"missing_detections({t.id})"]
-        expl += [e for e in am.events if e.startswith(f"hides_behind({t.id},")]
+        expl = [e for spec in halts for e in own.get(spec.name, ())]
         chosen.add(expl[0])
     return {v.index: int(atom in chosen) for atom, v in list(am.actions.items()) + list(am.events.items())}
 
