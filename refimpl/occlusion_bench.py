@@ -15,11 +15,6 @@ For every scenario of refimpl.occlusion and every tracker variant:
   as "lost +k" (k frames after hide_frame), or the unhide.
 * **pass**: one identity and both events on time (for the baseline: one identity).
 
-_HIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.explains == "halt" and e.occluder is not None)
-_UNHIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.unhides)
-_AFTER = frozenset(e.name for e in EVENT_TABLE.values() if e.explains in ("resume", "end"))
-"""The events of the target track that can close its occlusion: a resume or an end."""
-
 Variants: ``baseline`` (SORT, refimpl.baseline) and an abduction backend from
 refimpl.solvers.BACKENDS, optionally with ``+hold`` (motion while hidden) and/or ``+oru``
 (observation-centric re-update on resume), e.g. ``cpsat+hold+oru``, and ``+persist``
@@ -44,6 +39,11 @@ MOTION_OPTIONS = {"hold": "hold_hidden", "oru": "reupdate_on_resume"}
 PERSIST_FRAMES = 1000
 """'+persist': lost_after_hidden raised to this (longer than any scenario): a stand-in for reasoned
 persistence (issue 12, item 1), so that the motion options can be measured where hiding is not cut at 30."""
+
+_HIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.explains == "halt" and e.occluder is not None)
+_UNHIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.unhides)
+_AFTER = frozenset(e.name for e in EVENT_TABLE.values() if e.explains in ("resume", "end"))
+"""The events of the target track that can close its occlusion: a resume or an end."""
 
 
 @dataclass(frozen=True)

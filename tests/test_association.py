@@ -117,10 +117,14 @@ def test_bus_t235_car_hides_behind_bus(backend):
     # @1:  hides_behind 1 + enters_fov 1                        = 2
     # @0:  the canonical tie-break (refimpl/solvers/common.py): the five admissible pairs are
     #      five components ((trk_13,det_1) is below iou_thresh), each pair 2^0: 5, shifted by
-    #      E = bit length of 7 + 7 (trk_12, trk_13 overlap: 6 arity-1 events + 2 each) + 4 * 5 +
-    #      6 * 5 (dets) = 64 -> 7: 640; hides_behind(trk_13,trk_12) is trk_13's event 6,
-    #      enters_fov(det_5) det_5's event 2                                 = 648
-    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, (5 << 7) + 6 + 2))
+    #      E = bit length of the largest indices: trk_12 and trk_13 overlap (their arity-1
+    #      events and each pair event of the other), four other tracks and six detections their
+    #      arity-1 events only (today: 7 + 7 + 4 * 5 + 6 * 5 = 64 -> 7: 640); hides_behind(trk_13,
+    #      trk_12) is trk_13's first pair event of its one candidate (today 6), enters_fov(det_5)
+    #      det_5's arity-1 event (today 2)                                   = 648 today
+    e = shift(largest_index(1), largest_index(1), *[largest_index()] * (4 + 6))
+    level0 = (5 << e) + pair_index("hides_behind", 0, 1) + event_index("enters_fov")
+    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, level0))
 
 
 def test_bus_t268_car_unhides_from_behind_bus(backend):
