@@ -189,3 +189,35 @@ def test_the_scene_has_a_sentence_and_the_plots_a_style_for_every_event():
     for halt in explaining("halt"):
         ep = Episode(halt.closing, "trk_1", 5, "trk_2" if halt.arity == 2 else None, 9, "recover")
         assert halt.phrase in explain_episode(scene, ep)
+
+
+def test_every_event_has_its_precondition_and_integrity_constraint_in_events_lp():
+    # 'poss(NAME(..)) :- event(NAME(..)), ...' and ':- occurs_at(NAME(..), curr_time), not poss(NAME(..)).'
+    # per event: without the constraint ASP could abduce the event where it is impossible
+    text = _lp("events.lp")
+    poss_heads = set(re.findall(r"^poss\((\w+)\(", text, flags=re.M))
+    guarded = {a for a, b in re.findall(r"^:- occurs_at\((\w+)\([^)]*\), curr_time\), not poss\((\w+)\(",
+                                        text, flags=re.M) if a == b}
+    assert poss_heads == set(EVENT_TABLE) and guarded == set(EVENT_TABLE)
+
+
+def test_clingo_derives_the_same_possible_events_as_python():
+    # poss/1 is in the stratified part of the encoding, so grounding decides it: on the
+    # every-event frame and on random frames with random histories (tests/framegen.py, which
+    # draws every event of the table), clingo's poss/1 facts are Python's possible events
+    pytest.importorskip("clingo")
+    import random
+
+    from framegen import random_frame
+    from refimpl.solvers.clingo_backend import ClingoSolver
+
+    rng = random.Random(5)
+    problems = [parse_facts(FRAME)] + [random_frame(rng, with_history=True) for _ in range(40)]
+    for problem in problems:
+        ctl = ClingoSolver().control(problem, "")
+        ctl.ground([("base", [])])
+        asp = {str(a.symbol)[len("poss("):-1] for a in ctl.symbolic_atoms
+               if a.is_fact and a.symbol.name == "poss"}
+        state, c = EventState.from_problem(problem), resolve_constants(problem)
+        python = {atom for atom, ok in possible_events(problem, state, c).items() if ok}
+        assert asp == python, (problem.to_facts(), asp ^ python)
