@@ -221,3 +221,35 @@ def test_clingo_derives_the_same_possible_events_as_python():
         state, c = EventState.from_problem(problem), resolve_constants(problem)
         python = {atom for atom, ok in possible_events(problem, state, c).items() if ok}
         assert asp == python, (problem.to_facts(), asp ^ python)
+
+
+# string constants of refimpl's code (not docstrings) that may name an event: the paper's query
+# syntax shown in a usage line
+_NAMED_ON_PURPOSE = {("scene/queries.py", "anticipate(unhides_from_behind(T,T2),T') for T hidden at FRAME, "
+                      "with the warning")}
+
+
+def test_no_module_but_the_event_table_chooses_an_event_by_name():
+    # every consumer reads the table's roles (explains, halt_kind, occluder, prefilter, hides,
+    # unhides, ...): a string constant in code that is an event's name ('hides_behind') or the
+    # start of its term ('recover(') would be an event chosen by name.  Names that are plain English
+    # words too (lost, noise) count only as terms.  Docstrings are prose and not looked at.
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent / "refimpl"
+    term = re.compile(r"\b(%s)\(" % "|".join(EVENT_TABLE))
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root).as_posix()
+        if rel == "events.py":
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        prose = {id(n.value) for n in ast.walk(tree)
+                 if isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant)}
+        for n in ast.walk(tree):
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in prose:
+                named = (n.value in EVENT_TABLE and "_" in n.value) or term.search(n.value)
+                if named and (rel, n.value) not in _NAMED_ON_PURPOSE:
+                    found.append(f"{rel}:{n.lineno}: {n.value[:60]!r}")
+    assert not found, found
