@@ -253,3 +253,28 @@ def test_no_module_but_the_event_table_chooses_an_event_by_name():
                 if named and (rel, n.value) not in _NAMED_ON_PURPOSE:
                     found.append(f"{rel}:{n.lineno}: {n.value[:60]!r}")
     assert not found, found
+
+
+def test_every_halt_kind_reaches_the_track_summary_and_the_report():
+    # one scene per halting event: trk_1 observed in frames 1-4, halted by the event at 5, halted
+    # (predicted) in 5-7, resumed at 8 by a one-track resume: track_summary lists one halt of the
+    # event's kind from 5 to 7 ('to' is the frame before the resume), and the report's box states
+    # in frames 5-7 are that kind
+    from refimpl.report import frame_states
+    from refimpl.scene.queries import track_summary
+    from refimpl.spec import HistoryEvent, Term
+
+    resume = next(e for e in explaining("resume") if e.arity == 1)
+    box = (0.0, 0.0, 10.0, 10.0)
+    for halt in explaining("halt"):
+        args = (Term("trk_1"), Term("trk_2")) if halt.arity == 2 else (Term("trk_1"),)
+        events = [HistoryEvent(Term(explaining("start")[0].name, (Term("trk_1"),)), 1),
+                  HistoryEvent(Term(halt.name, args), 5), HistoryEvent(Term(resume.name, (Term("trk_1"),)), 8)]
+        tracks = [SceneTrack("trk_1", "car", tuple((f, box) for f in (1, 2, 3, 4, 8, 9)),
+                             tuple((f, box) for f in (5, 6, 7)), None),
+                  SceneTrack("trk_2", "car", tuple((f, box) for f in range(1, 10)), (), None)]
+        scene = make_scene("t", tracks, events, 1, 9)
+        halts = track_summary(scene, "trk_1")["halts"]
+        assert [(h["kind"], h["from"], h["to"], h["ended_by"]) for h in halts] == [(halt.halt_kind, 5, 7, resume.name)]
+        states = frame_states(scene)
+        assert [b.state for f in (5, 6, 7) for b in states[f] if b.track == "trk_1"] == [halt.halt_kind] * 3
