@@ -90,15 +90,13 @@ def parse_atom(text: str) -> Term:
     not validate symbols or integer ranges, which the solvers' own output always meets, but a
     malformed atom is still a ValueError."""
     head, paren, rest = text.partition("(")
-    if not paren:
-        if not head or not _FLAT_ARG.fullmatch(head):
-            raise ValueError(f"not an atom: {text!r}")
+    if not paren and _FLAT_ARG.fullmatch(head):  # a constant
         return Term(head)
-    if "(" not in rest and rest.endswith(")") and _FLAT_ARG.fullmatch(head):  # flat: name(a,b,...)
+    if paren and "(" not in rest and rest.endswith(")") and _FLAT_ARG.fullmatch(head):  # name(a,b,...)
         args = rest[:-1].split(",")
         if all(_FLAT_ARG.fullmatch(a) for a in args):
             return Term(head, tuple(map(Term, args)))
-        raise ValueError(f"not an atom: {text!r}")
+    # any other shape (nested, with blanks, or malformed): token by token
     tokens = _ATOM_TOKEN.findall(text)
     pos = 0
 

@@ -114,6 +114,8 @@ def test_parse_atom_reads_a_solvers_atoms_as_terms():
     assert event_of("recover(trk_1)") == Term("recover", (Term("trk_1"),))
     # the tracker's ids trk_<n>
     assert track_number("trk_12") == 12 and track_number("trk_0") == 0
+    # blanks between the parts are allowed, as the old slicing allowed them
+    assert parse_atom("assign(trk_1, det_2)") == parse_atom("assign(trk_1,det_2)")
     for bad in ("", "a(", "a(b", "a)b", "(a)", "a(b,)", "a()", "a b", "a(b c)", "a(b))", "a(b(c)"):
         with pytest.raises(ValueError, match="not an atom"):
             parse_atom(bad)
