@@ -30,7 +30,7 @@ from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, Detection
 from .tracking.options import TrackerOptions
 from .tracking.pipeline import AUTO, new_tracker, setup_for
 from .solvers import BACKENDS, DEFAULT_BACKEND
-from .core.spec import HistoryEvent
+from .core.spec import HistoryEvent, track_number
 from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
 
 API_SCORE_RULES = ("auto", RANK, "probability", "sigmoid")
@@ -250,7 +250,7 @@ class Tracker:
         if not with_class:
             return rows
         numbers = {t: c for c, t in self.class_types.items()}  # type -> its (first) class id
-        kinds = {int(trk.id.rsplit("_", 1)[1]): trk.type for trk in self._everyone()}
+        kinds = {track_number(trk.id): trk.type for trk in self._everyone()}
         cls = np.array([numbers.get(kinds[int(n)], -1) for n in rows[:, 4]], dtype=float)
         return np.column_stack([rows, cls]).reshape(-1, 6)
 
@@ -264,7 +264,7 @@ class Tracker:
         for trk in self._everyone():
             if frame in trk.confirmed:
                 x, y, w, h = trk.observed[frame]
-                rows.append((x, y, x + w, y + h, float(trk.id.rsplit("_", 1)[1])))
+                rows.append((x, y, x + w, y + h, float(track_number(trk.id))))
         out = np.array(rows, dtype=float).reshape(-1, 5)
         self._reported.update((frame, int(n)) for n in out[:, 4])
         return out[np.argsort(out[:, 4], kind="stable")], dict(self._tracker.owners)
@@ -292,7 +292,7 @@ class Tracker:
         reported = {int(n) for n in rows[:, 4]}
         ids = np.full(len(xyxy), -1, dtype=int)
         for j, trk_id in owners.items():
-            number = int(trk_id.rsplit("_", 1)[1])
+            number = track_number(trk_id)
             if number in reported:
                 ids[j] = number
         out = detections[np.arange(len(xyxy))] if len(xyxy) else detections

@@ -20,6 +20,7 @@ import numpy as np
 
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+from refimpl.knowledge.events import explaining
 
 CURR_TIME = 50
 
@@ -37,7 +38,8 @@ def dense_frame(n_tracks: int, n_dets: int, seed: int, side: int = 210) -> Frame
     ml = scale_iou(iou_matrix(np.array(tboxes, float), np.array(dboxes, float)))
     iou = tuple((tracks[i].id, dets[j].id, int(ml[i, j]))
                 for i in range(len(tracks)) for j in range(len(dets)) if ml[i, j] > 0)
-    history = tuple(HistoryEvent(Term("missing_detections", (Term(f"trk_{i}"),)), CURR_TIME - 2)
+    halt = next(e.name for e in explaining("halt") if e.arity == 1)  # missing_detections
+    history = tuple(HistoryEvent(Term(halt, (Term(f"trk_{i}"),)), CURR_TIME - 2)
                     for i in sorted(halted))
     return FrameProblem(time=CURR_TIME, detections=dets, tracks=tracks, iou=iou, history=history)
 

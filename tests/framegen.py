@@ -8,9 +8,13 @@ import numpy as np
 
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+from refimpl.knowledge.events import EVENT_TABLE, EventType, explaining
 
 TYPES = ("car", "person")
 CURR_TIME = 40
+_WEIGHT = {"halt": 4, "resume": 2, "start": 2, "end": 1}
+"""How often a random history event explains each action: every event of the table is drawn,
+a new one too, with its action's weight."""
 
 
 def _box(rng: random.Random) -> tuple[int, int, int, int]:
@@ -77,29 +81,31 @@ def _random_history(rng: random.Random, tracks) -> list[HistoryEvent]:
     def other(a: str) -> str:
         return rng.choice([x for x in ids if x != a] + ["trk_99"])
 
+    def event(spec: EventType, a: str) -> Term:
+        return Term(spec.name, (Term(a), Term(other(a))) if spec.arity == 2 else (Term(a),))
+
+    def pick(kinds: list[EventType]) -> EventType:
+        return kinds[0] if len(kinds) == 1 else rng.choice(kinds)
+
+    kinds = list(EVENT_TABLE.values())
+    weights = [_WEIGHT[e.explains] for e in kinds]
     for t in tracks:
         a = t.id
         if rng.random() < 0.6:
-            out.append(HistoryEvent(Term("enters_fov", (Term(a),)), when()))
+            out.append(HistoryEvent(event(pick(explaining("start")), a), when()))
         for _ in range(rng.randint(0, 3)):
-            kind = rng.choices(
-                ("hides_behind", "missing_detections", "recover", "enters_fov", "unhides_from_behind",
-                 "leaves_fov", "noise"),
-                weights=(4, 4, 2, 2, 2, 1, 1))[0]
-            args = (Term(a), Term(other(a))) if kind in ("hides_behind", "unhides_from_behind") else (Term(a),)
-            out.append(HistoryEvent(Term(kind, args), when()))
+            out.append(HistoryEvent(event(rng.choices(kinds, weights=weights)[0], a), when()))
         if rng.random() < 0.15:
             continue  # unconstrained
         last = max([h.time for h in out if h.event.args[0].name == a], default=CURR_TIME - 8)
         tm = rng.randint(last, CURR_TIME - 1) if last < CURR_TIME - 1 else last
-        if t.state == "active":
-            kind = "recover" if rng.random() < 0.7 else "unhides_from_behind"
-            args = (Term(a),) if kind == "recover" else (Term(a), Term(other(a)))
-            if kind == "unhides_from_behind":  # unhides alone leaves clipped as it was
-                out.append(HistoryEvent(Term("recover", (Term(a),)), tm))
-        else:
-            kind = "hides_behind" if rng.random() < 0.5 else "missing_detections"
-            args = (Term(a), Term(other(a))) if kind == "hides_behind" else (Term(a),)
-        out.append(HistoryEvent(Term(kind, args), tm))
+        # the last event: a resume of an active track, a halt of a halted one; with an occluder or not
+        action = "resume" if t.state == "active" else "halt"
+        behind = rng.random() >= (0.7 if action == "resume" else 0.5)
+        spec = pick([e for e in explaining(action) if (e.occluder is not None) == behind]
+                    or list(explaining(action)))
+        if action == "resume" and behind:  # sometimes a one-track resume before it, at the same time
+            out.append(HistoryEvent(event(pick([e for e in explaining("resume") if e.occluder is None]), a), tm))
+        out.append(HistoryEvent(event(spec, a), tm))
     rng.shuffle(out)
     return out

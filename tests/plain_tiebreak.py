@@ -71,3 +71,37 @@ def plain_level0(problem: FrameProblem, actions, events) -> int:
     return (pairs << shift) + sum(event.get(e[len("occurs_at("):e.rindex(",")], 0) for e in events)
 
 
+
+
+# --- the explanation part's numbers for hand-derived expectations ----------------------------
+# A test that derives a level-0 value by hand names the events and counts the nodes; these read
+# the rest from the event table (refimpl.knowledge.events.EVENT_TABLE), so that a new event does not reopen
+# the derivation: a node's indices are its arity-1 events in table order (0, 1, ...), then, for
+# each arity-2 event in table order, one per other track of its candidate list; E is the bit
+# length of the sum over the nodes of each node's largest index (refimpl/solvers/common.py).
+
+def _names(arity: int) -> list[str]:
+    from refimpl.knowledge.events import EVENT_TABLE
+    return [name for name, e in EVENT_TABLE.items() if e.arity == arity]
+
+
+def event_index(name: str) -> int:
+    """An arity-1 event's index at every node: its place among the table's arity-1 events
+    (missing_detections 0, recover 1, enters_fov 2, ... with today's table)."""
+    return _names(1).index(name)
+
+
+def pair_index(name: str, rank: int, others: int) -> int:
+    """The index of the arity-2 event ``name`` naming the track's candidate of rank ``rank`` (0:
+    the most overlapping) out of ``others``: after the arity-1 events and the earlier pair events."""
+    return len(_names(1)) + _names(2).index(name) * others + rank
+
+
+def largest_index(others: int = 0) -> int:
+    """A node's largest index: its arity-1 events and each arity-2 event per candidate, minus one."""
+    return len(_names(1)) + len(_names(2)) * others - 1
+
+
+def shift(*largest: int) -> int:
+    """E for nodes with these largest indices (largest_index of each node)."""
+    return sum(largest).bit_length()

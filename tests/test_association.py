@@ -21,7 +21,7 @@ import pytest
 from refimpl.solvers.check import check_answer
 from refimpl.core.constants import default_constants
 from refimpl.core.hypothesis import Hypothesis, parse_action
-from plain_tiebreak import plain_level0
+from plain_tiebreak import event_index, largest_index, pair_index, plain_level0, shift
 from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable, get_solver
 from refimpl.core.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term,
                           read_problem, write_facts)
@@ -117,10 +117,14 @@ def test_bus_t235_car_hides_behind_bus(backend):
     # @1:  hides_behind 1 + enters_fov 1                        = 2
     # @0:  the canonical tie-break (refimpl/solvers/common.py): the five admissible pairs are
     #      five components ((trk_13,det_1) is below iou_thresh), each pair 2^0: 5, shifted by
-    #      E = bit length of 7 + 7 (trk_12, trk_13 overlap: 6 arity-1 events + 2 each) + 4 * 5 +
-    #      6 * 5 (dets) = 64 -> 7: 640; hides_behind(trk_13,trk_12) is trk_13's event 6,
-    #      enters_fov(det_5) det_5's event 2                                 = 648
-    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, (5 << 7) + 6 + 2))
+    #      E = bit length of the largest indices: trk_12 and trk_13 overlap (their arity-1
+    #      events and each pair event of the other), four other tracks and six detections their
+    #      arity-1 events only (today: 7 + 7 + 4 * 5 + 6 * 5 = 64 -> 7: 640); hides_behind(trk_13,
+    #      trk_12) is trk_13's first pair event of its one candidate (today 6), enters_fov(det_5)
+    #      det_5's arity-1 event (today 2)                                   = 648 today
+    e = shift(largest_index(1), largest_index(1), *[largest_index()] * (4 + 6))
+    level0 = (5 << e) + pair_index("hides_behind", 0, 1) + event_index("enters_fov")
+    assert h.cost == ((10, -454480), (5, 0), (3, 0), (2, 5), (1, 2), (0, level0))
 
 
 def test_bus_t268_car_unhides_from_behind_bus(backend):
@@ -272,9 +276,10 @@ def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["resume(trk_1,det_1)", ev("recover(trk_1)")]))
     # @2: resume 1; @1: recover 2; @0: the pair (trk_1,det_1) is 2^0 of its component, shifted by
-    # E = bit length of 5 + 5 (two nodes, six arity-1 events each, largest index 5) = 4: 16;
-    # recover is trk_1's event 1 (missing_detections, recover, ...): 17
-    assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, 17))
+    # E = bit length of the two nodes' largest indices (no pair events: their arity-1 events only;
+    # 5 + 5 = 10 -> 4 with today's six), plus recover's index at trk_1 (1: missing_detections, recover, ...)
+    level0 = (1 << shift(largest_index(), largest_index())) + event_index("recover")
+    assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, level0))
 
 
 @pytest.mark.parametrize("offset,resumed", [(0, False), (1, True)])
@@ -322,8 +327,8 @@ def test_start_needs_confidence_above_threshold(backend, conf, started):
     h = solve(backend, p)
     if started:
         assert h.answer == ("occurs_at(enters_fov(det_1),10)", "start(det_1)")
-        # @0: enters_fov is det_1's event 2 (missing_detections, recover, enters_fov, ...)
-        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 2))
+        # @0: enters_fov's index at det_1 (2: missing_detections, recover, enters_fov, ...)
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, event_index("enters_fov")))
     else:
         assert h.answer == ("ignore_det(det_1)",)
         assert h.cost == ((10, 0), (5, 0), (3, 10), (2, 0), (1, 0), (0, 0))
@@ -355,8 +360,8 @@ def test_halted_track_is_not_halted_again(backend):
     p = frame([], [trk(1, "halted", box=(5, 300, 50, 50))])
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
-    # @0: leaves_fov is trk_1's event 3 (missing_detections, recover, enters_fov, leaves_fov)
-    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, 3))
+    # @0: leaves_fov's index at trk_1 (3: missing_detections, recover, enters_fov, leaves_fov)
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 1), (0, event_index("leaves_fov")))
 
 
 def test_unexplainable_end_does_not_happen_so_the_track_is_ignored(backend):
@@ -382,10 +387,12 @@ def test_halt_is_explained_by_hides_behind_an_overlapping_top_track(backend):
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["assign(trk_2,det_2)", "halt(trk_1)",
                                      ev("hides_behind(trk_1,trk_2)")]))
-    # @0: trk_1 and trk_2 overlap, so each has its 6 arity-1 events and hides_behind /
-    # unhides_from_behind of the other (largest index 7), det_2 its 6 (5): E = bit length of 19
-    # = 5; the pair (trk_2,det_2) is 2^0 << 5 = 32; hides_behind(trk_1,trk_2) is trk_1's event 6
-    assert h.cost == ((10, -90001), (5, 0), (3, 0), (2, 0), (1, 1), (0, 32 + 6))
+    # @0: trk_1 and trk_2 overlap, so each has its arity-1 events and each pair event of the other
+    # (largest index 7 with today's table), det_2 its arity-1 events (5): E = bit length of 19 = 5;
+    # the pair (trk_2,det_2) is 2^0 << E = 32; hides_behind(trk_1,trk_2) is trk_1's first pair
+    # event of its one candidate (6: after the six arity-1 events)
+    e = shift(largest_index(1), largest_index(1), largest_index())
+    assert h.cost == ((10, -90001), (5, 0), (3, 0), (2, 0), (1, 1), (0, (1 << e) + pair_index("hides_behind", 0, 1)))
 
 
 @pytest.mark.parametrize("front_box", [
@@ -589,8 +596,8 @@ def test_noise_only_for_young_tracks(backend, started, noise):
     h = solve(backend, _ended(history=history))
     if noise:  # 10 - 7 = 3 <= noise_max_age = 3
         assert h.answer == tuple(sorted(["end(trk_1)", ev("noise(trk_1)")]))
-        # @0: noise is trk_1's event 5 (missing_detections, recover, enters_fov, leaves_fov, lost, noise)
-        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 2), (0, 5))
+        # @0: noise's index at trk_1 (5: missing_detections, recover, enters_fov, leaves_fov, lost, noise)
+        assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 5), (1, 2), (0, event_index("noise")))
     else:
         assert h.answer == ("ignore_trk(trk_1)",)
 
@@ -612,8 +619,8 @@ def test_every_start_is_explained_by_enters_fov(backend):
     h = solve(backend, p)
     assert h.actions == ("start(det_1)", "start(det_2)", "start(det_3)")
     assert h.events == tuple(ev(f"enters_fov(det_{i})") for i in range(1, 4))
-    # @0: enters_fov is each detection's event 2: 3 * 2
-    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 15), (1, 3), (0, 6))
+    # @0: enters_fov's index at each of the three detections (2): 3 * 2
+    assert h.cost == ((10, 0), (5, 0), (3, 0), (2, 15), (1, 3), (0, 3 * event_index("enters_fov")))
 
 
 # --- optimisation ----------------------------------------------------------------------------------
@@ -738,9 +745,12 @@ def test_resume_prefers_the_likelier_detection(backend, exact):
                                      f"start(det_{other})", ev(f"enters_fov(det_{other})")]))
     # @5: -100000; @2: resume 1 + start 5; @1: recover 2 + enters_fov 1;
     # @0 (the canonical tie-break): one component, pairs in natural order (trk_1,det_0) 2^0 and
-    # (trk_1,det_1) 2^1, shifted by E = bit length of 5 + 5 + 5 (three nodes, six arity-1 events
-    # each) = 4; recover is trk_1's event 1, enters_fov the other detection's event 2
-    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, ((1 << exact) << 4) + 1 + 2))
+    # (trk_1,det_1) 2^1, shifted by E = bit length of the three nodes' largest indices (arity-1
+    # events only: 5 + 5 + 5 -> 4 with today's table); recover's index at trk_1 (1) and
+    # enters_fov's at the other detection (2)
+    e = shift(largest_index(), largest_index(), largest_index())
+    level0 = ((1 << exact) << e) + event_index("recover") + event_index("enters_fov")
+    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, level0))
 
 
 # --- explain_ignore (docs/model.md 3.16) and anticipated_unhide (3.17) ------------------------

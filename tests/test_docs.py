@@ -114,3 +114,20 @@ def test_command_parses(lineno, args):
     except SystemExit as exc:  # argparse reports a bad command line by exiting
         pytest.fail(f"docs/model.md:{lineno}: 'refimpl {args}' does not parse (exit {exc.code})")
     assert callable(getattr(ns, "func", None)), f"docs/model.md:{lineno}: no command selected"
+
+
+def test_the_bus_frames_cost_vector_in_docs_model_md_is_the_solvers():
+    # docs/model.md shows `refimpl solve data/examples/bus_t235.lp` (sections 1 and 4.1) with its
+    # cost vector; its level 0 (the tie-break) counts the events of the table, so a new event
+    # changes it: the text must follow.  CP-SAT's answer here is the one test_association's
+    # test_bus_t235_car_hides_behind_bus derives by hand on every backend.
+    from refimpl.solvers.cpsat import CpSatSolver
+    from refimpl.core.spec import read_problem
+
+    h = CpSatSolver().solve(read_problem(str(REPO / "data" / "examples" / "bus_t235.lp")))
+    text = DOC.read_text(encoding="utf-8")
+    shown = " ".join(f"{v}@{p}" for p, v in h.cost)
+    assert text.count(f"cost:    {shown}") == 2  # the cpsat and clingo runs of 4.1
+    assert f"`{shown}` means" in text
+    assert "tie-break " + str(h.cost[-1][1]) + "." in text
+    assert "`" + str(tuple(h.cost)).replace(" ", "") + "`" in text

@@ -42,12 +42,75 @@ def test_the_explain_rules_of_the_asp_encoding_match_the_table():
                    + REEXPLAINED}
 
 
-def test_every_event_has_a_cost_constant_and_a_level1_cost_term():
-    constants = default_constants()
-    level1 = re.findall(r"cost_(\w+)@1", _lp("optimisation.lp"))
-    for name, e in EVENT_TABLE.items():
-        assert e.cost_constant in constants
-    assert sorted(level1) == sorted(EVENT_TABLE)
+def test_every_event_has_its_cost_beside_it_in_events_lp():
+    # '#const cost_lost=3.' and 'event_cost(lost(Trk), cost_lost) :- event(lost(Trk)).' in events.lp:
+    # the one level-1 statement of optimisation.lp reads event_cost/2, so an event without it costs nothing
+    text = _lp("events.lp")
+    consts = set(re.findall(r"^#const (cost_\w+)=", text, flags=re.M))
+    wired = {name: const for name, args, const, again in
+             re.findall(r"^event_cost\((\w+)\(([^)]*)\), (\w+)\) :- event\((\w+)\(", text, flags=re.M)
+             if name == again}
+    assert consts == {e.cost_constant for e in EVENT_TABLE.values()}
+    assert wired == {name: e.cost_constant for name, e in EVENT_TABLE.items()}
+    assert all(e.cost_constant in default_constants() for e in EVENT_TABLE.values())
+    assert "#minimize { C@1, E, event : occurs_at(E, curr_time), event_cost(E, C) }." in _lp("optimisation.lp")
+
+
+def test_the_halting_and_starting_wiring_of_the_asp_encoding_matches_the_table():
+    # 'halting_event_at(Trk, T) :- history_event(missing_detections(Trk), T).' per halting event
+    # (halted_at, read by lost's precondition), starting_event_at per starting event (started_at,
+    # read by noise's): an event of the table without its line would halt (start) a track in
+    # Python and not in ASP
+    text = _lp("events.lp")
+    for head, action in (("halting_event_at", "halt"), ("starting_event_at", "start")):
+        asp = re.findall(rf"^{head}\((\w+), T\) :- history_event\((\w+)\((\w+)", text, flags=re.M)
+        assert all(first == arg for first, _, arg in asp), asp  # the event's first argument
+        assert sorted(name for _, name, _ in asp) == sorted(e.name for e in explaining(action))
+    # and no other file names an event: event_calculus.lp and optimisation.lp read the wiring
+    for other in sorted(model_dir().glob("*.lp")):
+        if other.name != "events.lp":
+            named = set(re.findall(r"\b(\w+)\(", _lp(other.name))) & set(EVENT_TABLE)
+            assert not named, (other.name, named)
+
+
+def test_every_role_of_the_table_is_consistent_with_the_effects_and_actions():
+    for e in EVENT_TABLE.values():
+        # a halt kind exactly for the halting events; the kinds tell the halts apart
+        assert bool(e.halt_kind) == (e.explains == "halt"), e.name
+        # an occluder is a second track: only a pair event names one
+        assert e.occluder is None or (e.arity == 2 and e.occluder == 1), e.name
+    assert len({e.halt_kind for e in explaining("halt")}) == len(explaining("halt"))
+    # hides_behind ends its track's visibility, unhides_from_behind comes out from behind
+    assert [e.name for e in EVENT_TABLE.values() if e.hides] == ["hides_behind"]
+    assert [e.name for e in EVENT_TABLE.values() if e.unhides] == ["unhides_from_behind"]
+
+
+def test_a_pair_events_prefilter_is_implied_by_its_precondition():
+    # the CP-SAT model tests poss only for the pairs its prefilter leaves: on random frames, every
+    # pair whose precondition holds passes the prefilter (else the model would miss an event)
+    import random
+
+    from framegen import random_frame
+    from refimpl.knowledge.relations import overlapping_top
+
+    rng = random.Random(11)
+    seen = {e.name: 0 for e in EVENT_TABLE.values() if e.prefilter}
+    for _ in range(300):
+        problem = random_frame(rng, with_history=True)
+        state, c = EventState.from_problem(problem), resolve_constants(problem)
+        by_id = {t.id: t for t in problem.tracks}
+        for atom, ok in possible_events(problem, state, c).items():
+            name, args = atom.split("(")[0], atom[atom.index("(") + 1:-1].split(",")
+            spec = EVENT_TABLE[name]
+            if not ok or not spec.prefilter:
+                continue
+            seen[name] += 1
+            t1, t2 = by_id[args[0]], by_id[args[1]]
+            if spec.prefilter == "overlapping_top":
+                assert overlapping_top(t1.box, t2.box, c["hide_overlap"]), atom
+            else:
+                assert state.holds_at(("visibility", t1.id), "not_visible"), atom
+    assert all(seen.values()), seen  # each prefiltered event was possible somewhere
 
 
 def test_the_action_costs_and_priorities_are_those_of_optimisation_lp():
@@ -126,3 +189,92 @@ def test_the_scene_has_a_sentence_and_the_plots_a_style_for_every_event():
     for halt in explaining("halt"):
         ep = Episode(halt.closing, "trk_1", 5, "trk_2" if halt.arity == 2 else None, 9, "recover")
         assert halt.phrase in explain_episode(scene, ep)
+
+
+def test_every_event_has_its_precondition_and_integrity_constraint_in_events_lp():
+    # 'poss(NAME(..)) :- event(NAME(..)), ...' and ':- occurs_at(NAME(..), curr_time), not poss(NAME(..)).'
+    # per event: without the constraint ASP could abduce the event where it is impossible
+    text = _lp("events.lp")
+    poss_heads = set(re.findall(r"^poss\((\w+)\(", text, flags=re.M))
+    guarded = {a for a, b in re.findall(r"^:- occurs_at\((\w+)\([^)]*\), curr_time\), not poss\((\w+)\(",
+                                        text, flags=re.M) if a == b}
+    assert poss_heads == set(EVENT_TABLE) and guarded == set(EVENT_TABLE)
+
+
+def test_clingo_derives_the_same_possible_events_as_python():
+    # poss/1 is in the stratified part of the encoding, so grounding decides it: on the
+    # every-event frame and on random frames with random histories (tests/framegen.py, which
+    # draws every event of the table), clingo's poss/1 facts are Python's possible events
+    pytest.importorskip("clingo")
+    import random
+
+    from framegen import random_frame
+    from refimpl.solvers.clingo_backend import ClingoSolver
+
+    rng = random.Random(5)
+    problems = [parse_facts(FRAME)] + [random_frame(rng, with_history=True) for _ in range(40)]
+    for problem in problems:
+        ctl = ClingoSolver().control(problem, "")
+        ctl.ground([("base", [])])
+        asp = {str(a.symbol)[len("poss("):-1] for a in ctl.symbolic_atoms
+               if a.is_fact and a.symbol.name == "poss"}
+        state, c = EventState.from_problem(problem), resolve_constants(problem)
+        python = {atom for atom, ok in possible_events(problem, state, c).items() if ok}
+        assert asp == python, (problem.to_facts(), asp ^ python)
+
+
+# string constants of refimpl's code (not docstrings) that may name an event: the paper's query
+# syntax shown in a usage line
+_NAMED_ON_PURPOSE = {("scene/queries.py", "anticipate(unhides_from_behind(T,T2),T') for T hidden at FRAME, "
+                      "with the warning")}
+
+
+def test_no_module_but_the_event_table_chooses_an_event_by_name():
+    # every consumer reads the table's roles (explains, halt_kind, occluder, prefilter, hides,
+    # unhides, ...): a string constant in code that is an event's name ('hides_behind') or the
+    # start of its term ('recover(') would be an event chosen by name.  Names that are plain English
+    # words too (lost, noise) count only as terms.  Docstrings are prose and not looked at.
+    import ast
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent / "refimpl"
+    term = re.compile(r"\b(%s)\(" % "|".join(EVENT_TABLE))
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root).as_posix()
+        if rel == "events.py":
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        prose = {id(n.value) for n in ast.walk(tree)
+                 if isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant)}
+        for n in ast.walk(tree):
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in prose:
+                named = (n.value in EVENT_TABLE and "_" in n.value) or term.search(n.value)
+                if named and (rel, n.value) not in _NAMED_ON_PURPOSE:
+                    found.append(f"{rel}:{n.lineno}: {n.value[:60]!r}")
+    assert not found, found
+
+
+def test_every_halt_kind_reaches_the_track_summary_and_the_report():
+    # one scene per halting event: trk_1 observed in frames 1-4, halted by the event at 5, halted
+    # (predicted) in 5-7, resumed at 8 by a one-track resume: track_summary lists one halt of the
+    # event's kind from 5 to 7 ('to' is the frame before the resume), and the report's box states
+    # in frames 5-7 are that kind
+    from refimpl.scene.report import frame_states
+    from refimpl.scene.queries import track_summary
+    from refimpl.core.spec import HistoryEvent, Term
+
+    resume = next(e for e in explaining("resume") if e.arity == 1)
+    box = (0.0, 0.0, 10.0, 10.0)
+    for halt in explaining("halt"):
+        args = (Term("trk_1"), Term("trk_2")) if halt.arity == 2 else (Term("trk_1"),)
+        events = [HistoryEvent(Term(explaining("start")[0].name, (Term("trk_1"),)), 1),
+                  HistoryEvent(Term(halt.name, args), 5), HistoryEvent(Term(resume.name, (Term("trk_1"),)), 8)]
+        tracks = [SceneTrack("trk_1", "car", tuple((f, box) for f in (1, 2, 3, 4, 8, 9)),
+                             tuple((f, box) for f in (5, 6, 7)), None),
+                  SceneTrack("trk_2", "car", tuple((f, box) for f in range(1, 10)), (), None)]
+        scene = make_scene("t", tracks, events, 1, 9)
+        halts = track_summary(scene, "trk_1")["halts"]
+        assert [(h["kind"], h["from"], h["to"], h["ended_by"]) for h in halts] == [(halt.halt_kind, 5, 7, resume.name)]
+        states = frame_states(scene)
+        assert [b.state for f in (5, 6, 7) for b in states[f] if b.track == "trk_1"] == [halt.halt_kind] * 3

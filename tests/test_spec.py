@@ -98,3 +98,24 @@ def test_missing_file_is_a_format_error_not_a_traceback(tmp_path):
 
 def test_natural_key_orders_ids_by_number():
     assert sorted(["trk_12", "trk_2", "trk_10"], key=natural_key) == ["trk_2", "trk_10", "trk_12"]
+
+
+def test_parse_atom_reads_a_solvers_atoms_as_terms():
+    from refimpl.core.spec import Term, event_of, parse_atom, track_number
+    # a flat action, a nested event atom, a constant: name and arguments as a Term, printed back as given
+    for atom in ("assign(trk_1,det_2)", "occurs_at(hides_behind(trk_13,trk_12),235)", "halt(trk_3)", "a"):
+        assert str(parse_atom(atom)) == atom
+    assert parse_atom("assign(trk_1,det_2)") == Term("assign", (Term("trk_1"), Term("det_2")))
+    assert parse_atom("assign(trk_1,det_2)").arg_names == ("trk_1", "det_2")
+    e = parse_atom("occurs_at(hides_behind(trk_13,trk_12),235)")
+    assert e.name == "occurs_at" and e.args[1].as_int() == 235 and e.args[0].arg_names == ("trk_13", "trk_12")
+    # event_of: the event of an occurs_at atom, a bare event as it is
+    assert event_of("occurs_at(recover(trk_1),7)") == Term("recover", (Term("trk_1"),))
+    assert event_of("recover(trk_1)") == Term("recover", (Term("trk_1"),))
+    # the tracker's ids trk_<n>
+    assert track_number("trk_12") == 12 and track_number("trk_0") == 0
+    # blanks between the parts are allowed, as the old slicing allowed them
+    assert parse_atom("assign(trk_1, det_2)") == parse_atom("assign(trk_1,det_2)")
+    for bad in ("", "a(", "a(b", "a)b", "(a)", "a(b,)", "a()", "a b", "a(b c)", "a(b))", "a(b(c)"):
+        with pytest.raises(ValueError, match="not an atom"):
+            parse_atom(bad)

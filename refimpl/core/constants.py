@@ -1,4 +1,5 @@
-"""Model constants: defaults read from model/constants.lp, overridden by a problem's #const facts.
+"""Model constants: defaults read from model/constants.lp (and the events' costs from
+model/events.lp), overridden by a problem's #const facts.
 
 Both backends take their numbers from here, so a threshold means the same in ASP and CP-SAT.
 """
@@ -12,6 +13,8 @@ from typing import Mapping
 
 from .spec import FrameProblem, ProblemFormatError
 
+CONSTANT_FILES = ("constants.lp", "events.lp")
+"""The files of model/ holding #const defaults."""
 _CONST_LINE = re.compile(r"^\s*#const\s+([a-z_][A-Za-z0-9_]*)\s*=\s*(-?\d+)\s*\.")
 
 
@@ -27,13 +30,17 @@ def model_dir() -> Path:
 
 @lru_cache(maxsize=1)
 def default_constants() -> Mapping[str, int]:
-    """The #const defaults of model/constants.lp, in file order."""
+    """The #const defaults of the encoding, in file order: model/constants.lp, then the events'
+    costs, which stand beside each event in model/events.lp (cost_<event>)."""
     out: dict[str, int] = {}
-    text = (model_dir() / "constants.lp").read_text(encoding="utf-8")
-    for line in text.splitlines():
-        m = _CONST_LINE.match(line)
-        if m:
-            out[m.group(1)] = int(m.group(2))
+    for name in CONSTANT_FILES:
+        text = (model_dir() / name).read_text(encoding="utf-8")
+        for line in text.splitlines():
+            m = _CONST_LINE.match(line)
+            if m:
+                if m.group(1) in out:
+                    raise ValueError(f"model constant {m.group(1)} is defined twice in {', '.join(CONSTANT_FILES)}")
+                out[m.group(1)] = int(m.group(2))
     return out
 
 

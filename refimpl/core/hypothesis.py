@@ -11,6 +11,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
+from .spec import event_of, parse_atom
+
 PRIORITIES = (10, 5, 3, 2, 1, 0)
 """The cost levels, highest priority first (model/optimisation.lp, docs/model.md "Optimisation"):
 @10 matching likelihood and number of assignments (maximised), @5 matching likelihood of the
@@ -117,11 +119,7 @@ class Hypothesis:
     @property
     def event_terms(self) -> tuple[tuple[str, tuple[str, ...]], ...]:
         """(event name, argument ids) of every abduced event, in sorted atom order."""
-        out = []
-        for atom in self.events:
-            inner = atom[len("occurs_at("):atom.rindex(",")] if atom.startswith("occurs_at(") else atom
-            out.append(parse_action(inner))
-        return tuple(out)
+        return tuple((e.name, e.arg_names) for e in map(event_of, self.events))
 
     def to_json_dict(self) -> dict:
         return {
@@ -139,7 +137,6 @@ class Hypothesis:
 
 
 def parse_action(atom: str) -> tuple[str, tuple[str, ...]]:
-    """'assign(trk_1,det_2)' -> ('assign', ('trk_1', 'det_2'))."""
-    name, _, rest = atom.partition("(")
-    args = tuple(a.strip() for a in rest.rstrip(")").split(",")) if rest else ()
-    return name, args
+    """'assign(trk_1,det_2)' -> ('assign', ('trk_1', 'det_2')) (refimpl.core.spec.parse_atom)."""
+    term = parse_atom(atom)
+    return term.name, term.arg_names

@@ -22,6 +22,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 from typing import Callable, Iterable, Mapping
+from functools import lru_cache
 
 IOU_SCALE = 100_000
 """Matching likelihood unit: IoU 1.0 is written as 100000 (the paper's iou/3 facts)."""
@@ -69,6 +70,69 @@ class Term:
         if not self.is_int:
             raise ValueError(f"{self} is not an integer")
         return int(self.name)
+
+
+    @property
+    def arg_names(self) -> tuple[str, ...]:
+        """The arguments as text: ('trk_1', 'det_2') for assign(trk_1,det_2)."""
+        return tuple(str(a) for a in self.args)
+
+
+_ATOM_TOKEN = re.compile(r"[(),]|[^(),\s]+")
+_FLAT_ARG = re.compile(r"[^(),\s]+")
+
+
+@lru_cache(maxsize=1 << 16)
+def parse_atom(text: str) -> Term:
+    """A solver's ground atom as a Term: 'occurs_at(hides_behind(trk_13,trk_12),235)',
+    'assign(trk_1,det_2)', 'halt(trk_3)'.  The one parser of the atoms a backend, a hypothesis or
+    the checker hands on (memoised: answers repeat their atoms); unlike :func:`parse_term` it does
+    not validate symbols or integer ranges, which the solvers' own output always meets, but a
+    malformed atom is still a ValueError."""
+    head, paren, rest = text.partition("(")
+    if not paren and _FLAT_ARG.fullmatch(head):  # a constant
+        return Term(head)
+    if paren and "(" not in rest and rest.endswith(")") and _FLAT_ARG.fullmatch(head):  # name(a,b,...)
+        args = rest[:-1].split(",")
+        if all(_FLAT_ARG.fullmatch(a) for a in args):
+            return Term(head, tuple(map(Term, args)))
+    # any other shape (nested, with blanks, or malformed): token by token
+    tokens = _ATOM_TOKEN.findall(text)
+    pos = 0
+
+    def term() -> Term:
+        nonlocal pos
+        if pos >= len(tokens) or tokens[pos] in "(),":
+            raise ValueError(f"not an atom: {text!r}")
+        name = tokens[pos]
+        pos += 1
+        if pos < len(tokens) and tokens[pos] == "(":
+            pos += 1
+            args = [term()]
+            while pos < len(tokens) and tokens[pos] == ",":
+                pos += 1
+                args.append(term())
+            if pos >= len(tokens) or tokens[pos] != ")":
+                raise ValueError(f"not an atom: {text!r}")
+            pos += 1
+            return Term(name, tuple(args))
+        return Term(name)
+
+    out = term()
+    if pos != len(tokens):
+        raise ValueError(f"not an atom: {text!r}")
+    return out
+
+
+def event_of(atom: str) -> Term:
+    """The event E of an 'occurs_at(E,T)' atom, or the atom itself as a Term if it is a bare event."""
+    t = parse_atom(atom)
+    return t.args[0] if t.name == "occurs_at" and len(t.args) == 2 else t
+
+
+def track_number(trk_id: str) -> int:
+    """The number of a track id: 12 for 'trk_12' (the tracker names its tracks trk_<n>)."""
+    return int(trk_id.rsplit("_", 1)[1])
 
 
 @dataclass(frozen=True)

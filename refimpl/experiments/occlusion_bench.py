@@ -30,6 +30,7 @@ import numpy as np
 
 from ..evaluation.evaluate import evaluate_sequence
 from ..core.geometry import iou_matrix
+from ..knowledge.events import EVENT_TABLE
 from .occlusion import Scenario, build_suite
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
 
@@ -38,6 +39,11 @@ MOTION_OPTIONS = {"hold": "hold_hidden", "oru": "reupdate_on_resume"}
 PERSIST_FRAMES = 1000
 """'+persist': lost_after_hidden raised to this (longer than any scenario): a stand-in for reasoned
 persistence (issue 12, item 1), so that the motion options can be measured where hiding is not cut at 30."""
+
+_HIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.explains == "halt" and e.occluder is not None)
+_UNHIDES = frozenset(e.name for e in EVENT_TABLE.values() if e.unhides)
+_AFTER = frozenset(e.name for e in EVENT_TABLE.values() if e.explains in ("resume", "end"))
+"""The events of the target track that can close its occlusion: a resume or an end."""
 
 
 @dataclass(frozen=True)
@@ -114,10 +120,9 @@ def score(scenario: Scenario, variant: str, rows: np.ndarray, events=()) -> Scen
     if variant != BASELINE and before:
         trk = f"trk_{before[-1]}"
         mine = [e for e in events if e.event.args and e.event.args[0].name == trk]
-        hide = _nearest([e.time for e in mine if e.event.name == "hides_behind"], t.hide_frame)
-        unhide = _nearest([e.time for e in mine if e.event.name == "unhides_from_behind"], t.reappear_frame)
-        after = [e for e in mine if e.time >= t.hide_frame - TOLERANCE
-                 and e.event.name in ("lost", "unhides_from_behind", "recover", "leaves_fov")]
+        hide = _nearest([e.time for e in mine if e.event.name in _HIDES], t.hide_frame)
+        unhide = _nearest([e.time for e in mine if e.event.name in _UNHIDES], t.reappear_frame)
+        after = [e for e in mine if e.time >= t.hide_frame - TOLERANCE and e.event.name in _AFTER]
         if after:
             e = min(after, key=lambda e: e.time)
             ended = f"{e.event.name} {e.time - t.hide_frame:+d}"

@@ -54,6 +54,7 @@ import numpy as np
 from ..core.geometry import integer_box, iou_matrix, scale_iou
 from ..knowledge.relations import overlapping_top
 from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, write_facts
+from ..knowledge.events import EventType, explaining
 
 HIDE_OVERLAP = 10
 """The overlap (percent of the back box's area) the generator builds for: model/constants.lp's default."""
@@ -366,10 +367,26 @@ def _extent_area(boxes: Sequence[Box]) -> int:
     return (x2 - x1) * (y2 - y1)
 
 
+_STARTS = explaining("start")
+_HIDES = tuple(e for e in explaining("halt") if e.occluder is not None)
+_SOLO_HALTS = tuple(e for e in explaining("halt") if e.occluder is None and e.arity == 1)
+_UNHIDES = tuple(e for e in explaining("resume") if e.occluder is not None)
+_SOLO_RESUMES = tuple(e for e in explaining("resume") if e.occluder is None and e.arity == 1)
+"""The event table's roles the histories are drawn from: a new event of one of them is drawn too."""
+
+
+def _pick(rng: np.random.Generator, events: Sequence[EventType]) -> EventType:
+    """One of the events (uniformly); no draw when there is only one, so that the histories of a
+    table with one event per role stay those it always gave."""
+    return events[0] if len(events) == 1 else events[int(rng.integers(len(events)))]
+
+
 def _histories(rng: np.random.Generator, front_of: Sequence[int | None], halted: set[int],
                time: int) -> list[list[HistoryEvent]]:
-    """Per track: enters_fov at its start, the halting event of a halted track, and for some
-    active tracks a finished occlusion episode; every list is in time order.
+    """Per track: its start event (enters_fov), the halting event of a halted track (hides_behind
+    or missing_detections, or another halting event of the table with the same role), and for
+    some active tracks a finished occlusion episode (a hide and an unhide, or a one-track halt
+    and resume); every list is in time order.
 
     Tracks are handled front to back, so the track in front of a track (its possible occluder) is
     decided first.  A track hides (now or in an episode) only behind a front track that never hid
@@ -389,29 +406,29 @@ def _histories(rng: np.random.Generator, front_of: Sequence[int | None], halted:
         if i in halted:
             halt_t = max(1, last + 1 - int(rng.integers(1, 41)))
             start_t = max(0, halt_t - 2) if young else int(rng.integers(max(0, halt_t - 300), halt_t))
-            events[i].append(HistoryEvent(Term("enters_fov", (name,)), start_t))
+            events[i].append(HistoryEvent(Term(_pick(rng, _STARTS).name, (name,)), start_t))
             if f is not None and f not in hid and start[f] < halt_t and hide_draw < 0.75:
-                events[i].append(HistoryEvent(Term("hides_behind", (name, Term(f"trk_{f}"))), halt_t))
+                events[i].append(HistoryEvent(Term(_pick(rng, _HIDES).name, (name, Term(f"trk_{f}"))), halt_t))
                 hid.add(i)
             else:
-                events[i].append(HistoryEvent(Term("missing_detections", (name,)), halt_t))
+                events[i].append(HistoryEvent(Term(_pick(rng, _SOLO_HALTS).name, (name,)), halt_t))
         else:
             if young:
                 start_t = last - int(rng.integers(0, 3))
             else:
                 start_t = int(rng.integers(max(0, last - 300), last - 2))
-            events[i].append(HistoryEvent(Term("enters_fov", (name,)), start_t))
+            events[i].append(HistoryEvent(Term(_pick(rng, _STARTS).name, (name,)), start_t))
             if not young and hide_draw < 0.2:
                 hide_t = int(rng.integers(start_t + 1, last))
                 back_t = int(rng.integers(hide_t + 1, last + 1))
                 if f is not None and f not in hid and start[f] < hide_t:
                     front = Term(f"trk_{f}")
-                    events[i].append(HistoryEvent(Term("hides_behind", (name, front)), hide_t))
-                    events[i].append(HistoryEvent(Term("unhides_from_behind", (name, front)), back_t))
+                    events[i].append(HistoryEvent(Term(_pick(rng, _HIDES).name, (name, front)), hide_t))
+                    events[i].append(HistoryEvent(Term(_pick(rng, _UNHIDES).name, (name, front)), back_t))
                     hid.add(i)
                 else:
-                    events[i].append(HistoryEvent(Term("missing_detections", (name,)), hide_t))
-                    events[i].append(HistoryEvent(Term("recover", (name,)), back_t))
+                    events[i].append(HistoryEvent(Term(_pick(rng, _SOLO_HALTS).name, (name,)), hide_t))
+                    events[i].append(HistoryEvent(Term(_pick(rng, _SOLO_RESUMES).name, (name,)), back_t))
         start[i] = start_t
     return events
 

@@ -387,6 +387,10 @@ def poss_noise(state: EventState, constants: Mapping[str, int], trk: TrackPredic
 # The event table: one place for everything refimpl knows about an event
 # ---------------------------------------------------------------------------------------
 
+EXPLAINED_ACTIONS = ("halt", "resume", "start", "end")
+"""The actions that need exactly one explaining event (assign and the ignores need none)."""
+
+
 @dataclass(frozen=True)
 class EventType:
     """One abducible event of the paper's Table "Events" (Appendix A ``event/1``).
@@ -416,16 +420,54 @@ class EventType:
     colour: str
     """Its marker and colour in plots."""
     closing: str = ""
-    """How a sentence says a halt ended with it ('reappeared', 'was detected again', ...); for a
-    halting event, how the scene calls the halt ('hidden' or 'missing').  Empty: the phrase."""
+    """How a sentence says a halt ended with it ('reappeared', 'was detected again', ...).  Empty:
+    the halt_kind of a halting event, else the phrase."""
 
     also_explains: tuple[str, ...] = ()
     """Actions it explains when they must be re-explained (REEXPLAINED): hides_behind also explains
     the ignore_trk of a missing track that a current track now covers (events.lp [explain_ignore])."""
 
+    # -- roles: what the consumers need to know about it, so that none of them names an event --
+    halt_kind: str = ""
+    """For an event explaining a halt: the kind of halt it opens, as the scene and its queries call
+    it ('hidden', 'missing'); a halt episode, track_summary and the sentences read it.  Required
+    for a halting event, empty for every other."""
+    occluder: int | None = None
+    """The argument position of the track in front (hides_behind(T1, T2), unhides_from_behind(T1,
+    T2): 1), None when the event names no occluder.  A halt with an occluder starts a hiding episode
+    (scene, occlusion benchmark); a resume with one ends it by coming out from behind (tracker's
+    fill_hidden, anticipation scoring)."""
+    prefilter: str = ""
+    """For a pair event: a condition its precondition implies that the CP-SAT model tests for all
+    pairs at once before calling ``poss`` (a speed-up only, the same answers):
+    'overlapping_top' (position(overlapping_top, T1, T2)) or 'hidden' (visibility(T1) = not_visible);
+    empty: every other track is tested.  tests/test_event_table.py checks the implication."""
+    says_since: bool = False
+    """Its sentence says since when the track was seen ('..., seen since frame 12, was discarded
+    as noise')."""
+
     def __post_init__(self) -> None:
+        if self.explains not in EXPLAINED_ACTIONS:
+            raise ValueError(f"event {self.name}: explains {self.explains!r}, not one of {EXPLAINED_ACTIONS}")
+        if (self.explains == "halt") != bool(self.halt_kind):
+            raise ValueError(f"event {self.name}: a halt_kind is required for a halting event and only there")
+        if self.occluder is not None and not 0 < self.occluder < self.arity:
+            raise ValueError(f"event {self.name}: occluder {self.occluder} is not a second argument")
+        if self.prefilter not in ("", "overlapping_top", "hidden") or (self.prefilter and self.arity != 2):
+            raise ValueError(f"event {self.name}: prefilter {self.prefilter!r} (pair events: '', "
+                             "'overlapping_top' or 'hidden')")
         if not self.closing:
-            object.__setattr__(self, "closing", self.phrase)
+            object.__setattr__(self, "closing", self.halt_kind or self.phrase)
+
+    @property
+    def hides(self) -> bool:
+        """It ends the first track's visibility: one of its effects is visibility(T1) := not_visible."""
+        return ("visibility", (0,), "not_visible") in self.effects
+
+    @property
+    def unhides(self) -> bool:
+        """It resumes a track by coming out from behind its occluder."""
+        return self.explains == "resume" and self.occluder is not None
 
     @property
     def cost_constant(self) -> str:
@@ -440,18 +482,19 @@ EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
     # clipped = true (3.18: such a track keeps the lost_after_missing bound).
     EventType("hides_behind", 2, "halt", poss_hides_behind,
               effects=(("visibility", (0,), "not_visible"), ("hidden_by", (0, 1), "true")),
-              phrase="went out of sight behind", closing="hidden", marker="v", colour="#d62728",
-              also_explains=("ignore_trk",)),
+              phrase="went out of sight behind", marker="v", colour="#d62728",
+              also_explains=("ignore_trk",), halt_kind="hidden", occluder=1, prefilter="overlapping_top"),
     # Appendix A: causesValue(missing_detections(T), clipped(T), true).
     EventType("missing_detections", 1, "halt", poss_missing_detections, effects=(("clipped", (0,), "true"),),
-              phrase="was missed by the detector", closing="missing", marker="x", colour="#e377c2"),
+              phrase="was missed by the detector", marker="x", colour="#e377c2", halt_kind="missing"),
     # refimpl decision (docs/model-spec.md): the inverse of hides_behind; and clipped(T1) := false
     # (docs/model.md 3.18: a missing track re-explained as hidden is still clipped), so that a
     # resume leaves every fluent at its initial value.
     EventType("unhides_from_behind", 2, "resume", poss_unhides_from_behind,
               effects=(("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false"),
                        ("clipped", (0,), "false")),
-              phrase="came out from behind", closing="reappeared", marker="^", colour="#9467bd"),
+              phrase="came out from behind", closing="reappeared", marker="^", colour="#9467bd",
+              occluder=1, prefilter="hidden"),
     # refimpl decision (docs/model-spec.md): recover resets everything halting may have set.
     EventType("recover", 1, "resume", poss_recover,
               effects=(("clipped", (0,), "false"), ("visibility", (0,), "fully_visible"),
@@ -465,18 +508,25 @@ EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
     # refimpl decision (docs/model-spec.md): the track ends, nothing to record.
     EventType("lost", 1, "end", poss_lost, effects=(), phrase="was given up as lost", marker="s", colour="#000000"),
     EventType("noise", 1, "end", poss_noise, effects=(), phrase="was discarded as noise", marker="D",
-              colour="#bcbd22"),
+              colour="#bcbd22", says_since=True),
 )}
 """event name -> EventType, in the order of the paper's Table "Events"."""
-
-EXPLAINED_ACTIONS = ("halt", "resume", "start", "end")
-"""The actions that need exactly one explaining event (assign and the ignores need none)."""
-
 
 def explaining(action: str) -> tuple[EventType, ...]:
     """The events that may explain an action, in table order (() for assign and ignore_det; for
     ignore_trk the events that re-explain a missing track, see :func:`reexplained`)."""
     return tuple(e for e in EVENT_TABLE.values() if e.explains == action or action in e.also_explains)
+
+
+def halting(kind: str) -> EventType | None:
+    """The halting event whose halt_kind is ``kind`` ('hidden', 'missing', ...), else None."""
+    return next((e for e in explaining("halt") if e.halt_kind == kind), None)
+
+
+HALT_KINDS = tuple(e.halt_kind for e in EVENT_TABLE.values() if e.explains == "halt")
+"""The kinds of halt a scene tells apart, in table order ('hidden', 'missing')."""
+HIDING_KINDS = tuple(e.halt_kind for e in EVENT_TABLE.values() if e.explains == "halt" and e.occluder is not None)
+"""The halt kinds with an occluder (a hiding episode: 'hidden')."""
 
 
 REEXPLAINED = ("ignore_trk",)

@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
 from ..knowledge import relations as rel
+from ..knowledge.events import EVENT_TABLE
 from .episodes import hiding_end, hiding_episodes
 from .model import Box, Scene, SceneError, SceneTrack
 
@@ -174,6 +175,10 @@ def hidden_behind_at(scene: Scene, trk: str, t: int) -> str | None:
     return None
 
 
+_UNHIDE = next(e.name for e in EVENT_TABLE.values() if e.unhides)
+"""The event anticipated: the one that resumes a track by coming out from behind (unhides_from_behind)."""
+
+
 @dataclass(frozen=True)
 class Anticipation:
     """anticipate(unhides_from_behind(track, hider), at), made at time point ``now``."""
@@ -193,7 +198,7 @@ class Anticipation:
 
     def atoms(self) -> list[str]:
         x, y = self.position
-        out = [f"anticipate(unhides_from_behind({self.track},{self.hider}),{self.at})",
+        out = [f"anticipate({_UNHIDE}({self.track},{self.hider}),{self.at})",
                f"point2d(interpolated_position({self.track},{self.at}),{round(x)},{round(y)})"]
         if self.warning:
             out.append(f"warning(hidden_entity_in_front({self.track},{self.at}))")

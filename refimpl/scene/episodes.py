@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..knowledge.events import EVENT_TABLE, explaining
+from ..knowledge.events import EVENT_TABLE, HIDING_KINDS, explaining, halting
 from ..core.spec import natural_key
 from .model import Scene, track_id
 
@@ -50,7 +50,7 @@ def episodes(scene: Scene) -> list[Episode]:
         if name in _HALTS:
             if trk in open_halt:  # a second halt without a resume closes the first
                 out.append(replace(open_halt.pop(trk), end=e.time, end_event=name))
-            open_halt[trk] = Episode(_HALTS[name].closing, trk, e.time, args[1] if len(args) > 1 else None)
+            open_halt[trk] = Episode(_HALTS[name].halt_kind, trk, e.time, args[1] if len(args) > 1 else None)
         elif name in _RESUMES + ENDINGS and trk in open_halt:
             ep = open_halt.pop(trk)
             out.append(replace(ep, end=e.time, end_event=name))
@@ -77,7 +77,7 @@ def hiding_episodes(scene: Scene) -> list[HidingEpisode]:
     """Every hides_behind of the log with how the hiding ended."""
     out = []
     for ep in episodes(scene):
-        if ep.kind != "hidden":
+        if ep.kind not in HIDING_KINDS:
             continue
         resumed = ep.end if ep.end_event in _RESUMES else None
         out.append(HidingEpisode(ep.track, ep.other or "", ep.start, resumed, ep.end_event or "open"))
@@ -113,7 +113,7 @@ def _later(a: int, b: int) -> str:
 def explain_episode(scene: Scene, ep: Episode) -> str:
     """One plain-English sentence for an episode (phrases from the event table, refimpl.knowledge.events)."""
     who = _who(scene, ep.track, True) if ep.track else ""
-    halt = next((e for e in _HALTS.values() if e.closing == ep.kind), None)
+    halt = halting(ep.kind)
     if halt is not None:
         other = f" {_who(scene, ep.other or '?', False)}" if halt.arity == 2 else ""
         head = f"{who} {halt.phrase}{other} at frame {ep.start}"
@@ -127,7 +127,7 @@ def explain_episode(scene: Scene, ep: Episode) -> str:
         args = f"({ep.track}{',' + ep.other if ep.other else ''})" if ep.track else ""
         return f"Event {ep.kind}{args} occurred at frame {ep.start}."
     since = ""
-    if spec.name == "noise" and ep.track in scene._by_id:
+    if spec.says_since and ep.track in scene._by_id:
         since = f", seen since frame {scene._by_id[ep.track].first_frame},"
     other = f" {_who(scene, ep.other or '?', False)}" if spec.arity == 2 else ""
     return f"{who}{since} {spec.phrase}{other} at frame {ep.start}."
@@ -140,6 +140,6 @@ def explain(scene: Scene, track: str | None = None) -> list[str]:
         track = track_id(scene, track)  # 13 or trk_13; an unknown id is a SceneError
     out = []
     for ep in episodes(scene):
-        if track is None or ep.track == track or (ep.kind == "hidden" and ep.other == track):
+        if track is None or ep.track == track or (ep.kind in HIDING_KINDS and ep.other == track):
             out.append(explain_episode(scene, ep))
     return out

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from ..knowledge import relations as rel
-from ..knowledge.events import EventState
+from ..knowledge.events import EventState, HALT_KINDS, HIDING_KINDS
 from .anticipation import DEFAULT_CONFIG, ReasoningConfig, anticipate, no_anticipation_reason
 from .episodes import ENDINGS, episodes
 from .model import Box, Scene, SceneError, frame_runs, track_id
@@ -164,7 +164,7 @@ def track_summary(scene: Scene, trk: str) -> dict:
     t = scene.track(trk)
     halts = []
     for ep in episodes(scene):
-        if ep.track == trk and ep.kind in ("hidden", "missing"):
+        if ep.track == trk and ep.kind in HALT_KINDS:
             last = (ep.end - 1) if ep.end is not None else scene.last_frame
             if ep.end_event in ENDINGS:
                 last = ep.end
@@ -183,7 +183,7 @@ def _summary_lines(s: dict) -> list[str]:
     lines = [f"{s['track']} ({s['type']}): frames {s['first_frame']}-{s['last_frame']}, "
              f"observed in {s['observed_frames']}, halted in {s['halted_frames']}"]
     for h in s["halts"]:
-        what = f"hidden behind {h['behind']}" if h["kind"] == "hidden" else "missing"
+        what = f"{h['kind']} behind {h['behind']}" if h["kind"] in HIDING_KINDS else h["kind"]
         closed = (f" ({h['ended_by']} at {h['at']})" if h["ended_by"] else " (still halted at the end)")
         lines.append(f"  {what}: {_frames_text(h['from'], h['to'])}{closed}")
     if s["ended_at"] is None:
@@ -208,7 +208,7 @@ def _answer_tracks(scene: Scene, config: ReasoningConfig) -> tuple[list[str], ob
     data = [track_summary(scene, t.id) for t in scene.tracks]
     lines = []
     for s in data:
-        hidden = sum(1 for h in s["halts"] if h["kind"] == "hidden")
+        hidden = sum(1 for h in s["halts"] if h["kind"] in HIDING_KINDS)
         lines.append(f"{s['track']} ({s['type']}): frames {s['first_frame']}-{s['last_frame']}, observed "
                      f"{s['observed_frames']}, hidden {hidden} time{'s' if hidden != 1 else ''}"
                      + (f", {s['ended_by'] or 'ended'} at {s['ended_at']}" if s["ended_at"] is not None else ""))

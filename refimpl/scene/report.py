@@ -21,13 +21,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..knowledge.events import HALT_KINDS, HIDING_KINDS
 from .plots import MIN_OBSERVED, frame_relation_lines, halted_spans
 from . import Box, EgoRegion, Scene, SceneError, episodes, explain_episode, frame_runs
 from .episodes import ENDINGS
 from ..core.spec import natural_key
 
 ACTIVE, HIDDEN, MISSING, HALTED = "active", "hidden", "missing", "halted"
-STATES = (ACTIVE, HIDDEN, MISSING, HALTED)
+STATES = (ACTIVE, *HALT_KINDS, HALTED)
+"""A box's state: observed, halted in one of the event table's halt kinds (hidden, missing, ...) or
+halted outside any halt episode."""
 """A box's state at a frame (module doc)."""
 
 
@@ -116,13 +119,13 @@ def _halts(scene: Scene) -> dict[str, list[tuple[int, int, str, str | None]]]:
     """track -> (first, last, state, occluder) of every halt episode, the frames it keeps the track halted."""
     out: dict[str, list[tuple[int, int, str, str | None]]] = {}
     for ep in episodes(scene):
-        if ep.kind not in (HIDDEN, MISSING):
+        if ep.kind not in HALT_KINDS:
             continue
         if ep.end is None:
             last = scene.last_frame
         else:
             last = ep.end if ep.end_event in ENDINGS else ep.end - 1  # a resume frame is observed again
-        out.setdefault(ep.track, []).append((ep.start, last, ep.kind, ep.other if ep.kind == HIDDEN else None))
+        out.setdefault(ep.track, []).append((ep.start, last, ep.kind, ep.other if ep.kind in HIDING_KINDS else None))
     return out
 
 
@@ -149,7 +152,7 @@ def default_frame(scene: Scene, states: dict[int, list[BoxState]]) -> int:
     """The frame with the most hidden boxes (earliest), else with the most boxes (earliest)."""
     if not states:
         raise SceneError(f"scene {scene.name} has no frames")
-    hidden = {f: sum(b.state == HIDDEN for b in s) for f, s in states.items()}
+    hidden = {f: sum(b.state in HIDING_KINDS for b in s) for f, s in states.items()}
     key = hidden if any(hidden.values()) else {f: len(s) for f, s in states.items()}
     return max(sorted(key), key=lambda f: key[f])  # max keeps the first of equals: the earliest
 
@@ -178,7 +181,7 @@ def explanations(scene: Scene) -> list[Explanation]:
     """``refimpl explain``'s sentences (one per episode, in time order) with their tracks."""
     out = []
     for ep in episodes(scene):
-        tracks = tuple(t for t in (ep.track, ep.other if ep.kind == HIDDEN else None) if t)
+        tracks = tuple(t for t in (ep.track, ep.other if ep.kind in HIDING_KINDS else None) if t)
         out.append(Explanation(explain_episode(scene, ep), ep.start, tracks))
     return out
 

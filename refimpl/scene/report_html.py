@@ -19,16 +19,20 @@ from __future__ import annotations
 import html
 import json
 
-from ..knowledge.events import EVENT_TABLE
+from ..knowledge.events import EVENT_TABLE, explaining
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
 from ..io.outputs import check_outputs, write_atomic
-from .report import ACTIVE, HALTED, HIDDEN, MISSING, STATES, Report, TrackTimeline, build_report
+from .report import ACTIVE, HALTED, HIDDEN, MISSING, Report, STATES, TrackTimeline, build_report
 from . import load_scene
 
-STATE_COLOURS = {ACTIVE: OBSERVED_COLOUR, HIDDEN: EVENT_TABLE["hides_behind"].colour,
-                 MISSING: EVENT_TABLE["missing_detections"].colour, HALTED: ENDED_COLOUR}
-STATE_TEXT = {ACTIVE: "active (observed)", HIDDEN: "halted: hidden behind", MISSING: "halted: missed by the detector",
-              HALTED: "halted"}
+STATE_COLOURS = {ACTIVE: OBSERVED_COLOUR, **{e.halt_kind: e.colour for e in explaining("halt")},
+                 HALTED: ENDED_COLOUR}
+STATE_TEXT = {ACTIVE: "active (observed)",
+              **{e.halt_kind: f"halted: {e.halt_kind}" + (" behind" if e.occluder is not None else "")
+                 for e in explaining("halt")},
+              MISSING: "halted: missed by the detector", HALTED: "halted"}
+"""Every state's legend: a halt kind's from the event table ('halted: hidden behind'), the
+detector's miss in words of its own."""
 
 LABEL_W, PLOT_W, ROW_H, AXIS_H = 110.0, 1060.0, 14.0, 22.0
 """Space-time picture geometry (SVG user units): label column, plot width, row height, axis band."""

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 from ..io.datasets import THROUGHPUT_DATASETS, benchmark_sequences
+from ..knowledge.events import EVENT_TABLE
 from ..solvers import DEFAULT_BACKEND
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate
 from .episodes import hiding_episodes
@@ -46,7 +47,7 @@ def score_scene(scene: Scene, config: ReasoningConfig = DEFAULT_CONFIG) -> list[
     """Anticipations for every actual hides_behind(T1,T2) -> unhides_from_behind(T1,T2) episode."""
     out = []
     for ep in hiding_episodes(scene):
-        if ep.how != "unhides_from_behind" or ep.resumed_at is None:
+        if not getattr(EVENT_TABLE.get(ep.how), "unhides", False) or ep.resumed_at is None:
             continue
         t1 = scene.track(ep.track)
         actual = t1.observed_box(ep.resumed_at)

@@ -27,10 +27,10 @@ from typing import Sequence
 from .check import recompute_cost
 from ..core.constants import model_dir, resolve_constants
 from ..core.ranges import OutOfClingoRange, clingo_overflow
-from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
-from ..core.spec import FrameProblem
-from . import CLINGO, NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout, check_time_limit
-from .clingo_process import DEFAULT_RECYCLE, ClingoWorker
+from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
+from ..core.spec import FrameProblem, event_of, parse_atom
+from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, check_time_limit
+from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
 from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
@@ -209,8 +209,8 @@ class ClingoSolver:
             else:
                 atoms, cost, part_optimal = found
             optimal = optimal and part_optimal
-            acts = [a for a in atoms if not a.startswith("occurs_at(")]
-            evs = [a for a in atoms if a.startswith("occurs_at(")]
+            evs = [a for a in atoms if parse_atom(a).name == "occurs_at"]
+            acts = [a for a in atoms if parse_atom(a).name != "occurs_at"]
             if not whole:
                 acts, evs = own_atoms(part, acts, evs)
             actions += acts
@@ -218,7 +218,7 @@ class ClingoSolver:
         if whole and cost and optimal is not None and found is not None and not self.checked_costs:
             levels = {p: cost.get(p, 0) for p in PRIORITIES}
         else:  # several parts (or the fallback): the levels of the merged answer
-            names = [event_term(e).split("(", 1)[0] for e in events]
+            names = [event_of(e).name for e in events]
             levels = dict(recompute_cost(problem, actions, names, events, resolve_constants(problem)))
         levels[TIEBREAK_LEVEL] = tiebreak_level(problem, actions, events)
         return Hypothesis(

@@ -54,8 +54,8 @@ import numpy as np
 from ..core.constants import resolve_constants
 from ..knowledge.events import EFFECTS, EVENT_NAMES, EventState
 from ..core.ranges import EXPLANATION_LIMIT
-from ..core.spec import Box, FrameProblem, natural_key
-from .admissibility import assignment_constraints, resume_constraints  # the rules, one place
+from ..core.spec import Box, FrameProblem, event_of, natural_key, parse_atom
+from .admissibility import assignment_constraints, resume_constraints
 
 
 def intersection_matrix(boxes: Sequence[Box]) -> np.ndarray:
@@ -228,18 +228,16 @@ def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> 
 
 def pair_atom(atom: str) -> tuple[str, str] | None:
     """(trk, det) of an assign/resume atom, else None."""
-    if atom.startswith(("assign(", "resume(")):
-        args = atom[atom.index("(") + 1:-1].split(",")
-        if len(args) == 2:  # anything else is no pair action (a user's encoding may show one; the checker says so)
-            return args[0], args[1]
+    term = parse_atom(atom)
+    if term.name in ("assign", "resume") and len(term.args) == 2:
+        t, d = term.arg_names
+        return t, d
     return None
 
 
 def event_term(atom: str) -> str:
-    """The event of 'occurs_at(E,T)' (or E itself)."""
-    if atom.startswith("occurs_at("):
-        return atom[len("occurs_at("):atom.rindex(",")]
-    return atom
+    """The event of 'occurs_at(E,T)' (or E itself), as text."""
+    return str(event_of(atom))
 
 
 def tiebreak_level(problem: FrameProblem, actions: Iterable[str], events: Iterable[str],

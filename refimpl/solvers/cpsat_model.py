@@ -19,9 +19,10 @@ import numpy as np
 if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
-from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, reexplained
+from ..knowledge.events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
-from ..core.spec import FrameProblem, TrackPrediction
+from ..core.spec import Detection, FrameProblem, TrackPrediction, parse_atom
+from ..knowledge.relations import area
 from . import NoAdmissibleHypothesis, SolveTimeout
 from .admissibility import assignment_constraints, resume_constraints, start_constraints
 from .common import intersection_matrix, tiebreak_weights
@@ -42,11 +43,11 @@ def _cost(action: str, likelihood: int = 0, event: int = 0, tiebreak: int = 0) -
 def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
                      state: EventState) -> Sequence[TrackPrediction]:
     """The second tracks worth testing poss for a pair event of tracks[i]: every other track, narrowed
-    (as a speed-up only, same answers) by what the precondition needs first: hides_behind needs
-    overlapping_top (the top matrix), unhides_from_behind needs the track not_visible."""
-    if spec.name == "hides_behind":
+    (as a speed-up only, same answers) by the condition its precondition implies (EventType.prefilter):
+    'overlapping_top' (hides_behind: the top matrix), 'hidden' (unhides_from_behind: the track not_visible)."""
+    if spec.prefilter == "overlapping_top":
         return [tracks[j] for j in np.flatnonzero(top[i]).tolist()]
-    if spec.name == "unhides_from_behind" and not _hidden(state, tracks[i].id):
+    if spec.prefilter == "hidden" and not _hidden(state, tracks[i].id):
         return ()
     return [t2 for t2 in tracks if t2.id != tracks[i].id]
 

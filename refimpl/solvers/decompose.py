@@ -20,7 +20,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..core.spec import FrameProblem
+from ..core.spec import FrameProblem, parse_atom
 from .common import Component, components, event_term, intersection_matrix
 
 DEFAULT_PART_NODES = 60
@@ -88,9 +88,7 @@ def split(problem: FrameProblem, part_nodes: int = DEFAULT_PART_NODES) -> list[P
 
 
 def _first_argument(atom: str) -> str:
-    inside = atom[atom.index("(") + 1:]
-    end = min((i for i in (inside.find(","), inside.find(")")) if i >= 0), default=len(inside))
-    return inside[:end]
+    return str(parse_atom(atom).args[0])
 
 
 def own_atoms(part: Part, actions: Iterable[str], events: Iterable[str]) -> tuple[list[str], list[str]]:

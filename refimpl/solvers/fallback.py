@@ -2,13 +2,13 @@
 
 Every detection is ignored, every halted track is ignored (a missing one that a track now covers
 from the front re-explained by its first possible re-explanation, events.lp [explain_ignore]) and
-every active track is halted, explained by missing_detections (by its first other possible
-explanation where missing_detections is not possible).  For every problem the tracker builds this
-answer is admissible (docs/model-spec.md section 4), so a frame whose solver ran out of time still
-gets an answer, flagged not optimal; where it is not admissible, the caller reports the frame
-instead.  One function (:func:`obvious_answer`) builds it for every backend: the CP-SAT model
-starts from it inside a level (cpsat_model._trivial_solution), the backends return it as a
-Hypothesis (:func:`obvious_hypothesis`).
+every active track is halted, explained by its first possible one-track halting event in
+event-table order (missing_detections), else by its first other possible explanation.  For every
+problem the tracker builds this answer is admissible (docs/model-spec.md section 4), so a frame
+whose solver ran out of time still gets an answer, flagged not optimal; where it is not admissible,
+the caller reports the frame instead.  One function (:func:`obvious_answer`) builds it for every
+backend: the CP-SAT model starts from it inside a level (cpsat_model._trivial_solution), the
+backends return it as a Hypothesis (:func:`obvious_hypothesis`).
 """
 
 from __future__ import annotations
@@ -40,11 +40,13 @@ def _first_possible(action: str, trk: str, problem: FrameProblem, state: EventSt
 def obvious_answer(problem: FrameProblem, state: EventState | None = None,
                    constants: Mapping[str, int] | None = None) -> tuple[tuple[str, ...], tuple[str, ...]]:
     """(actions, event atoms) of the ignore-and-halt answer, not yet checked: an active track is
-    halted with missing_detections when that is possible, else with its first possible explanation
-    (missing_detections when none is: the checker then refuses the answer)."""
+    halted with its first possible one-track halting event (the event table's order:
+    missing_detections) when one is possible, else with its first possible explanation (the first
+    one-track halting event when none is: the checker then refuses the answer)."""
     state = EventState.from_problem(problem) if state is None else state
     constants = resolve_constants(problem) if constants is None else constants
     actions = [f"ignore_det({d.id})" for d in problem.detections]
+    solo = [e.name for e in explaining("halt") if e.arity == 1]
     events = []
     for x in problem.tracks:
         if x.state == "halted":
@@ -55,9 +57,8 @@ def obvious_answer(problem: FrameProblem, state: EventState | None = None,
                     events.append(again)
         else:
             actions.append(f"halt({x.id})")
-            missing = f"missing_detections({x.id})"
-            events.append(missing if poss(missing, problem, state, constants)
-                          else _first_possible("halt", x.id, problem, state, constants) or missing)
+            first = next((f"{n}({x.id})" for n in solo if poss(f"{n}({x.id})", problem, state, constants)), None)
+            events.append(first or _first_possible("halt", x.id, problem, state, constants) or f"{solo[0]}({x.id})")
     return tuple(actions), tuple(events)
 
 

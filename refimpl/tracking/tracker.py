@@ -47,13 +47,15 @@ from .motion import BoxKalman, InvalidPrediction
 from .options import TrackerOptions, WrittenBox
 from ..core.ranges import check_ranges
 from ..solvers import DEFAULT_BACKEND, Solver, get_solver
-from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, track_number
 
 DEFAULT_MIN_HITS = 3
 DEFAULT_BRIDGE_GAP = 2
 DEFAULT_BRIDGE_CONF = 90
 _RESUMING = frozenset(e.name for e in explaining("resume"))
 _STARTING = frozenset(e.name for e in explaining("start"))
+_UNHIDING = frozenset(e.name for e in explaining("resume") if e.unhides)
+_HIDING = frozenset(e.name for e in explaining("halt") if e.hides)
 HIDDEN_MAX_SECONDS = 10.0
 """The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
 frame rate (docs/model.md 3.14); without a frame rate the model's default in frames applies."""
@@ -125,7 +127,7 @@ def _det_id(i: int) -> str:
 
 
 def _trk_number(trk_id: str) -> int:
-    return int(trk_id.rsplit("_", 1)[1])
+    return track_number(trk_id)
 
 
 class AbductionTracker:
@@ -284,7 +286,7 @@ class AbductionTracker:
         for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
             self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
         unhidden = {args[0] for name, args in hyp.event_terms
-                    if name == "unhides_from_behind"} if self.fill_hidden and hyp.resumes else set()
+                    if name in _UNHIDING} if self.fill_hidden and hyp.resumes else set()
         for trk_id, det_id in hyp.resumes:
             trk, j = self.tracks[trk_id], index[det_id]
             last = max(trk.observed)
@@ -341,8 +343,9 @@ class AbductionTracker:
 
     @staticmethod
     def _hid_after(trk: _Track, last: int) -> bool:
-        """Whether the track's halt after its last observed frame was explained by hides_behind."""
-        return any(e.event.name == "hides_behind" and e.time == last + 1 for e in trk.history)
+        """Whether the track's halt after its last observed frame was explained by an event that
+        hides it (hides_behind)."""
+        return any(e.event.name in _HIDING and e.time == last + 1 for e in trk.history)
 
     def _scene_velocity(self, frame: int) -> np.ndarray | None:
         """The tracker option scene_velocity: the component-wise median (du, dv) of the active tracks

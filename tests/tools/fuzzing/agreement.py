@@ -53,7 +53,7 @@ import numpy as np
 
 from refimpl.solvers.check import check_answer
 from refimpl.core.constants import default_constants
-from refimpl.knowledge.events import EVENT_TABLE
+from refimpl.knowledge.events import EVENT_TABLE, explaining
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.hypothesis import Hypothesis
 from refimpl.core.ranges import BOX_LIMIT, TIME_LIMIT, check_constant, check_ranges
@@ -142,6 +142,10 @@ def _box_limits(rng: random.Random, others: list, max_area: int) -> tuple[int, i
     return (x, y, w, h)
 
 
+_RECOVER = next(e.name for e in explaining("resume") if e.arity == 1)
+"""The one-track resume (recover), which resets every fluent a halt set."""
+
+
 def _history(rng: random.Random, track_ids: list[str], det_ids: list[str], now: int, mintime: int,
              active: set[str]) -> list[HistoryEvent]:
     gone = ["gone_1", "gone_trk"]
@@ -164,7 +168,7 @@ def _history(rng: random.Random, track_ids: list[str], det_ids: list[str], now: 
     for a in track_ids:  # most active tracks' histories end tracker-like: recovered (else often no answer)
         mine = [h.time for h in out if h.event.args[0].name == a]
         if a in active and mine and rng.random() < 0.6:
-            out.append(HistoryEvent(Term("recover", (Term(a),)), rng.choice((max(mine), now - 1))))
+            out.append(HistoryEvent(Term(_RECOVER, (Term(a),)), rng.choice((max(mine), now - 1))))
     rng.shuffle(out)
     return out
 
