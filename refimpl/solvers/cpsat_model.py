@@ -450,13 +450,25 @@ def _fix_levels(model: cp_model.CpModel, group: list[tuple[int, LevelTerms]], so
             model.add(sum(c * v for c, v in terms) <= _level_value(terms, solution))
 
 
-def objective_plan(am: AbductionModel, bits: int = OBJECTIVE_BITS) -> tuple[list[list[tuple[int, LevelTerms]]], ...]:
+UNIQUE_CHECK_CHUNKS = 2
+"""The pair part must need at least this many objectives of its own before solve_lexicographic
+asks _only_pair_set instead (a question costs one to a few solves; below this, all levels are
+packed in one sequence as they always were: a small component keeps its 1-3 solves)."""
+
+
+def objective_plan(am: AbductionModel, bits: int = OBJECTIVE_BITS,
+                   unique_pairs: bool = True) -> tuple[list[list[tuple[int, LevelTerms]]], ...]:
     """(levels 10..1, the tie-break's pair part in chunks (_chunk_pairs), its explanation part),
-    each packed on its own (_pack_levels), so that no objective straddles two of them."""
+    each packed on its own (_pack_levels), so that no objective straddles two of them, when the
+    chunks need UNIQUE_CHECK_CHUNKS objectives or more (and ``unique_pairs``); otherwise
+    (everything packed in one sequence, [], []): no question is asked."""
     upper = [(p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
     chunks = [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(am.objectives[TIEBREAK_LEVEL], bits)]
-    return (_pack_levels(upper, bits), _pack_levels(chunks, bits) if chunks else [],
-            [[(TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, []))]])
+    lower = [(TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, []))]
+    packed = _pack_levels(chunks, bits) if chunks else []
+    if not unique_pairs or len(packed) < UNIQUE_CHECK_CHUNKS:
+        return _pack_levels(upper + chunks + lower, bits), [], []
+    return _pack_levels(upper, bits), packed, [lower]
 
 
 def objective_groups(am: AbductionModel, bits: int = OBJECTIVE_BITS) -> list[list[tuple[int, LevelTerms]]]:
@@ -535,11 +547,11 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     optimal = True
     statuses: list[str] = []
 
-    upper, chunks, lower = objective_plan(am, objective_bits)
+    upper, chunks, lower = objective_plan(am, objective_bits, unique_pairs)
     groups = upper + chunks + lower
     pair_terms = am.objectives[TIEBREAK_LEVEL]
     first_chunk, after_chunks = len(upper), len(upper) + len(chunks)
-    fresh = model.clone() if chunks and unique_pairs else None  # before any level is fixed: _only_pair_set
+    fresh = model.clone() if chunks else None  # before any level is fixed: _only_pair_set
 
     i = -1
     while i + 1 < len(groups):
