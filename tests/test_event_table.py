@@ -242,7 +242,7 @@ def test_no_module_but_the_event_table_chooses_an_event_by_name():
     found = []
     for path in sorted(root.rglob("*.py")):
         rel = path.relative_to(root).as_posix()
-        if rel == "events.py":
+        if rel == "knowledge/events.py":
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
         prose = {id(n.value) for n in ast.walk(tree)

@@ -222,7 +222,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_bench_scale(args: argparse.Namespace) -> int:
     from ..experiments import benchmarks as bm
     try:
-        sizes = bm.parse_list(args.sizes, int)
+        sizes = bm.parse_list(args.sizes, int) if args.sizes is not None else list(
+            bm.DENSE_SIZES if args.dense else bm.DEFAULT_SIZES)
         overlaps = bm.parse_list(args.overlaps, float)
     except ValueError as exc:
         raise UserError(f"--sizes takes integers and --overlaps numbers, comma-separated ({exc})") from None
@@ -235,9 +236,12 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
             raise UserError(f"{name} takes a comma-separated list out of {','.join(known)}, got {','.join(given)!r}")
     if args.seeds < 1 or args.time_limit <= 0 or not sizes or not overlaps:
         raise UserError("--seeds must be >= 1, --time-limit > 0, --sizes and --overlaps not empty")
+    if args.dense and min(sizes) < 1:
+        raise UserError(f"--dense needs --sizes of at least 1 track, got {min(sizes)}")
     from ..io.outputs import check_outputs
     out = None if args.out == "-" else args.out
-    default_plot = str(Path(out).with_name("scalability.png")) if out and not args.throughput else None
+    default_plot = (str(Path(out).with_name("scalability.png"))
+                    if out and not args.throughput and not args.dense else None)
     check_outputs({"--out": out, "--plot": args.plot or default_plot, "--json": args.json},
                   {"--from-json": args.from_json})
     progress = lambda total, label: Progress(total, label, enabled=not args.quiet)  # noqa: E731
@@ -245,7 +249,7 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
         sizes=sizes, overlaps=overlaps, seeds=args.seeds, backends=backends, time_limit=args.time_limit,
         out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
         from_json=args.from_json, throughput=args.throughput, trackers=trackers, data=args.data,
-        command=bm.format_command(sys.argv[1:]), progress=progress))
+        command=bm.format_command(sys.argv[1:]), progress=progress, dense=args.dense))
     return EXIT_OK
 
 

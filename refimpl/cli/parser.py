@@ -347,7 +347,10 @@ def _add_demo(sub: "argparse._SubParsersAction") -> None:
 def _add_bench_scale(sub: "argparse._SubParsersAction") -> None:
     sc = sub.add_parser("bench-scale", help="time the backends on synthetic frames (or, with --throughput, "
                                              "the tracking loop on MOT15 and KITTI Car); writes docs/benchmarks.md")
-    sc.add_argument("--sizes", default="5,10,20,50,100,200", help="tracks per frame (default 5,10,20,50,100,200)")
+    sc.add_argument("--sizes", help="tracks per frame (default 5,10,20,50,100,200; with --dense 50,100,200,400)")
+    sc.add_argument("--dense", action="store_true",
+                    help="instead of the overlap frames: dense crowds, each frame one component "
+                         "(refimpl.experiments.synthetic.dense_frame; --overlaps is not used)")
     sc.add_argument("--overlaps", default="0.2,0.5,0.8", help="overlap shares (default 0.2,0.5,0.8)")
     sc.add_argument("--seeds", type=int, default=10, help="frames per size and overlap (default 10)")
     sc.add_argument("--backends", default=",".join(BACKENDS),

@@ -40,6 +40,8 @@ from ..solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BAC
 
 THROUGHPUT_TRACKERS = TRACKERS
 DEFAULT_SIZES = (5, 10, 20, 50, 100, 200)
+DENSE_SIZES = (50, 100, 200, 400)
+"""``bench-scale --dense``: tracks of the dense crowds (refimpl.experiments.synthetic.dense_frame), one component each."""
 DEFAULT_OVERLAPS = (0.2, 0.5, 0.8)
 DEFAULT_SEEDS = 10
 DEFAULT_TIME_LIMIT = 20.0
@@ -50,6 +52,7 @@ PAPER_KITTI_FPS = 33.9
 """The paper's abduction frame rate on KITTI cars with YOLOv3 detections."""
 
 SCALE_BEGIN, SCALE_END = "<!-- bench-scale:begin -->", "<!-- bench-scale:end -->"
+DENSE_BEGIN, DENSE_END = "<!-- bench-scale-dense:begin -->", "<!-- bench-scale-dense:end -->"
 THROUGHPUT_BEGIN, THROUGHPUT_END = "<!-- bench-throughput:begin -->", "<!-- bench-throughput:end -->"
 
 ProgressFactory = Callable[[int, str], "object"]
@@ -107,6 +110,8 @@ class FrameRun:
     cpu_ms: float | None = None
     """CPU time of the solve (this process plus clingo's worker process): on a shared machine the
     wall-clock time includes waiting for a core, the CPU time does not."""
+    largest: int | None = None
+    """Tracks plus detections of the frame's largest independent component (solvers.common)."""
 
 
 @dataclass
@@ -121,13 +126,21 @@ class ScaleResult:
     fast_path: dict[str, int] = field(default_factory=dict)
     """How the cpsat backend answered (CpSatSolver.stats): fast path vs full model."""
     seconds: float = 0.0
+    dense: bool = False
+    """The frames are dense crowds (synthetic.dense_frame, one component each; overlaps is [0.0])."""
 
 
 def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] = DEFAULT_OVERLAPS,
                 seeds: int = DEFAULT_SEEDS, backends: Sequence[str] = SCALE_BACKENDS,
-                time_limit: float = DEFAULT_TIME_LIMIT, progress: ProgressFactory = _NoProgress) -> ScaleResult:
-    """Solve every synthetic frame (n, overlap, seed) with every backend; see the module docstring."""
-    from .synthetic import synthetic_frame
+                time_limit: float = DEFAULT_TIME_LIMIT, progress: ProgressFactory = _NoProgress,
+                dense: bool = False) -> ScaleResult:
+    """Solve every synthetic frame (n, overlap, seed) with every backend; see the module docstring.
+    ``dense``: the frames are synthetic.dense_frame(n, seed) instead (``overlaps`` is ignored)."""
+    from ..solvers.common import components
+    from .synthetic import dense_frame, synthetic_frame
+
+    if dense:
+        overlaps = [0.0]
 
     for b in backends:
         if b not in SCALE_BACKENDS:
@@ -144,15 +157,18 @@ def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] 
     for n in sizes:
         for ov in overlaps:
             for seed in range(seeds):
-                problem = synthetic_frame(n, ov, seed)
+                problem = dense_frame(n, seed) if dense else synthetic_frame(n, ov, seed)
+                largest = max(len(c.tracks) + len(c.detections) for c in components(problem)) if n else 0
                 order = list(backends[k % len(backends):]) + list(backends[:k % len(backends)])
                 k += 1
                 for b in order:
-                    runs.append(_run_one(solvers[b], b, problem, n, ov, seed, time_limit))
+                    run = _run_one(solvers[b], b, problem, n, ov, seed, time_limit)
+                    run.largest = largest
+                    runs.append(run)
                 bar.step(f"n={n} overlap={ov} seed={seed}")
     stats = next((s.stats for s in solvers.values() if getattr(s, "fast_path", False)), {})
     return ScaleResult(runs, list(sizes), list(overlaps), seeds, list(backends), time_limit, machine_note(),
-                       dict(stats), time.perf_counter() - started)
+                       dict(stats), time.perf_counter() - started, dense)
 
 
 def _run_one(solver, backend: str, problem, n: int, ov: float, seed: int, time_limit: float) -> FrameRun:
@@ -184,6 +200,8 @@ class ScaleRow:
     """Of those, frames on which the proven-optimal answers are equal too."""
     ratio: dict[str, float]
     """backend -> median over frames of (clingo ms / backend ms), when clingo ran."""
+    largest: tuple[int, int] | None = None
+    """Smallest and largest over the frames of the largest component's nodes (None: not recorded)."""
 
 
 def summarise_scale(result: ScaleResult) -> list[ScaleRow]:
@@ -215,8 +233,10 @@ def summarise_scale(result: ScaleResult) -> list[ScaleRow]:
                     for b in ratios:
                         if b in frame and frame[b].ms > 0:
                             ratios[b].append(frame[REFERENCE_BACKEND].ms / frame[b].ms)
+            sizes = [r.largest for r in runs if r.largest is not None]
             rows.append(ScaleRow(n, ov, per, compared, agree, same,
-                                 {b: statistics.median(v) for b, v in ratios.items() if v}))
+                                 {b: statistics.median(v) for b, v in ratios.items() if v},
+                                 (min(sizes), max(sizes)) if sizes else None))
     return rows
 
 
@@ -228,15 +248,17 @@ def scale_table(result: ScaleResult) -> str:
     """The markdown table of a scalability run (one row per n and overlap, backends side by side)."""
     rows = summarise_scale(result)
     bs = result.backends
-    head = ["tracks", "overlap"]
+    head = ["tracks", "frames" if result.dense else "overlap", "largest component"]
     for b in bs:
         head += [f"{b} median ms", f"{b} median CPU ms", f"{b} max ms", f"{b} optimal"]
     if REFERENCE_BACKEND in bs:
         head += [f"{REFERENCE_BACKEND} / {b} (median)" for b in bs if b != REFERENCE_BACKEND]
-    head += ["cost vectors agree", "paper (clingo) ms"]
+    head += ["cost vectors agree"] + ([] if result.dense else ["paper (clingo) ms"])
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for row in rows:
-        cells = [str(row.n), f"{row.overlap:g}"]
+        big = "-" if row.largest is None else (str(row.largest[0]) if row.largest[0] == row.largest[1]
+                                               else f"{row.largest[0]}-{row.largest[1]}")
+        cells = [str(row.n), "dense" if result.dense else f"{row.overlap:g}", big]
         for b in bs:
             s = row.per_backend.get(b)
             if s is None:
@@ -251,7 +273,8 @@ def scale_table(result: ScaleResult) -> str:
             cells += [f"{row.ratio[b]:.1f}x" if b in row.ratio else "-" for b in bs if b != REFERENCE_BACKEND]
         cells.append(f"{row.agree}/{row.compared}" + ("" if row.same_answer == row.compared else
                                                        f" (answers {row.same_answer}/{row.compared})"))
-        cells.append(_ms(PAPER_MS_PER_FRAME[row.n]) if row.n in PAPER_MS_PER_FRAME else "-")
+        if not result.dense:
+            cells.append(_ms(PAPER_MS_PER_FRAME[row.n]) if row.n in PAPER_MS_PER_FRAME else "-")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -266,12 +289,16 @@ def scale_report(result: ScaleResult, command: str) -> str:
         fast_note = (f"\ncpsat answered {fp.get('fast', 0)} of {total} frames by the fast exact path and "
                      f"{fp.get('full', 0)} by the full CP-SAT model" + (f" (fast path declined: {declined})" if declined else "")
                      + ".\n")
+    frames = ("dense crowds (`refimpl.experiments.synthetic.dense_frame`: every track and detection one component)"
+              if result.dense else "overlap " + ", ".join(f"{o:g}" for o in result.overlaps))
     return (f"Command: `{command}`  \n"
-            f"Frames: sizes {', '.join(map(str, result.sizes))} x overlap {', '.join(f'{o:g}' for o in result.overlaps)}"
+            f"Frames: sizes {', '.join(map(str, result.sizes))} x {frames}"
             f" x {result.seeds} seeds, every backend on the same frames; per-frame time limit "
             f"{result.time_limit:g} s; run took {result.seconds / 60:.1f} min.  \n"
             f"Machine: {result.machine}.\n{fast_note}\n"
             + scale_table(result) + "\n\n"
+            "largest component: tracks plus detections of the frame's largest independent component "
+            "(the part a backend solves in one piece), smallest-largest over the seeds. "
             "ms: wall-clock time of one `solve` call (building the model included; garbage collected before it), "
             "median and max over the seeds; CPU ms: its CPU time (this process and clingo's worker process), "
             "which waiting for a busy machine's cores does not inflate. "
@@ -534,7 +561,7 @@ def run_bench_scale(*, sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[
                     plot: str | None = None, json_path: str | None = None, from_json: str | None = None,
                     throughput: bool = False, trackers: Sequence[str] = (BASELINE, DEFAULT_BACKEND, REFERENCE_BACKEND),
                     data: str = "../shared/data", command: str = "refimpl bench-scale",
-                    progress: ProgressFactory = _NoProgress) -> str:
+                    progress: ProgressFactory = _NoProgress, dense: bool = False) -> str:
     """Run (or, with from_json, reload) a benchmark, write its section of ``out`` (markdown; None:
     don't), the plot (scalability runs; default scalability.png beside ``out``) and the JSON,
     and return the report text to print."""
@@ -543,16 +570,18 @@ def run_bench_scale(*, sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[
     elif throughput:
         result = bench_throughput(data, trackers=trackers, progress=progress)
     else:
-        result = bench_scale(sizes, overlaps, seeds, backends, time_limit, progress)
+        result = bench_scale(sizes, overlaps, seeds, backends, time_limit, progress, dense)
     from ..io.outputs import OutputSet
     with OutputSet() as outs:  # every output of the run lands together, or none does
         if json_path:
             outs.write(json_path, json_text(result))
         if isinstance(result, ScaleResult):
             report = scale_report(result, command)
+            begin, end = (DENSE_BEGIN, DENSE_END) if result.dense else (SCALE_BEGIN, SCALE_END)
             if out:
-                outs.write(out, section_text(out, SCALE_BEGIN, SCALE_END, report))
-            plot_path = plot or (str(Path(out).with_name("scalability.png")) if out else None)
+                outs.write(out, section_text(out, begin, end, report))
+            # the plot is of the overlap frames (the paper's figure); dense runs plot on request
+            plot_path = plot or (str(Path(out).with_name("scalability.png")) if out and not result.dense else None)
             if plot_path:
                 plot_scale(result, outs.open(plot_path, binary=True))
                 report += f"\nplot: {plot_path}\n"

@@ -37,6 +37,10 @@ history, built to exercise every part of the model (docs/model-spec.md):
 - Constants: ``img_width`` / ``img_height`` (as the tracker sets them), so ``leaves_fov`` is
   testable for tracks near the border.
 
+Dense crowds (:func:`dense_frame`, ``refimpl bench-scale --dense``) are the other kind: the
+frames above decompose into components of a few dozen nodes, these are one component each (see
+its docstring).
+
 Everything is drawn from one ``numpy.random.Generator`` seeded with (seed, n_tracks, overlap, ...)
 in a fixed order: the same arguments give the same problem, byte for byte (numpy's Generator
 streams do not depend on the platform).  Counts from shares ("round(overlap*n)" etc.) round half
@@ -51,10 +55,11 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from ..core.geometry import integer_box, iou_matrix, scale_iou
+from ..core.geometry import integer_box, intersection_area, iou_matrix, scale_iou
 from ..knowledge.relations import overlapping_top
 from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, write_facts
 from ..knowledge.events import EventType, explaining
+from ..solvers.common import components
 
 HIDE_OVERLAP = 10
 """The overlap (percent of the back box's area) the generator builds for: model/constants.lp's default."""
@@ -442,3 +447,119 @@ def _front_to_back(front_of: Sequence[int | None]) -> list[int]:
             d, j = d + 1, front_of[j]
         depth.append(d)
     return sorted(range(len(front_of)), key=lambda i: (depth[i], i))
+
+
+# ---------------------------------------------------------------------------------------------
+# Dense crowds: the whole frame one component
+# ---------------------------------------------------------------------------------------------
+
+DENSE_TYPE = "pedestrian"
+"""The one type of a dense frame (two types would split it: match_type pairs equal types only)."""
+_DENSE_DEPTH = 8.0  # boxes per box area of the crowd's square: each box overlaps ~4x as many
+_DENSE_PILE_IOU = (0.45, 0.85)  # IoU of a piled box with the box it piles on
+
+
+def dense_frame(n_tracks: int, seed: int, time: int = 100, image_size: tuple[int, int] = (1920, 1080),
+                halted_rate: float = 0.1, miss_rate: float = 0.1, reappear_rate: float = 0.5,
+                fp_rate: float = 0.1) -> FrameProblem:
+    """A crowd in which every track and every detection is one component (``components``).
+
+    Tracks, all of type DENSE_TYPE with boxes of synthetic_frame's size for n tracks (log-size
+    jitter 0.1), are drawn uniformly in a square that holds them _DENSE_DEPTH deep, so that each
+    box overlaps ~30 others.  Detections follow synthetic_frame's rules (a detected active track
+    with probability 1 - miss_rate, a halted one with reappear_rate; jitter 3 %, confidence
+    60..100, above conf_thresh_resume), plus ``Poisson(fp_rate*n)`` false positives on tracks
+    (jitter 10 %, confidence 5..45).  Then, until the frame is one component: every track outside
+    the largest component (the first on a tie) *piles on* the nearest track inside it (centre
+    distance, then index): it stands behind it, its bottom edge 2 px .. a quarter of the height
+    higher, with IoU 0.45..0.85, so that its detection or the other track's pairs the two (the
+    track is detected if neither is); a false positive outside is dropped.  States and histories
+    as in synthetic_frame; the track in front of a track is the one it piles on, else the track
+    covering it most from the front (bottom edge strictly lower).
+    """
+    n = int(n_tracks)
+    if n < 1:
+        raise ValueError(f"n_tracks must be >= 1, got {n_tracks}")
+    width, height = int(image_size[0]), int(image_size[1])
+    rng = np.random.default_rng([int(seed), n, int(time), width, height])
+    h0 = _base_height(DENSE_TYPE, n, width, height)
+    w0 = h0 * _ASPECT[DENSE_TYPE]
+    side = max(math.sqrt(n * w0 * h0 / _DENSE_DEPTH), 2.0 * h0)  # a few tracks: still a crowd, not one pile
+    x0, y0 = (width - side) / 2, (height - side) / 2
+    boxes: list[Box] = []
+    for _ in range(n):
+        w, h = w0 * math.exp(rng.normal(0.0, 0.1)), h0 * math.exp(rng.normal(0.0, 0.1))
+        boxes.append(integer_box(np.array([x0 + rng.uniform(0, max(side - w, 0.0)), y0 + rng.uniform(0, max(side - h, 0.0)), w, h])))
+    halted = set(int(i) for i in rng.choice(n, size=_round_half_up(halted_rate * n), replace=False))
+    seen = [bool(rng.random() < reappear_rate) if i in halted else bool(rng.random() >= miss_rate)
+            for i in range(n)]
+    det_jitter = [(rng.standard_normal(4), int(rng.integers(60, 101))) for _ in range(n)]
+    fps = [(int(rng.integers(n)), rng.standard_normal(4), int(rng.integers(5, 46)))
+           for _ in range(int(rng.poisson(fp_rate * n)))]
+    piled_on: dict[int, int] = {}
+    states = ["halted" if i in halted else "active" for i in range(n)]
+    while True:
+        problem = _crowd(boxes, states, seen, det_jitter, fps, time, width, height, ())
+        comps = components(problem)
+        if len(comps) == 1:
+            break
+        crowd = max(comps, key=lambda c: len(c.tracks) + len(c.detections))
+        n_seen = sum(seen)  # false positives come after the tracks' detections (_crowd)
+        inside = [int(t[4:]) for t in crowd.tracks]
+        for c in comps:
+            if c is crowd:
+                continue
+            for k in sorted(int(t[4:]) for t in c.tracks):
+                boxes[k], piled_on[k] = _pile(rng, boxes, inside, boxes[k])
+                seen[k] = seen[k] or not seen[piled_on[k]]
+                inside.append(k)
+        dets_inside = set(crowd.detections)
+        fps = [f for j, f in enumerate(fps) if f"det_{n_seen + j}" in dets_inside or f[0] in piled_on]
+    front = [piled_on.get(i, _front(boxes, i)) for i in range(n)]
+    events = _histories(rng, front, halted, time)
+    return _crowd(boxes, states, seen, det_jitter, fps, time, width, height, events)
+
+
+def _iou(a: Box, b: Box) -> float:
+    inter = intersection_area(a, b)
+    return inter / (a[2] * a[3] + b[2] * b[3] - inter)
+
+
+def _front(boxes: Sequence[Box], i: int) -> int | None:
+    """The box covering box i most from the front (bottom edge strictly lower), if any."""
+    b = boxes[i]
+    best = None
+    for j, c in enumerate(boxes):
+        if j != i and c[1] + c[3] > b[1] + b[3] and overlapping_top(b, c, HIDE_OVERLAP):
+            key = (intersection_area(b, c), -j)
+            if best is None or key > best[0]:
+                best = (key, j)
+    return None if best is None else best[1]
+
+
+def _pile(rng: np.random.Generator, boxes: Sequence[Box], placed: Sequence[int], drawn: Box) -> tuple[Box, int]:
+    """A box of ``drawn``'s size standing behind the placed box nearest to it (centre distance,
+    then the smallest index), with IoU in _DENSE_PILE_IOU; and that box's index."""
+    w, h = drawn[2], drawn[3]
+    cx, cy = drawn[0] + w / 2, drawn[1] + h / 2
+    p = min(placed, key=lambda i: ((boxes[i][0] + boxes[i][2] / 2 - cx) ** 2
+                                   + (boxes[i][1] + boxes[i][3] / 2 - cy) ** 2, i))
+    xp, yp, wp, hp = boxes[p]
+    while True:
+        d = rng.uniform(2.0, max(3.0, 0.25 * hp))  # how much higher the bottom edge is
+        dx = rng.uniform(-0.5, 0.5) * wp
+        box = integer_box(np.array([xp + wp / 2 + dx - w / 2, yp + hp - d - h, w, h]))
+        if (_DENSE_PILE_IOU[0] <= _iou(box, boxes[p]) <= _DENSE_PILE_IOU[1]
+                and overlapping_top(box, boxes[p], HIDE_OVERLAP) and box[1] + box[3] < yp + hp):
+            return box, p
+
+
+def _crowd(boxes, states, seen, det_jitter, fps, time, width, height, events) -> FrameProblem:
+    """The frame problem: the seen tracks' detections (det_0 ..) then the false positives."""
+    tracks = tuple(TrackPrediction(f"trk_{i}", DENSE_TYPE, s, b) for i, (b, s) in enumerate(zip(boxes, states)))
+    dets = [(_jitter(boxes[i], det_jitter[i][0], 0.03, 0.03), det_jitter[i][1]) for i in range(len(boxes)) if seen[i]]
+    dets += [(_jitter(boxes[k], z, 0.1, 0.05), conf) for k, z, conf in fps]
+    detections = tuple(Detection(f"det_{j}", DENSE_TYPE, conf, box) for j, (box, conf) in enumerate(dets))
+    return FrameProblem(time=int(time), detections=detections, tracks=tracks, iou=iou_facts(tracks, detections),
+                        constants=(("img_width", width), ("img_height", height)),
+                        history=tuple(e for evs in events for e in evs))

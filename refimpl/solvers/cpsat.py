@@ -183,7 +183,8 @@ class CpSatSolver:
             events += [f"occurs_at({e},{t})" for e in evs]
         if not optimal and deadline is not None and time.perf_counter() > deadline:
             self.stats["timeout"] += 1
-        level0 = tiebreak_level(problem, actions, events)
+        # one part: the model's own level 0, from the same weights (tiebreak_weights of the problem)
+        level0 = totals[TIEBREAK_LEVEL] if whole else tiebreak_level(problem, actions, events)
         cost = tuple((p, level0 if p == TIEBREAK_LEVEL else totals[p]) for p in PRIORITIES)
         return Hypothesis(time=t, actions=tuple(actions), events=tuple(events), cost=cost,
                           optimal=optimal, backend=self.name,

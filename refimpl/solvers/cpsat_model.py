@@ -141,8 +141,15 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
     am.tiebreak_shift = tb.shift
     # Only pairs with an iou/3 fact can be assigned or resumed, and hides_behind(T, T2) needs
     # overlapping_top(T, T2): the loops below skip everything else before calling the rules
-    # (same candidates, same variable order as testing every pair, without n^2 Python calls).
-    paired = {t for t, _, _ in problem.iou}
+    # (same candidates, same variable order as testing every pair, without n^2 Python calls:
+    # a track's detections are those of its iou/3 facts, in problem order).
+    det_at = {d.id: j for j, d in enumerate(problem.detections)}
+    partners: dict[str, list[Detection]] = {}  # track -> the detections of its iou/3 facts, in problem order
+    for t_id, d_id, _ in problem.iou:
+        if d_id in det_at:
+            partners.setdefault(t_id, []).append(det_at[d_id])
+    for t_id, js in partners.items():
+        partners[t_id] = [problem.detections[j] for j in sorted(set(js))]
     by_id = {t.id: t for t in problem.tracks}
     top = _overlapping_top_matrix(problem.tracks, inter, constants["hide_overlap"])
     obj = am.objectives
@@ -172,7 +179,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
     for i, t in enumerate(problem.tracks):
         if t.state == "active":
             # assign(T, D): assignment_constraints
-            for d in (problem.detections if t.id in paired else ()):
+            for d in partners.get(t.id, ()):
                 if assignment_constraints(problem, constants, iou, t, d):
                     a = action(f"assign({t.id},{d.id})", "assign", iou[(t.id, d.id)])
                     per_trk[t.id].append(a)
@@ -199,7 +206,7 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
             if again:
                 model.add(sum(event(spec, args) for spec, args in again) == ig)
             # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
-            resumable = [d for d in (problem.detections if t.id in paired else ())
+            resumable = [d for d in partners.get(t.id, ())
                          if resume_constraints(problem, constants, iou, t, d, state, by_id)]
             expl = _explanations("resume", i, problem.tracks, top, state, constants, by_id) if resumable else []
             if resumable and expl:
@@ -245,7 +252,9 @@ class LexResult:
     """CP-SAT's status name per level; SKIPPED: the level has no terms; NO_TIME: the time limit
     was used up before the level; BOUND: the solution so far already has the level's lower bound 0 (all coefficients > 0);
     CERTIFIED / UNCERTIFIED: a level too large for CP-SAT's doubles whose OPTIMAL was (or, out of
-    time, was not) confirmed in exact arithmetic (_certify)."""
+    time, was not) confirmed in exact arithmetic (_certify); UNIQUE: a chunk of the tie-break's
+    pair part not solved because no other set of pair actions is optimal at levels 10..1
+    (_only_pair_set)."""
 
 
 def _solution(solver: cp_model.CpSolver, indices: list[int]) -> dict[int, int]:
@@ -380,17 +389,72 @@ def _fix_levels(model: cp_model.CpModel, group: list[tuple[int, LevelTerms]], so
             model.add(sum(c * v for c, v in terms) <= _level_value(terms, solution))
 
 
+UNIQUE_CHECK_CHUNKS = 2
+"""The pair part must need at least this many objectives of its own before solve_lexicographic
+asks _only_pair_set instead (a question costs one to a few solves; below this, all levels are
+packed in one sequence as they always were: a small component keeps its 1-3 solves)."""
+
+
+def objective_plan(am: AbductionModel, bits: int = OBJECTIVE_BITS,
+                   unique_pairs: bool = True) -> tuple[list[list[tuple[int, LevelTerms]]], ...]:
+    """(levels 10..1, the tie-break's pair part in chunks (_chunk_pairs), its explanation part),
+    each packed on its own (_pack_levels), so that no objective straddles two of them, when the
+    chunks need UNIQUE_CHECK_CHUNKS objectives or more (and ``unique_pairs``); otherwise
+    (everything packed in one sequence, [], []): no question is asked."""
+    upper = [(p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
+    chunks = [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(am.objectives[TIEBREAK_LEVEL], bits)]
+    lower = [(TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, []))]
+    packed = _pack_levels(chunks, bits) if chunks else []
+    if not unique_pairs or len(packed) < UNIQUE_CHECK_CHUNKS:
+        return _pack_levels(upper + chunks + lower, bits), [], []
+    return _pack_levels(upper, bits), packed, [lower]
+
+
 def objective_groups(am: AbductionModel, bits: int = OBJECTIVE_BITS) -> list[list[tuple[int, LevelTerms]]]:
-    """The objectives solve_lexicographic minimises one after another: levels 10..1, then the
-    tie-break's pair part in chunks (_chunk_pairs), then its explanation part, packed (_pack_levels)."""
-    levels: list[tuple[int, LevelTerms]] = [(p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
-    levels += [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(am.objectives[TIEBREAK_LEVEL], bits)]
-    levels.append((TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, [])))
-    return _pack_levels(levels, bits)
+    """The objectives solve_lexicographic minimises one after another: objective_plan's three
+    parts in order (the pair chunks are skipped when the pair set is unique: _only_pair_set)."""
+    return [g for part in objective_plan(am, bits) for g in part]
+
+
+def _only_pair_set(fresh: cp_model.CpModel, upper: list[list[tuple[int, LevelTerms]]],
+                   pair_vars: Sequence[cp_model.IntVar], solution: Mapping[int, int], workers: int,
+                   seed: int, deadline: float | None, bits: int) -> bool:
+    """Whether ``solution``'s pair actions are the only set among the optima of levels 10..1 (then
+    every chunk of the pair part is optimal as it stands; docs/model.md 2.7, step 4).  ``fresh``,
+    the model before any level was fixed, gets the clause "some pair action differs"; levels 10..1
+    are minimised on it group by group, each fixed at ``solution``'s value while it ties.  A
+    minimum above it, or no solution, proves uniqueness; False: a tie on every level, or no time."""
+    from ortools.sat.python import cp_model  # heavy: only when the full model is solved (see the imports)
+    var = fresh.get_bool_var_from_proto_index
+    fresh.add_bool_or([var(v.index).Not() if solution[v.index] else var(v.index) for v in pair_vars])
+    for group in upper:
+        terms = [(c, var(v.index)) for c, v in _scalarised(group)]
+        if not terms:
+            continue
+        if _span(group) > (1 << bits):  # CP-SAT's minimum is not exact there: conclude nothing
+            return False
+        best = _level_value(terms, solution)
+        left = None if deadline is None else deadline - time.perf_counter()
+        if left is not None and left <= 0:
+            return False
+        fresh.clear_objective()
+        expr = sum(c * v for c, v in terms)
+        fresh.minimize(expr)
+        solver = _new_solver(workers, seed, left)
+        status = solver.solve(fresh)
+        if status == cp_model.INFEASIBLE:
+            return True
+        if status != cp_model.OPTIMAL:
+            return False
+        if _level_value(terms, _solution(solver, [v.index for _, v in terms])) > best:
+            return True
+        fresh.add(expr <= best)
+    return False
 
 
 def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: float | None = None,
-                        workers: int = 1, seed: int = 0, objective_bits: int = OBJECTIVE_BITS) -> LexResult:
+                        workers: int = 1, seed: int = 0, objective_bits: int = OBJECTIVE_BITS,
+                        unique_pairs: bool = True) -> LexResult:
     """Minimise the objectives of PRIORITIES one after another (see the module docstring).
 
     Each level is solved with the previous level's solution as a complete hint.  A level proven
@@ -403,6 +467,9 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     Every objective CP-SAT minimises spans at most 2^objective_bits values (OBJECTIVE_BITS: exact
     in CP-SAT's doubles); a level larger on its own is certified exactly after CP-SAT's OPTIMAL
     (``_certify``).  ``objective_bits`` exists for tests of that path.
+
+    The pair chunks are not solved (UNIQUE) when ``_only_pair_set`` proves the optima of levels
+    10..1 share one pair set; ``unique_pairs=False`` solves them all (tests: same answers).
 
     With a time limit, the remaining budget is split evenly over the levels still to solve.  A
     level that ends FEASIBLE, or UNKNOWN (no solution in its share), makes the answer not optimal
@@ -419,10 +486,26 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     optimal = True
     statuses: list[str] = []
 
-    groups = objective_groups(am, objective_bits)
+    upper, chunks, lower = objective_plan(am, objective_bits, unique_pairs)
+    groups = upper + chunks + lower
     pair_terms = am.objectives[TIEBREAK_LEVEL]
+    first_chunk, after_chunks = len(upper), len(upper) + len(chunks)
+    fresh = model.clone() if chunks else None  # before any level is fixed: _only_pair_set
 
-    for i, group in enumerate(groups):
+    i = -1
+    while i + 1 < len(groups):
+        i += 1
+        group = groups[i]
+        if i == first_chunk and fresh is not None and optimal and solution is not None:
+            now = time.perf_counter()
+            until = None if deadline is None else now + (deadline - now) / (1 + len(lower))
+            if _only_pair_set(fresh, upper, [v for _, v in pair_terms], solution, workers, seed, until,
+                              objective_bits):
+                for _, v in pair_terms:
+                    model.add(v == solution[v.index])
+                statuses += ["UNIQUE"] * len(chunks)
+                i = after_chunks - 1
+                continue
         prio = group[0][0]
         terms = _scalarised(group)
         expr = sum(c * v for c, v in terms) if terms else 0
@@ -436,7 +519,10 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
         status = None
         share = None
         if deadline is not None:
-            share = (deadline - time.perf_counter()) / (len(groups) - i)
+            # the budget left over the objectives left, the pair chunks counted as the one
+            # question of _only_pair_set until it was asked
+            left = len(groups) - i if i >= first_chunk else first_chunk - i + bool(chunks) + len(lower)
+            share = (deadline - time.perf_counter()) / left
             if share <= 0:
                 status = cp_model.UNKNOWN  # no time left for this level
         if status is None:
