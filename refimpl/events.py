@@ -36,6 +36,7 @@ to ground them over the tracks of the problem).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Callable, Iterable, Mapping, Union
 
 from .geometry import intersection_area
@@ -71,6 +72,20 @@ FluentLike = Union[Term, str, tuple]
 
 def fluent_key(fluent: FluentLike) -> FluentKey:
     """('visibility', 'trk_1') from a Term, an atom string 'visibility(trk_1)' or a tuple."""
+    if type(fluent) is tuple:  # the queries' own form, asked thousands of times a frame: memoised
+        try:
+            return _tuple_fluent_key(fluent)
+        except TypeError:  # an unhashable element: not memoisable (and not a fluent either)
+            pass
+    return _fluent_key(fluent)
+
+
+@lru_cache(maxsize=1 << 14)
+def _tuple_fluent_key(fluent: tuple) -> FluentKey:
+    return _fluent_key(fluent)
+
+
+def _fluent_key(fluent: FluentLike) -> FluentKey:
     if isinstance(fluent, str):
         fluent = parse_term(fluent)
     if isinstance(fluent, Term):
@@ -473,6 +488,7 @@ EXPLAINED_ACTIONS = ("halt", "resume", "start", "end")
 """The actions that need exactly one explaining event (assign and the ignores need none)."""
 
 
+@lru_cache(maxsize=None)
 def explaining(action: str) -> tuple[EventType, ...]:
     """The events that may explain an action, in table order (() for assign and ignore_det; for
     ignore_trk the events that re-explain a missing track, see :func:`reexplained`)."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Iterable, Mapping
 
 IOU_SCALE = 100_000
@@ -151,8 +152,14 @@ class FrameProblem:
 
 
 def _check_symbol(name: str, what: str) -> None:
-    if not isinstance(name, str) or not _SYMBOL.fullmatch(name):
+    if not isinstance(name, str) or not _is_symbol(name):
         raise ProblemFormatError(f"{what}: {_symbol_error(str(name))}")
+
+
+@lru_cache(maxsize=1 << 12)
+def _is_symbol(name: str) -> bool:
+    """_SYMBOL.fullmatch, memoised: a tracker's ids and types come back every frame."""
+    return _SYMBOL.fullmatch(name) is not None
 
 
 def _validate(p: FrameProblem) -> None:
