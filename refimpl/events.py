@@ -243,7 +243,10 @@ class EventState:
     # -- queries -----------------------------------------------------------------------------
     def values(self, fluent: FluentLike) -> frozenset[str]:
         """The set of values the fluent holds at curr_time (one value unless set-valued)."""
-        key = fluent_key(fluent)
+        return self.values_of_key(fluent_key(fluent))
+
+    def values_of_key(self, key: FluentKey) -> frozenset[str]:
+        """:meth:`values` of a fluent already given as its key (what :func:`fluent_key` returns)."""
         got = self._values.get(key)
         if got is not None:
             return got

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
 from ..events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
-from ..hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
+from ..hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..relations import area
 from ..spec import Detection, FrameProblem, TrackPrediction
 from . import NoAdmissibleHypothesis, SolveTimeout
@@ -31,9 +31,18 @@ _EVENT_AT = PRIORITIES.index(EVENT_LEVEL)
 _TIE_AT = PRIORITIES.index(TIEBREAK_LEVEL)
 
 
+_BASE_COST = {name: action_cost(name) for name in ACTION_TABLE}
+_LIKELIHOOD_AT = {name: PRIORITIES.index(a.likelihood_level) for name, a in ACTION_TABLE.items()
+                  if a.likelihood_level is not None}
+
+
 def _cost(action: str, likelihood: int = 0, event: int = 0, tiebreak: int = 0) -> tuple[int, ...]:
-    """An action's cost vector in PRIORITIES order, with its explaining event's cost and tie-break."""
-    out = list(action_cost(action, likelihood))
+    """An action's cost vector in PRIORITIES order, with its explaining event's cost and tie-break
+    (action_cost's vector, from a table: this runs for every option of every frame)."""
+    out = list(_BASE_COST[action])
+    at = _LIKELIHOOD_AT.get(action)
+    if at is not None:
+        out[at] -= likelihood
     out[_EVENT_AT] += event
     out[_TIE_AT] += tiebreak
     return tuple(out)
@@ -43,9 +52,11 @@ def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction],
                      state: EventState) -> Sequence[TrackPrediction]:
     """The second tracks worth testing poss for a pair event of tracks[i]: every other track, narrowed
     (as a speed-up only, same answers) by what the precondition needs first: hides_behind needs
-    overlapping_top (the top matrix), unhides_from_behind needs the track not_visible."""
+    overlapping_top (the top matrix), unhides_from_behind needs the track not_visible.  ``top``: the
+    matrix, or its rows as lists of column indices (fast_path._rows, computed once per frame)."""
     if spec.name == "hides_behind":
-        return [tracks[j] for j in np.flatnonzero(top[i]).tolist()]
+        row = top[i]
+        return [tracks[j] for j in (row if isinstance(row, list) else np.flatnonzero(row).tolist())]
     if spec.name == "unhides_from_behind" and not _hidden(state, tracks[i].id):
         return ()
     return [t2 for t2 in tracks if t2.id != tracks[i].id]
