@@ -15,7 +15,7 @@ import numpy as np
 
 from ..events import EVENT_TABLE, EventState, EventType, explaining, fluent_key, reexplained
 from ..hypothesis import PRIORITIES
-from ..spec import FrameProblem
+from ..spec import FrameProblem, Term
 from .common import DisjointSets, LazyTiebreak, intersection_matrix
 from .cpsat_model import (_cost, _explanations, _overlapping_top_matrix, assignment_constraints,
                           resume_constraints, start_constraints)
@@ -216,7 +216,8 @@ class TrackwiseState:
         for h in history:
             args = h.event.args
             if args:  # events without arguments have no effect (no EFFECTS entry of arity 0)
-                groups.setdefault(str(args[0]), []).append(h)
+                a0 = args[0]  # str(Term) of a constant is its name
+                groups.setdefault(a0.name if type(a0) is Term and not a0.args else str(a0), []).append(h)
         cache = {} if cache is None else cache
         self.used: dict[tuple[str, tuple], EventState] = {}
         self._per: dict[str, EventState] = {}
