@@ -204,14 +204,15 @@ class TrackwiseState:
     (refimpl.events.EFFECTS: each effect's fluent has the event's first argument as its own first
     argument; recover's "hidden_by(T, X) for every X" too), and the set-valued grouping of one
     time point is per fluent; folding a track's events in time order (stable, as EventState does)
-    gives that track's fluents exactly.  Per-track states are reused across frames while the
-    track's events are unchanged (``cache``), so a tracker's frame folds only new events;
+    gives that track's fluents exactly.  Per-track states, with the holds_at answers they gave, are
+    reused across frames while the track's events are unchanged (``cache``), so a tracker's frame
+    folds only new events and asks each state only what no earlier frame asked;
     ``used`` holds the entries this frame needed, the cache to pass to the next frame."""
 
     _EMPTY = EventState()
 
     def __init__(self, history: Sequence, tracks: Sequence[str],
-                 cache: dict[tuple[str, tuple], EventState] | None = None):
+                 cache: dict[tuple[str, tuple], tuple[EventState, dict]] | None = None):
         groups: dict[str, list] = {}
         for h in history:
             args = h.event.args
@@ -219,35 +220,35 @@ class TrackwiseState:
                 a0 = args[0]  # str(Term) of a constant is its name
                 groups.setdefault(a0.name if type(a0) is Term and not a0.args else str(a0), []).append(h)
         cache = {} if cache is None else cache
-        self.used: dict[tuple[str, tuple], EventState] = {}
-        self._per: dict[str, EventState] = {}
+        # per track: its EventState and the memo of its holds_at answers, which never change (the
+        # state is folded once from the track's events; a new event makes a new key)
+        self.used: dict[tuple[str, tuple], tuple[EventState, dict]] = {}
+        self._per: dict[str, tuple[EventState, dict]] = {}
         for trk in tracks:
             events = groups.get(trk)
             if not events:
                 continue
             key = (trk, tuple(events))
-            st = cache.get(key)
-            if st is None:
-                st = EventState(events, (trk,))
-            self.used[key] = self._per[trk] = st
-        self._memo: dict = {}
+            entry = cache.get(key)
+            if entry is None:
+                entry = (EventState(events, (trk,)), {})
+            self.used[key] = self._per[trk] = entry
+        self._empty = (self._EMPTY, {})
 
     def _state(self, trk: str) -> EventState:
-        return self._per.get(trk, self._EMPTY)
+        return self._per.get(trk, self._empty)[0]
 
     def values(self, fluent) -> frozenset[str]:
         key = fluent_key(fluent)
         return self._state(key[1]).values_of_key(key)
 
     def holds_at(self, fluent, value: str) -> bool:
-        memo_key = (fluent, value) if isinstance(fluent, tuple) else None
-        if memo_key is not None:
-            got = self._memo.get(memo_key)
-            if got is not None:
-                return got
-        got = value in self.values(fluent)
-        if memo_key is not None:
-            self._memo[memo_key] = got
+        key = fluent_key(fluent)
+        st, memo = self._per.get(key[1], self._empty)
+        memo_key = (key, value)
+        got = memo.get(memo_key)
+        if got is None:
+            got = memo[memo_key] = value in st.values_of_key(key)
         return got
 
     def started_at(self, trk: str) -> int | None:
