@@ -286,9 +286,10 @@ class LazyTiebreak:
     def _others_of(self, i: int) -> list[str]:
         got = self._others.get(i)
         if got is None:  # _event_candidates' order
-            tracks, inter, nat = self._tracks, self._inter, _natural_key
-            over = [j for j in np.flatnonzero(inter[i]).tolist() if j != i]
-            over.sort(key=lambda j: (-int(inter[i, j]), nat(tracks[j].id)))
+            tracks, nat = self._tracks, _natural_key
+            row = self._inter[i].tolist()  # Python ints: the same values as int(inter[i, j])
+            over = [j for j, v in enumerate(row) if v and j != i]
+            over.sort(key=lambda j: (-row[j], nat(tracks[j].id)))
             got = [tracks[j].id for j in over]
             seen = set(got)
             got += sorted((x for x in self._named.get(tracks[i].id, ()) if x not in seen), key=nat)
