@@ -88,9 +88,36 @@ def test_the_serial_files(inputs, serial, tmp_path):
 
 def test_two_local_workers_write_the_same_bytes(inputs, serial, tmp_path):
     stdout, files, out_dir = serial
-    parallel = _track(inputs, tmp_path / "par", "--workers", "2")
+    # --serial-below 0: a real cluster for these few frames (the rule would track them serially)
+    parallel = _track(inputs, tmp_path / "par", "--workers", "2", "--serial-below", "0")
     assert _files(tmp_path / "par") == files
     assert parallel.replace(str(tmp_path / "par"), str(out_dir)) == stdout
+
+
+def test_the_scale_out_rule_runs_small_work_serially():
+    from refimpl.experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER, Plan, run_tasks
+    two = Plan(workers=2)
+    assert two.frames_threshold == 2 * LOCAL_MIN_FRAMES_PER_WORKER
+    assert two.serial_for(2 * LOCAL_MIN_FRAMES_PER_WORKER - 1) and not two.serial_for(2 * LOCAL_MIN_FRAMES_PER_WORKER)
+    assert not two.serial_for(None)  # tasks not counted in frames (diff, calibrate): the cluster
+    assert not Plan(workers=2, serial_below=0).serial_for(1)
+    assert not Plan(scheduler="tcp://127.0.0.1:1").serial_for(1)  # an existing cluster is always used
+    assert Plan().serial_for(10 ** 9)  # no cluster asked for
+    with pytest.raises(ValueError, match="serial_below"):
+        Plan(workers=2, serial_below=-1)
+    # three tasks of 1,000 frames each with two workers: 3,000 < 4,000 frames, so they run in this
+    # process (a cluster could not even pickle the lambda), one tick per frame reaching the bar
+    ticks = []
+
+    def task(item, tick):
+        for _ in range(item):
+            tick()
+        ticks.append(item)
+        return os.getpid()
+
+    assert LOCAL_MIN_FRAMES_PER_WORKER == 2000  # the numbers of this test
+    pids = run_tasks(task, [1000, 1000, 1000], two, quiet=True, steps=lambda item: item)
+    assert pids == [os.getpid()] * 3 and ticks == [1000, 1000, 1000]
 
 
 def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, serial, tmp_path):
@@ -155,6 +182,8 @@ def test_two_inputs_with_one_name_are_a_one_line_error(tmp_path):
     (["--out", "x.txt", "--out-dir", "d"], "give --out FILE (one --dets) or --out-dir DIR"),
     (["--out", "x.txt", "--workers", "0"], "--workers must be >= 1"),
     (["--out", "x.txt", "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "not both"),
+    (["--out-dir", "d", "--serial-below", "100"], "--serial-below is for a local cluster: give --workers N"),
+    (["--out-dir", "d", "--workers", "2", "--serial-below", "-1"], "--serial-below must be >= 0 frames"),
     (["--out-dir", "d", "--events", "e.lp"], "use them with --out"),
 ])
 def test_track_option_mistakes(argv, message, tmp_path):

@@ -324,7 +324,9 @@ def test_a_cluster_run_advances_its_bar_by_each_tasks_frames(monkeypatch):
     monkeypatch.setattr(scaleout, "Progress", _Bar)
     _Bar.made.clear()
     items = [("a", 3, 3), ("b", 2, 2)]
-    assert run_tasks(_frames, items, Plan(workers=2), describe=lambda it: it[0], steps=lambda it: it[1]) == ["a", "b"]
+    # serial_below=0: a cluster for these 5 frames (the scale-out rule would run them serially)
+    assert run_tasks(_frames, items, Plan(workers=2, serial_below=0), describe=lambda it: it[0],
+                     steps=lambda it: it[1]) == ["a", "b"]
     (bar,) = _Bar.made
     assert bar.total == 5
     steps = sorted(e for e in bar.events if e[0] == "step")  # tasks finish in any order

@@ -99,8 +99,13 @@ def _plan(args: argparse.Namespace):
     if args.workers is None and args.scheduler is None and (args.connect_timeout or args.worker_timeout):
         raise UserError("--connect-timeout and --worker-timeout are for a Dask run: give --workers N or "
                         "--scheduler ADDRESS")
+    serial_below = getattr(args, "serial_below", None)
+    if serial_below is not None and args.workers is None:
+        raise UserError("--serial-below is for a local cluster: give --workers N")
+    if serial_below is not None and serial_below < 0:
+        raise UserError(f"--serial-below must be >= 0 frames, got {serial_below}")
     return Plan(workers=args.workers or 1, scheduler=args.scheduler, connect_timeout=args.connect_timeout,
-                worker_timeout=args.worker_timeout)
+                worker_timeout=args.worker_timeout, serial_below=serial_below)
 
 
 class CheckFailed(Exception):

@@ -9,6 +9,7 @@ from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cm
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..evaluation.devkits import DEVKITS
 from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
+from ..experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
 from .demo import cmd_demo
@@ -133,7 +134,12 @@ def _option_value(option: "TrackerOption"):
 
 def _add_scaleout(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="run the sequences as tasks on a local Dask cluster of N processes (docs/scale-out.md)")
+                   help="run the sequences as tasks on a local Dask cluster of N processes, when there are at "
+                        f"least {LOCAL_MIN_FRAMES_PER_WORKER} x N frames (fewer: serially, the same bytes; "
+                        "docs/scale-out.md)")
+    p.add_argument("--serial-below", type=int, default=None, metavar="FRAMES",
+                   help="with --workers: start the local cluster only for at least this many frames "
+                        f"(default {LOCAL_MIN_FRAMES_PER_WORKER} x N; 0: always)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run the tasks on an existing Dask cluster, e.g. tcp://10.0.0.5:8786")
     p.add_argument("--connect-timeout", type=_time_limit, default=None, metavar="SECONDS",

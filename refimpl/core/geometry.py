@@ -51,6 +51,23 @@ def integer_box(box: np.ndarray) -> Box:
     return (x, y, max(w, 1), max(h, 1))
 
 
+_EXACT_INT = 2.0 ** 52
+"""Below this every float64 is exactly convertible to int64 after rounding (integer_boxes)."""
+
+
+def integer_boxes(boxes: np.ndarray) -> list[Box]:
+    """[integer_box(b) for b in boxes] for an (n, 4) float array, computed on the whole array: the
+    same rounding (floor(v + 0.5): one float64 addition and floor, elementwise), the same integers.
+    Where a value is not finite or too large to round exactly in int64 (|v| >= 2^52), every box
+    goes through integer_box, so such values fail (or convert) exactly as they do there."""
+    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    if not np.all(np.abs(b) < _EXACT_INT):  # also False for NaN
+        return [integer_box(v) for v in b]
+    r = np.floor(b + 0.5).astype(np.int64)
+    np.maximum(r[:, 2:], 1, out=r[:, 2:])
+    return [tuple(v) for v in r.tolist()]  # type: ignore[misc]
+
+
 def intersection_area(a: Box, b: Box) -> int:
     """Integer overlap area of two integer boxes (the spatial relations use integers, as the ASP model does)."""
     iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])

@@ -39,6 +39,8 @@ What the model computes (model/*.lp, the same in refimpl/knowledge/relations.py 
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 from .spec import ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, FrameProblem, ProblemFormatError
 
 BOX_LIMIT = 2 ** 28
@@ -65,8 +67,12 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
     backend; the optimisation sums are clingo's alone: ``clingo_overflow``)."""
     from .constants import resolve_constants
     consts = resolve_constants(problem)
-    for name, value in consts.items():
-        check_constant(name, value, source)
+    # a tracker's constants are the same on every frame but curr_time: checked once
+    if _constants_fit(tuple(kv for kv in consts.items() if kv[0] != "curr_time")):
+        check_constant("curr_time", consts["curr_time"], source)
+    else:
+        for name, value in consts.items():
+            check_constant(name, value, source)  # raises, naming this problem's source
     hide = max(100, consts.get("hide_overlap", 100))
     for kind, objects in (("detection", problem.detections), ("track", problem.tracks)):
         for o in objects:
@@ -89,6 +95,17 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
         if problem.time - h.time > ASP_INT_MAX:
             raise ProblemFormatError(f"curr_time - {h.time} (history event {h}) = {problem.time - h.time} exceeds "
                                      f"{ASP_INT_MAX} (clingo's 32-bit integers)", source)
+
+
+@lru_cache(maxsize=256)
+def _constants_fit(items: tuple[tuple[str, int], ...]) -> bool:
+    """Whether every (name, value) passes check_constant (memoised)."""
+    try:
+        for name, value in items:
+            check_constant(name, value)
+    except ProblemFormatError:
+        return False
+    return True
 
 
 class OutOfClingoRange(ProblemFormatError):

@@ -214,16 +214,23 @@ class FrameProblem:
         return parse_facts(text, source)
 
 
-def _check_symbol(name: str, what: str) -> None:
-    if not isinstance(name, str) or not _SYMBOL.fullmatch(name):
-        raise ProblemFormatError(f"{what}: {_symbol_error(str(name))}")
+def _check_symbol(name: str, what: str, of: str = "") -> None:
+    """``what`` + ``of`` names the symbol in the message (joined only for one: this runs per object)."""
+    if not isinstance(name, str) or not _is_symbol(name):
+        raise ProblemFormatError(f"{what}{of}: {_symbol_error(str(name))}")
+
+
+@lru_cache(maxsize=1 << 12)
+def _is_symbol(name: str) -> bool:
+    """_SYMBOL.fullmatch, memoised: a tracker's ids and types come back every frame."""
+    return _SYMBOL.fullmatch(name) is not None
 
 
 def _validate(p: FrameProblem) -> None:
     ids: set[str] = set()
     for o in p.detections + p.tracks:
         _check_symbol(o.id, "id")
-        _check_symbol(o.type, f"type of {o.id}")
+        _check_symbol(o.type, "type of ", o.id)
     for name, _ in p.constants:
         _check_symbol(name, "#const name")
     for d in p.detections:
@@ -259,7 +266,8 @@ def _validate(p: FrameProblem) -> None:
 
 
 def _check_box(ident: str, box: Box) -> None:
-    if len(box) != 4 or not all(isinstance(v, int) for v in box):
+    if len(box) != 4 or not (isinstance(box[0], int) and isinstance(box[1], int) and isinstance(box[2], int)
+                             and isinstance(box[3], int)):
         raise ProblemFormatError(f"box of {ident} must be four integers")
     if box[2] <= 0 or box[3] <= 0:
         raise ProblemFormatError(f"box of {ident} must have width and height > 0, got {box[2]}x{box[3]}")

@@ -5,7 +5,8 @@
 * ``Plan(workers=1)`` and no scheduler: a plain loop in this process;
 * ``Plan(workers=N)``, N > 1: an embedded ``distributed.LocalCluster`` on 127.0.0.1 with N
   worker processes of one thread each (at most one per task), started for the call and closed
-  after it;
+  after it, for work of at least N x LOCAL_MIN_FRAMES_PER_WORKER frames (smaller work: the
+  plain loop, the scale-out rule);
 * ``Plan(scheduler="tcp://host:port")``: an existing cluster (``dask scheduler`` plus
   ``dask worker`` processes, dask-jobqueue, dask-kubernetes; docs/scale-out.md).
 
@@ -50,6 +51,17 @@ WORKERS_PER_CPU = 4
 """A local cluster of more than this many worker processes per CPU is refused: the solvers are
 single-threaded, so workers beyond one per CPU only share the CPUs (and each costs a process with
 the solvers imported, about 150 MB); 4x leaves room to oversubscribe on purpose."""
+
+LOCAL_MIN_FRAMES_PER_WORKER = 2000
+"""The scale-out rule: a local cluster of N workers is started only for a run of at least N times
+this many frames (tasks whose size is counted in frames: track, benchmark); a smaller run is
+tracked serially in this process, which writes the same bytes.  A local cluster costs a fixed
+~8-10 CPU-seconds (the scheduler, nannies and worker processes importing Dask and refimpl;
+measured on 12 KITTI Car sequences: 21 CPU-s with 2 workers against 12 serially) and, on an idle
+2-core machine, ~3.5-4.5 s of wall time (docs/scale-out.md); 2,000 frames are ~4-5 s of
+abduction per worker, so below this a cluster cannot win.  An existing cluster (``scheduler``)
+is always used: its start-up is paid already.  ``Plan(serial_below=...)`` (``--serial-below``)
+sets the threshold, 0 always uses the cluster."""
 
 SCHEMES = ("tcp", "tls", "ws", "wss")
 """Dask address schemes a separate process can connect to (``inproc://`` lives inside one process)."""
@@ -116,10 +128,15 @@ class Plan:
     """Seconds; None for DEFAULT_CONNECT_TIMEOUT."""
     worker_timeout: float | None = None
     """Seconds; None for DEFAULT_WORKER_TIMEOUT."""
+    serial_below: int | None = None
+    """Frames: a local cluster runs only work of at least this many frames (None:
+    LOCAL_MIN_FRAMES_PER_WORKER x workers; 0: always); see :meth:`serial_for`."""
 
     def __post_init__(self) -> None:
         if self.workers < 1:
             raise ValueError(f"workers must be >= 1, got {self.workers}")
+        if self.serial_below is not None and self.serial_below < 0:
+            raise ValueError(f"serial_below must be >= 0 frames, got {self.serial_below}")
         for name in ("connect_timeout", "worker_timeout"):
             value = getattr(self, name)
             if value is not None and not value > 0:
@@ -134,6 +151,19 @@ class Plan:
     @property
     def distributed(self) -> bool:
         return self.scheduler is not None or self.workers > 1
+
+    @property
+    def frames_threshold(self) -> int:
+        """The fewest frames a local cluster is started for (LOCAL_MIN_FRAMES_PER_WORKER)."""
+        return LOCAL_MIN_FRAMES_PER_WORKER * self.workers if self.serial_below is None else self.serial_below
+
+    def serial_for(self, frames: int | None) -> bool:
+        """Whether work of this many frames (None: not counted in frames) runs in this process: no
+        cluster asked for, or a local one that would cost more than it saves (frames below
+        :attr:`frames_threshold`).  An existing cluster (``scheduler``) is always used."""
+        if not self.distributed:
+            return True
+        return self.scheduler is None and frames is not None and frames < self.frames_threshold
 
     @property
     def connect_seconds(self) -> float:
@@ -161,12 +191,13 @@ def run_tasks(fn: Callable[..., R], items: Sequence[T], plan: Plan = Plan(), lab
     it counts steps (frames), ``fn`` is called as ``fn(item, tick)`` and should call ``tick()``
     once per step: in a serial run every tick advances the bar (a long single sequence moves frame
     by frame); on a cluster ``tick`` is :func:`no_tick` and the bar advances by ``steps(item)``
-    when the task finishes."""
+    when the task finishes.  With ``steps`` a local cluster runs only work of at least
+    ``plan.frames_threshold`` steps, smaller work runs serially (:meth:`Plan.serial_for`)."""
     items = list(items)
     sizes = [int(steps(item)) for item in items] if steps is not None else [1] * len(items)
     progress = Progress(sum(sizes), label, enabled=not quiet, unit="task" if steps is None else "frame")
     try:
-        if not plan.distributed or not items:
+        if not items or plan.serial_for(sum(sizes) if steps is not None else None):  # the scale-out rule
             out = []
             for item, size in zip(items, sizes):
                 if steps is None:

@@ -36,6 +36,7 @@ to ground them over the tracks of the problem).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Callable, Iterable, Mapping, Union
 
 from ..core.geometry import intersection_area
@@ -71,6 +72,20 @@ FluentLike = Union[Term, str, tuple]
 
 def fluent_key(fluent: FluentLike) -> FluentKey:
     """('visibility', 'trk_1') from a Term, an atom string 'visibility(trk_1)' or a tuple."""
+    if type(fluent) is tuple:  # the queries' own form, asked thousands of times a frame: memoised
+        try:
+            return _tuple_fluent_key(fluent)
+        except TypeError:  # an unhashable element: not memoisable (and not a fluent either)
+            pass
+    return _fluent_key(fluent)
+
+
+@lru_cache(maxsize=1 << 14)
+def _tuple_fluent_key(fluent: tuple) -> FluentKey:
+    return _fluent_key(fluent)
+
+
+def _fluent_key(fluent: FluentLike) -> FluentKey:
     if isinstance(fluent, str):
         fluent = parse_term(fluent)
     if isinstance(fluent, Term):
@@ -228,7 +243,10 @@ class EventState:
     # -- queries -----------------------------------------------------------------------------
     def values(self, fluent: FluentLike) -> frozenset[str]:
         """The set of values the fluent holds at curr_time (one value unless set-valued)."""
-        key = fluent_key(fluent)
+        return self.values_of_key(fluent_key(fluent))
+
+    def values_of_key(self, key: FluentKey) -> frozenset[str]:
+        """:meth:`values` of a fluent already given as its key (what :func:`fluent_key` returns)."""
         got = self._values.get(key)
         if got is not None:
             return got
@@ -512,6 +530,7 @@ EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
 )}
 """event name -> EventType, in the order of the paper's Table "Events"."""
 
+@lru_cache(maxsize=None)
 def explaining(action: str) -> tuple[EventType, ...]:
     """The events that may explain an action, in table order (() for assign and ignore_det; for
     ignore_trk the events that re-explain a missing track, see :func:`reexplained`)."""

@@ -226,6 +226,91 @@ def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> 
     return TiebreakWeights(pair, event, component, max(bound, 0).bit_length())
 
 
+_UNARY_AT = {n: k for k, n in enumerate(n for n in EVENT_NAMES if EFFECTS[n][0] == 1)}
+_BINARY_AT = {n: k for k, n in enumerate(n for n in EVENT_NAMES if EFFECTS[n][0] == 2)}
+
+
+class LazyTiebreak:
+    """The numbers of :func:`tiebreak_weights` that the fast path reads, computed where asked: the
+    index of one event (``index``, ``TiebreakWeights.event.get(term, 0)``), E (``shift``) and the
+    pair weights (``pair``), without spelling out every possible event of the frame.
+
+    The same definitions (module docstring): an event's index is its position in its first
+    argument's list, the arity-1 events in EVENT_NAMES order and then each arity-2 event with the
+    other tracks in ``_event_candidates``' order; E counts len(list) - 1 per track and detection.
+    ``pairs``: the candidate pairs (:func:`candidate_pairs`) as (track index, detection index)
+    in problem order, which the caller has computed already; their weights are 2^rank in their
+    component of the candidate-pair graph, as in ``components``."""
+
+    def __init__(self, problem: FrameProblem, inter: np.ndarray, pairs: Sequence[tuple[int, int]]):
+        tracks, dets = problem.tracks, problem.detections
+        self._tracks, self._inter = tracks, inter
+        self._t_index = {t.id: i for i, t in enumerate(tracks)}
+        self._d_ids = {d.id for d in dets}
+        ids = self._t_index
+        named: dict[str, set[str]] = {}
+        for h in problem.history:
+            args = [str(a) for a in h.event.args]
+            if len(args) >= 2 and args[0] in ids:
+                named.setdefault(args[0], set()).update(a for a in args[1:] if a in ids and a != args[0])
+        self._named = named
+        self._others: dict[int, list[str]] = {}
+        nu, nb = len(_UNARY_AT), len(_BINARY_AT)
+        # overlapping other tracks per row (inter[i, i] is the box's own area, > 0)
+        over = (np.count_nonzero(inter, axis=1) - (np.diagonal(inter) != 0)).tolist() if len(tracks) else []
+        bound = len(dets) * (nu - 1)
+        for i, t in enumerate(tracks):
+            extra = named.get(t.id)
+            n_others = over[i]
+            if extra:
+                near = set(np.flatnonzero(inter[i]).tolist())
+                n_others += sum(1 for x in extra if ids[x] not in near)
+            bound += nu + nb * n_others - 1
+        self.shift = max(bound, 0).bit_length()
+        nt = len(tracks)
+        sets = DisjointSets(nt + len(dets))
+        for i, j in pairs:
+            sets.union(i, nt + j)
+        groups: dict[int, list[tuple[str, str]]] = {}
+        for i, j in pairs:
+            groups.setdefault(sets.find(i), []).append((tracks[i].id, dets[j].id))
+        nat = _natural_key
+        self.pair: dict[tuple[str, str], int] = {}
+        for group in groups.values():
+            group.sort(key=lambda p: (nat(p[0]), nat(p[1])))
+            for q, p in enumerate(group):
+                self.pair[p] = 1 << q
+
+    def _others_of(self, i: int) -> list[str]:
+        got = self._others.get(i)
+        if got is None:  # _event_candidates' order
+            tracks, nat = self._tracks, _natural_key
+            row = self._inter[i].tolist()  # Python ints: the same values as int(inter[i, j])
+            over = [j for j, v in enumerate(row) if v and j != i]
+            over.sort(key=lambda j: (-row[j], nat(tracks[j].id)))
+            got = [tracks[j].id for j in over]
+            seen = set(got)
+            got += sorted((x for x in self._named.get(tracks[i].id, ()) if x not in seen), key=nat)
+            self._others[i] = got
+        return got
+
+    def index(self, name: str, args: Sequence[str]) -> int:
+        """The index of the event name(args), 0 where tiebreak_weights has no such event."""
+        if len(args) == 1:
+            k = _UNARY_AT.get(name)
+            return k if k is not None and (args[0] in self._t_index or args[0] in self._d_ids) else 0
+        if len(args) == 2:
+            b, i = _BINARY_AT.get(name), self._t_index.get(args[0])
+            if b is None or i is None:
+                return 0
+            others = self._others_of(i)
+            try:
+                return len(_UNARY_AT) + b * len(others) + others.index(args[1])
+            except ValueError:
+                return 0
+        return 0
+
+
 def pair_atom(atom: str) -> tuple[str, str] | None:
     """(trk, det) of an assign/resume atom, else None."""
     term = parse_atom(atom)

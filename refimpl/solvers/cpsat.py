@@ -119,7 +119,7 @@ class CpSatSolver:
             # ImportError, not the KeyboardInterrupt that ends a command cleanly)
             from ortools.sat.python import cp_model  # noqa: F401
         self.stats: Counter[str] = Counter()
-        self._state_cache: dict[tuple[str, tuple], EventState] = {}
+        self._state_cache: dict[tuple[str, tuple], tuple[EventState, dict]] = {}
 
     def _fallback(self, problem: FrameProblem, start: float, time_limit: float | None) -> Hypothesis:
         self.stats["timeout"] += 1

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
 from ..knowledge.events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
-from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
+from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..core.spec import Detection, FrameProblem, TrackPrediction, parse_atom
 from ..knowledge.relations import area
 from . import NoAdmissibleHypothesis, SolveTimeout
@@ -32,9 +32,18 @@ _EVENT_AT = PRIORITIES.index(EVENT_LEVEL)
 _TIE_AT = PRIORITIES.index(TIEBREAK_LEVEL)
 
 
+_BASE_COST = {name: action_cost(name) for name in ACTION_TABLE}
+_LIKELIHOOD_AT = {name: PRIORITIES.index(a.likelihood_level) for name, a in ACTION_TABLE.items()
+                  if a.likelihood_level is not None}
+
+
 def _cost(action: str, likelihood: int = 0, event: int = 0, tiebreak: int = 0) -> tuple[int, ...]:
-    """An action's cost vector in PRIORITIES order, with its explaining event's cost and tie-break."""
-    out = list(action_cost(action, likelihood))
+    """An action's cost vector in PRIORITIES order, with its explaining event's cost and tie-break
+    (action_cost's vector, from a table: this runs for every option of every frame)."""
+    out = list(_BASE_COST[action])
+    at = _LIKELIHOOD_AT.get(action)
+    if at is not None:
+        out[at] -= likelihood
     out[_EVENT_AT] += event
     out[_TIE_AT] += tiebreak
     return tuple(out)
@@ -44,9 +53,12 @@ def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction],
                      state: EventState) -> Sequence[TrackPrediction]:
     """The second tracks worth testing poss for a pair event of tracks[i]: every other track, narrowed
     (as a speed-up only, same answers) by the condition its precondition implies (EventType.prefilter):
-    'overlapping_top' (hides_behind: the top matrix), 'hidden' (unhides_from_behind: the track not_visible)."""
+    'overlapping_top' (hides_behind: the top matrix), 'hidden' (unhides_from_behind: the track
+    not_visible).  ``top``: the matrix, or its rows as lists of column indices (fast_path._rows,
+    computed once per frame)."""
     if spec.prefilter == "overlapping_top":
-        return [tracks[j] for j in np.flatnonzero(top[i]).tolist()]
+        row = top[i]
+        return [tracks[j] for j in (row if isinstance(row, list) else np.flatnonzero(row).tolist())]
     if spec.prefilter == "hidden" and not _hidden(state, tracks[i].id):
         return ()
     return [t2 for t2 in tracks if t2.id != tracks[i].id]

@@ -11,10 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
+import numpy as np
+
 from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, fluent_key, reexplained
 from ..core.hypothesis import PRIORITIES
-from ..core.spec import FrameProblem
-from .common import DisjointSets, intersection_matrix, tiebreak_weights
+from ..core.spec import FrameProblem, Term
+from .common import DisjointSets, LazyTiebreak, intersection_matrix
 from .admissibility import assignment_constraints, resume_constraints, start_constraints
 from .cpsat_model import _cost, _explanations, _overlapping_top_matrix
 
@@ -71,12 +73,16 @@ class _Option:
 
 def _cheapest(explanations: list[tuple[tuple[int, int], str]]) -> tuple[tuple[int, int], str, bool]:
     """The (level-1, level-0) cheapest explanation, and whether another one costs the same."""
+    if len(explanations) == 1:
+        return explanations[0][0], explanations[0][1], False
     best = min(explanations)
     return best[0], best[1], sum(1 for c, _ in explanations if c == best[0]) > 1
 
 
 def _best_solo(options: list[_Option]) -> _Option:
     """The cheapest solo option; marked tied when another solo option has the same cost vector."""
+    if len(options) == 1:
+        return options[0]
     best = min(options, key=lambda o: o.cost)
     if sum(1 for o in options if o.cost == best.cost) > 1:
         return _Option(best.action, best.event, best.cost, True)
@@ -198,49 +204,51 @@ class TrackwiseState:
     (refimpl.knowledge.events.EFFECTS: each effect's fluent has the event's first argument as its own first
     argument; recover's "hidden_by(T, X) for every X" too), and the set-valued grouping of one
     time point is per fluent; folding a track's events in time order (stable, as EventState does)
-    gives that track's fluents exactly.  Per-track states are reused across frames while the
-    track's events are unchanged (``cache``), so a tracker's frame folds only new events;
+    gives that track's fluents exactly.  Per-track states, with the holds_at answers they gave, are
+    reused across frames while the track's events are unchanged (``cache``), so a tracker's frame
+    folds only new events and asks each state only what no earlier frame asked;
     ``used`` holds the entries this frame needed, the cache to pass to the next frame."""
 
     _EMPTY = EventState()
 
     def __init__(self, history: Sequence, tracks: Sequence[str],
-                 cache: dict[tuple[str, tuple], EventState] | None = None):
+                 cache: dict[tuple[str, tuple], tuple[EventState, dict]] | None = None):
         groups: dict[str, list] = {}
         for h in history:
             args = h.event.args
             if args:  # events without arguments have no effect (no EFFECTS entry of arity 0)
-                groups.setdefault(str(args[0]), []).append(h)
+                a0 = args[0]  # str(Term) of a constant is its name
+                groups.setdefault(a0.name if type(a0) is Term and not a0.args else str(a0), []).append(h)
         cache = {} if cache is None else cache
-        self.used: dict[tuple[str, tuple], EventState] = {}
-        self._per: dict[str, EventState] = {}
+        # per track: its EventState and the memo of its holds_at answers, which never change (the
+        # state is folded once from the track's events; a new event makes a new key)
+        self.used: dict[tuple[str, tuple], tuple[EventState, dict]] = {}
+        self._per: dict[str, tuple[EventState, dict]] = {}
         for trk in tracks:
             events = groups.get(trk)
             if not events:
                 continue
             key = (trk, tuple(events))
-            st = cache.get(key)
-            if st is None:
-                st = EventState(events, (trk,))
-            self.used[key] = self._per[trk] = st
-        self._memo: dict = {}
+            entry = cache.get(key)
+            if entry is None:
+                entry = (EventState(events, (trk,)), {})
+            self.used[key] = self._per[trk] = entry
+        self._empty = (self._EMPTY, {})
 
     def _state(self, trk: str) -> EventState:
-        return self._per.get(trk, self._EMPTY)
+        return self._per.get(trk, self._empty)[0]
 
     def values(self, fluent) -> frozenset[str]:
         key = fluent_key(fluent)
-        return self._state(key[1]).values(key)
+        return self._state(key[1]).values_of_key(key)
 
     def holds_at(self, fluent, value: str) -> bool:
-        memo_key = (fluent, value) if isinstance(fluent, tuple) else None
-        if memo_key is not None:
-            got = self._memo.get(memo_key)
-            if got is not None:
-                return got
-        got = value in self.values(fluent)
-        if memo_key is not None:
-            self._memo[memo_key] = got
+        key = fluent_key(fluent)
+        st, memo = self._per.get(key[1], self._empty)
+        memo_key = (key, value)
+        got = memo.get(memo_key)
+        if got is None:
+            got = memo[memo_key] = value in st.values_of_key(key)
         return got
 
     def started_at(self, trk: str) -> int | None:
@@ -248,6 +256,16 @@ class TrackwiseState:
 
     def halted_at(self, trk: str) -> int | None:
         return self._state(trk).halted_at(trk)
+
+
+def _rows(top: "np.ndarray") -> list[list[int]]:
+    """The column indices of each row's True entries (np.flatnonzero(top[i]).tolist() per row i),
+    from one np.nonzero of the whole matrix (row-major, so each row's in increasing order)."""
+    out: list[list[int]] = [[] for _ in range(top.shape[0])]
+    ii, jj = np.nonzero(top)
+    for i, j in zip(ii.tolist(), jj.tolist()):
+        out[i].append(j)
+    return out
 
 
 @dataclass
@@ -271,46 +289,57 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     tracks, dets = problem.tracks, problem.detections
     iou = problem.iou_map
     inter = intersection_matrix([t.box for t in tracks])
-    tb = tiebreak_weights(problem, inter)
-    ev = tb.event  # level 0 of an explaining event: its index (common.py)
+    t_index = {t.id: i for i, t in enumerate(tracks)}
+    d_index = {d.id: j for j, d in enumerate(dets)}
+    by_id = {t.id: t for t in tracks}
+    # the candidate pairs (common.candidate_pairs: an iou/3 fact and the pair action's integrity
+    # constraint), which rank the pair actions of the tie-break; an edge below is one of them
+    pairs: list[tuple[int, int]] = []
+    for (tid, did) in iou:
+        i, j = t_index.get(tid), d_index.get(did)
+        if i is None or j is None:
+            continue
+        t, d = tracks[i], dets[j]
+        if (assignment_constraints(problem, constants, iou, t, d) if t.state == "active"
+                else resume_constraints(problem, constants, iou, t, d, state, by_id)):
+            pairs.append((i, j))
+    tb = LazyTiebreak(problem, inter, pairs)  # = tiebreak_weights' numbers, computed where asked
+    ev = tb.index  # level 0 of an explaining event: its index (common.py)
     w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
     cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
     top = _overlapping_top_matrix(tracks, inter, constants["hide_overlap"])
-    t_index = {t.id: i for i, t in enumerate(tracks)}
-    d_index = {d.id: j for j, d in enumerate(dets)}
+    top_rows = _rows(top)
     paired = {tid for tid, _ in iou}
-    by_id = {t.id: t for t in tracks}
 
     def priced(found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:
-        return [((cost[spec.name], ev.get(f"{spec.name}({','.join(args)})", 0)), f"{spec.name}({','.join(args)})")
-                for spec, args in found]
+        return [((cost[spec.name], ev(spec.name, args)), f"{spec.name}({','.join(args)})") for spec, args in found]
 
     # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
     solo_t: list[_Option] = []
     resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
     for i, t in enumerate(tracks):
         if t.state == "active":
-            expl = priced(_explanations("halt", i, tracks, top, state, constants, by_id))
+            expl = priced(_explanations("halt", i, tracks, top_rows, state, constants, by_id))
             if not expl:
                 raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
             (c1, c0), event, tie = _cheapest(expl)
             solo_t.append(_Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie))
         else:
-            again = (priced(_explanations("ignore_trk", i, tracks, top, state, constants, by_id))
+            again = (priced(_explanations("ignore_trk", i, tracks, top_rows, state, constants, by_id))
                      if reexplained(state, t.id) else [])
             if again:  # explain_ignore: the ignore of a missing track carries its re-explanation
                 (c1, c0), event, tie = _cheapest(again)
                 options = [_Option(f"ignore_trk({t.id})", event, _cost("ignore_trk", event=c1, tiebreak=c0), tie)]
             else:
                 options = [_Option(f"ignore_trk({t.id})", None, _cost("ignore_trk"))]
-            ends = priced(_explanations("end", i, tracks, top, state, constants, by_id))
+            ends = priced(_explanations("end", i, tracks, top_rows, state, constants, by_id))
             if ends:
                 (c1, c0), event, tie = _cheapest(ends)
                 options.append(_Option(f"end({t.id})", event, _cost("end", event=c1, tiebreak=c0), tie))
             solo_t.append(_best_solo(options))
             if t.id not in paired:
                 continue  # no iou/3 pair: no resume, no explanation needed
-            expl = priced(_explanations("resume", i, tracks, top, state, constants, by_id))
+            expl = priced(_explanations("resume", i, tracks, top_rows, state, constants, by_id))
             if expl:
                 resume_expl[i] = _cheapest(expl)
 
@@ -318,7 +347,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     solo_d: list[_Option] = []
     for d in dets:
         options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
-        starts = [((cost[spec.name], ev.get(f"{spec.name}({d.id})", 0)), f"{spec.name}({d.id})")
+        starts = [((cost[spec.name], ev(spec.name, (d.id,))), f"{spec.name}({d.id})")
                   for spec in explaining("start")
                   if spec.poss(state, constants, d.id, tracks=None)]
         if start_constraints(constants, d) and starts:
@@ -328,23 +357,20 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
 
     # -- pair options (edges): assign for active tracks, resume for halted ones ------------------
     edges: list[tuple[int, int, _Option]] = []
-    for (tid, did), v in iou.items():
-        i, j = t_index.get(tid), d_index.get(did)
-        if i is None or j is None:
-            continue
+    for i, j in pairs:  # candidate pairs, in iou/3 order
         t, d = tracks[i], dets[j]
+        tid, did = t.id, d.id
         if t.state == "active":
-            if assignment_constraints(problem, constants, iou, t, d):
-                edges.append((i, j, _Option(f"assign({tid},{did})", None,
-                                            _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))))
-        elif i in resume_expl and resume_constraints(problem, constants, iou, t, d, state, by_id):
+            edges.append((i, j, _Option(f"assign({tid},{did})", None,
+                                        _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))))
+        elif i in resume_expl:
             (c1, c0), event, tie = resume_expl[i]
             edges.append((i, j, _Option(f"resume({tid},{did})", event,
                                         _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0),
                                         tie)))
 
     # -- one integer per cost vector, in the lexicographic order ---------------------------------
-    bound = sum(abs(c) for o in solo_t + solo_d for c in o.cost) + sum(abs(c) for _, _, o in edges for c in o.cost)
+    bound = sum(sum(map(abs, o.cost)) for o in solo_t + solo_d) + sum(sum(map(abs, o.cost)) for _, _, o in edges)
     base = 2 * bound + 1
 
     def scalar(v: tuple[int, ...]) -> int:

@@ -35,14 +35,15 @@ defaults are this conservative.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 import numpy as np
 
-from ..core.geometry import integer_box, iou_matrix, scale_iou
+from ..core.geometry import integer_box, integer_boxes, iou_matrix, scale_iou
 from ..knowledge.events import explaining
-from ..core.hypothesis import Hypothesis
+from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, InvalidPrediction
 from .options import TrackerOptions, WrittenBox
 from ..core.ranges import check_ranges
@@ -190,15 +191,18 @@ class AbductionTracker:
         predicted = np.array([self._bounded(self._predict(t, self.hold_hidden)) for t in tracks]).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
-        detections = tuple(
-            Detection(_det_id(i), types[i], int(confidences[i]), integer_box(boxes[i]))
-            for i in range(len(boxes)))
-        predictions = tuple(
-            TrackPrediction(t.id, t.type, t.state, integer_box(predicted[k])) for k, t in enumerate(tracks))
-        ml = scale_iou(iou_matrix(predicted, boxes)) if len(tracks) and len(boxes) else np.zeros((0, 0), int)
-        iou = tuple(
-            (tracks[k].id, _det_id(j), int(ml[k, j]))
-            for k in range(ml.shape[0]) for j in range(ml.shape[1]) if ml[k, j] > 0)
+        det_ids = [_det_id(i) for i in range(len(boxes))]
+        conf = np.asarray(confidences).reshape(-1).tolist()
+        detections = tuple(Detection(det_ids[i], types[i], int(conf[i]), b)
+                           for i, b in enumerate(integer_boxes(boxes)))
+        predictions = tuple(TrackPrediction(t.id, t.type, t.state, b)
+                            for t, b in zip(tracks, integer_boxes(predicted)))
+        iou: tuple[tuple[str, str, int], ...] = ()
+        if len(tracks) and len(boxes):
+            ml = scale_iou(iou_matrix(predicted, boxes))
+            ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
+            iou = tuple((tracks[k].id, det_ids[j], v)
+                        for k, j, v in zip(ks.tolist(), js.tolist(), ml[ks, js].tolist()))
         history = tuple(e for t in tracks for e in t.history)
         return FrameProblem(time=frame, detections=detections, tracks=predictions, iou=iou,
                             constants=self.constants, history=history)
@@ -206,14 +210,18 @@ class AbductionTracker:
     def _bounded(self, box: np.ndarray) -> np.ndarray:
         """A prediction clipped to the image extended by one image size on every side, its area
         capped at MAX_BOX_AREA: a long-halted track's area velocity cannot blow it past the ASP
-        model's 32-bit integer arithmetic (the relations compute 100 * area)."""
-        w = self.constant_map.get("img_width", 0) or 1500
-        h = self.constant_map.get("img_height", 0) or 1500
-        x1, y1 = np.clip(box[0], -w, 2 * w), np.clip(box[1], -h, 2 * h)
-        x2, y2 = np.clip(box[0] + box[2], -w, 2 * w), np.clip(box[1] + box[3], -h, 2 * h)
+        model's 32-bit integer arithmetic (the relations compute 100 * area).
+
+        On Python floats: min(max(v, lo), hi) is np.clip of a finite value (a prediction is finite,
+        BoxKalman.predict checks it), and +, -, *, / and sqrt round as numpy's float64 ones do."""
+        w = float(self.constant_map.get("img_width", 0) or 1500)
+        h = float(self.constant_map.get("img_height", 0) or 1500)
+        bx, by, bw0, bh0 = box.tolist()
+        x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
+        x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
         bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
         if bw * bh > MAX_BOX_AREA:
-            shrink = float(np.sqrt(MAX_BOX_AREA / (bw * bh)))
+            shrink = math.sqrt(MAX_BOX_AREA / (bw * bh))
             cx, cy = x1 + bw / 2, y1 + bh / 2
             bw, bh = bw * shrink, bh * shrink
             x1, y1 = cx - bw / 2, cy - bh / 2
@@ -281,13 +289,21 @@ class AbductionTracker:
     def _apply(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
                hyp: Hypothesis) -> None:
         index = {_det_id(j): j for j in range(len(boxes))}
-        self.owners = {index[d]: t for t, d in (*hyp.assignments, *hyp.resumes)}
+        # the actions parsed once, by name, in sorted atom order (what Hypothesis.assignments,
+        # .resumes, ... return one name at a time)
+        acts: dict[str, list[tuple[str, ...]]] = {}
+        for atom in hyp.actions:
+            name, args = parse_action(atom)
+            acts.setdefault(name, []).append(args)
+        assignments, resumes = acts.get("assign", ()), acts.get("resume", ())
+        event_terms = hyp.event_terms
+        self.owners = {index[d]: t for t, d in (*assignments, *resumes)}
         scene = self._scene_velocity(frame) if self.scene_velocity else None
-        for trk_id, det_id in hyp.assignments:  # sorted atom order: deterministic
+        for trk_id, det_id in assignments:  # sorted atom order: deterministic
             self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
-        unhidden = {args[0] for name, args in hyp.event_terms
-                    if name in _UNHIDING} if self.fill_hidden and hyp.resumes else set()
-        for trk_id, det_id in hyp.resumes:
+        unhidden = {args[0] for name, args in event_terms
+                    if name in _UNHIDING} if self.fill_hidden and resumes else set()
+        for trk_id, det_id in resumes:
             trk, j = self.tracks[trk_id], index[det_id]
             last = max(trk.observed)
             gap = frame - last - 1
@@ -302,11 +318,11 @@ class AbductionTracker:
             self._observe(trk, frame, boxes[j], resumed=True)
             if trk.bridged and self.sink is not None:
                 self._pend_gap(trk, last, frame)
-        for trk_id in hyp.halts:
+        for (trk_id,) in acts.get("halt", ()):
             self.tracks[trk_id].state = "halted"
         # start: new identities in detection order, so ids do not depend on atom sorting
         new_ids: dict[str, str] = {}
-        for j in sorted(index[d] for d in hyp.starts):
+        for j in sorted(index[d] for (d,) in acts.get("start", ())):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
             kalman = BoxKalman(boxes[j], self.velocity_noise, scene, self.area_noise)
@@ -317,7 +333,7 @@ class AbductionTracker:
             new_ids[_det_id(j)] = trk_id
             self.owners[j] = trk_id
         frame_events: list[HistoryEvent] = []
-        for name, args in hyp.event_terms:
+        for name, args in event_terms:
             event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
             logged = HistoryEvent(event, frame)
             self.events.append(logged)
@@ -333,7 +349,7 @@ class AbductionTracker:
                 owner.history.append(logged)
         if self.sink is not None and frame_events:
             self.sink.events(tuple(frame_events))
-        for trk_id in hyp.ends:
+        for (trk_id,) in acts.get("end", ()):
             trk = self.tracks.pop(trk_id)
             trk.ended_at = frame
             self.finished.append(trk)
