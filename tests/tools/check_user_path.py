@@ -21,9 +21,8 @@ import time
 import warnings
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
-if str(REPO) not in sys.path:  # run as a script: this checkout's refimpl
-    sys.path.insert(0, str(REPO))
+if not __package__:  # run as a script: this checkout's refimpl first on the import path
+    import _paths  # noqa: F401
 
 GROUPS = {
     "mot15": (["--format", "mot"], "MOT15/train/*/det/det_sort_frcnn.txt", "mot", "pedestrian"),

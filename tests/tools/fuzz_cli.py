@@ -7,13 +7,8 @@ judged); this script only puts the repository on the import path and runs it.
 """
 
 import sys
-from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
-for _path in (REPO, REPO / "tests"):  # this checkout's refimpl, and tests/tools as `tools`
-    if str(_path) not in sys.path:
-        sys.path.insert(0, str(_path))
-
+import _paths  # noqa: F401,E402  (this checkout's refimpl, and tests/tools as `tools`)
 from tools.fuzzing.cli_inputs import main  # noqa: E402
 
 if __name__ == "__main__":

@@ -27,9 +27,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[2]
-if str(REPO) not in sys.path:  # run as a script: this checkout's refimpl
-    sys.path.insert(0, str(REPO))
+if not __package__:  # run as a script: this checkout's refimpl first on the import path
+    import _paths  # noqa: F401
 
 import numpy as np
 
