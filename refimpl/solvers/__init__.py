@@ -121,11 +121,11 @@ def check_time_limit(time_limit: float | None) -> float | None:
     return value
 
 
-def get_solver(name: str, **options) -> Solver:
+def get_solver(backend: str, /, **options) -> Solver:
     """A backend by name (one of BACKENDS); ``options`` go to its constructor, and so does the
     entry's name: the solver answers under the name it was asked by, so an entry wrapping another
-    entry's class is told its own."""
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown backend {name!r} (choose from {', '.join(BACKENDS)})")
-    entry = _REGISTRY[name]
-    return getattr(importlib.import_module(entry.module), entry.cls)(name=entry.name, **{**entry.options, **options})
+    entry's class is told its own (``name=`` in options overrides it: a user's encoding's label)."""
+    if backend not in _REGISTRY:
+        raise ValueError(f"unknown backend {backend!r} (choose from {', '.join(BACKENDS)})")
+    entry = _REGISTRY[backend]
+    return getattr(importlib.import_module(entry.module), entry.cls)(**{"name": entry.name, **entry.options, **options})
