@@ -69,3 +69,25 @@ def test_sigterm_ends_track_like_sigint_with_143(long_dets, tmp_path):
     assert secs < 2.0, secs
     assert [line for line in err.splitlines() if not line.startswith(("refimpl: warning", "refimpl track: note:"))] == ["refimpl: terminated"]
     assert os.listdir(tmp_path / "out") == []
+
+
+def test_an_interrupt_landing_in_a_finalizer_is_delivered_again_after_it():
+    # clingo's Control.__del__ swallowed a KeyboardInterrupt raised inside it ("Exception ignored
+    # in"), so 2 of ~40 Ctrl-Cs of a clingo `track` were lost and the run went on to its end.
+    # Here a finalizer is interrupted: the handler must hand the signal on to the code after it.
+    from refimpl.cli import _interrupt_handler
+
+    class Finalized:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(1000):  # the handler runs inside this loop, i.e. inside __del__
+                time.sleep(0.0001)
+
+    old = signal.signal(signal.SIGINT, _interrupt_handler(KeyboardInterrupt))
+    try:
+        obj = Finalized()
+        with pytest.raises(KeyboardInterrupt):
+            del obj  # the finalizer runs and ends normally...
+            time.sleep(2.0)  # ...and the interrupt arrives here, 10 ms later
+    finally:
+        signal.signal(signal.SIGINT, old)
