@@ -55,7 +55,7 @@ def test_sigint_ends_track_at_once_with_130_and_no_output(long_dets, tmp_path, b
     if backend == "clingo":
         pytest.importorskip("clingo")
     code, secs, err = _interrupt(long_dets, tmp_path / "out", backend)
-    assert code == 130
+    assert code == 130, err
     assert secs < 2.0, secs
     assert [line for line in err.splitlines() if not line.startswith(("refimpl: warning", "refimpl track: note:"))] == ["refimpl: interrupted"]
     assert os.listdir(tmp_path / "out") == []  # no results, no event log, no temporary file
@@ -65,7 +65,7 @@ def test_sigterm_ends_track_like_sigint_with_143(long_dets, tmp_path):
     # `kill PID` (SIGTERM) used to end the process at once by default, leaving the staged
     # temporary files (.res.txt.XXXX.tmp) behind in the output folder
     code, secs, err = _interrupt(long_dets, tmp_path / "out", "baseline", signal.SIGTERM)
-    assert code == 143
+    assert code == 143, err
     assert secs < 2.0, secs
     assert [line for line in err.splitlines() if not line.startswith(("refimpl: warning", "refimpl track: note:"))] == ["refimpl: terminated"]
     assert os.listdir(tmp_path / "out") == []
