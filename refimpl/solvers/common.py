@@ -250,14 +250,17 @@ class LazyTiebreak:
         ids = self._t_index
         named: dict[str, set[str]] = {}
         for h in problem.history:
-            args = [str(a) for a in h.event.args]
-            if len(args) >= 2 and args[0] in ids:
+            event_args = h.event.args
+            if len(event_args) < 2:  # only pair events name another track
+                continue
+            args = [a.name if not a.args else str(a) for a in event_args]  # str(Term) of a constant is its name
+            if args[0] in ids:
                 named.setdefault(args[0], set()).update(a for a in args[1:] if a in ids and a != args[0])
         self._named = named
         self._others: dict[int, list[str]] = {}
         nu, nb = len(_UNARY_AT), len(_BINARY_AT)
         # overlapping other tracks per row (inter[i, i] is the box's own area, > 0)
-        over = (np.count_nonzero(inter, axis=1) - (np.diagonal(inter) != 0)).tolist() if len(tracks) else []
+        over = ((inter != 0).sum(axis=1) - (np.diagonal(inter) != 0)).tolist() if len(tracks) else []  # count_nonzero(axis=1), faster
         bound = len(dets) * (nu - 1)
         for i, t in enumerate(tracks):
             extra = named.get(t.id)

@@ -81,6 +81,21 @@ def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: n
     return out
 
 
+def _has_explanation(action: str, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
+                     state: EventState, constants: Mapping[str, int],
+                     by_id: Mapping[str, TrackPrediction]) -> bool:
+    """bool(_explanations(...)), stopping at the first possible event."""
+    t = tracks[i]
+    for spec in explaining(action):
+        if spec.arity == 1:
+            if spec.poss(state, constants, t, tracks=by_id):
+                return True
+        elif any(spec.poss(state, constants, t, t2, tracks=by_id)
+                 for t2 in _pair_candidates(spec, i, tracks, top, state)):
+            return True
+    return False
+
+
 EXPLANATION = -1
 """AbductionModel.objectives key of the tie-break's explanation part (solved after the pair part)."""
 

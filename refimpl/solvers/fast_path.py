@@ -14,11 +14,11 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, fluent_key, reexplained
-from ..core.hypothesis import PRIORITIES
+from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, Term
 from .common import DisjointSets, LazyTiebreak, intersection_matrix
 from .admissibility import assignment_constraints, resume_constraints, start_constraints
-from .cpsat_model import _cost, _explanations, _overlapping_top_matrix
+from .cpsat_model import _cost, _explanations, _has_explanation, _overlapping_top_matrix
 
 # ---------------------------------------------------------------------------------------
 # The fast exact path
@@ -87,6 +87,25 @@ def _best_solo(options: list[_Option]) -> _Option:
     if sum(1 for o in options if o.cost == best.cost) > 1:
         return _Option(best.action, best.event, best.cost, True)
     return best
+
+
+_HIGH = PRIORITIES.index(EVENT_LEVEL)
+"""The levels above the event level are the first _HIGH of a cost vector; an explaining event adds
+to the event level and the tie-break only (cpsat_model._cost), so above them an option's cost
+does not depend on its explanation."""
+assert PRIORITIES[_HIGH:] == (EVENT_LEVEL, TIEBREAK_LEVEL)
+_HALT_HIGH = _cost("halt")[:_HIGH]
+_IGNORE_DET_HIGH = _cost("ignore_det")[:_HIGH]
+_START_HIGH = _cost("start")[:_HIGH]
+
+
+def _lex_sign(a: Sequence[int], b: Sequence[int], c: Sequence[int]) -> int:
+    """The sign of a + b - c (vectors, elementwise) in lexicographic order: of its first nonzero entry."""
+    for x, y, z in zip(a, b, c):
+        g = x + y - z
+        if g:
+            return 1 if g > 0 else -1
+    return 0
 
 
 def _max_weight_matching(nl: int, nr: int, edges: list[tuple[int, int, int]]) -> list[int]:
@@ -315,15 +334,17 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         return [((cost[spec.name], ev(spec.name, args)), f"{spec.name}({','.join(args)})") for spec, args in found]
 
     # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
-    solo_t: list[_Option] = []
+    # An active track's halt is priced only where it is needed (``halt_of``): most tracks are
+    # assigned in a one-pair component decided above the event level, where neither the
+    # explanation nor its cost can change the answer (see _HIGH).  Whether one exists is known
+    # at once (no explanation: the full model answers, as before).
+    solo_t: list[_Option | None] = []
     resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
     for i, t in enumerate(tracks):
         if t.state == "active":
-            expl = priced(_explanations("halt", i, tracks, top_rows, state, constants, by_id))
-            if not expl:
+            if not _has_explanation("halt", i, tracks, top_rows, state, constants, by_id):
                 raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
-            (c1, c0), event, tie = _cheapest(expl)
-            solo_t.append(_Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie))
+            solo_t.append(None)
         else:
             again = (priced(_explanations("ignore_trk", i, tracks, top_rows, state, constants, by_id))
                      if reexplained(state, t.id) else [])
@@ -343,17 +364,37 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             if expl:
                 resume_expl[i] = _cheapest(expl)
 
-    # -- solo options of the detections ---------------------------------------------------------
-    solo_d: list[_Option] = []
+    def halt_of(i: int) -> _Option:
+        o = solo_t[i]
+        if o is None:
+            t = tracks[i]
+            (c1, c0), event, tie = _cheapest(priced(_explanations("halt", i, tracks, top_rows, state, constants,
+                                                                  by_id)))
+            o = solo_t[i] = _Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie)
+        return o
+
+    # -- solo options of the detections (priced where needed, as the halts: ``det_of``) ----------
+    solo_d: list[_Option | None] = []
+    high_d: list[tuple[int, ...]] = []  # the solo's cost above the event level, known at once
     for d in dets:
-        options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
-        starts = [((cost[spec.name], ev(spec.name, (d.id,))), f"{spec.name}({d.id})")
-                  for spec in explaining("start")
-                  if spec.poss(state, constants, d.id, tracks=None)]
-        if start_constraints(constants, d) and starts:
-            (c1, c0), event, tie = _cheapest(starts)
-            options.append(_Option(f"start({d.id})", event, _cost("start", event=c1, tiebreak=c0), tie))
-        solo_d.append(_best_solo(options))
+        startable = start_constraints(constants, d) and any(
+            spec.poss(state, constants, d.id, tracks=None) for spec in explaining("start"))
+        solo_d.append(None)
+        high_d.append(min(_IGNORE_DET_HIGH, _START_HIGH) if startable else _IGNORE_DET_HIGH)
+
+    def det_of(j: int) -> _Option:
+        o = solo_d[j]
+        if o is None:
+            d = dets[j]
+            options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
+            starts = [((cost[spec.name], ev(spec.name, (d.id,))), f"{spec.name}({d.id})")
+                      for spec in explaining("start")
+                      if spec.poss(state, constants, d.id, tracks=None)]
+            if start_constraints(constants, d) and starts:
+                (c1, c0), event, tie = _cheapest(starts)
+                options.append(_Option(f"start({d.id})", event, _cost("start", event=c1, tiebreak=c0), tie))
+            o = solo_d[j] = _best_solo(options)
+        return o
 
     # -- pair options (edges): assign for active tracks, resume for halted ones ------------------
     edges: list[tuple[int, int, _Option]] = []
@@ -368,16 +409,6 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             edges.append((i, j, _Option(f"resume({tid},{did})", event,
                                         _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0),
                                         tie)))
-
-    # -- one integer per cost vector, in the lexicographic order ---------------------------------
-    bound = sum(sum(map(abs, o.cost)) for o in solo_t + solo_d) + sum(sum(map(abs, o.cost)) for _, _, o in edges)
-    base = 2 * bound + 1
-
-    def scalar(v: tuple[int, ...]) -> int:
-        s = 0
-        for c in v:
-            s = s * base + c
-        return s
 
     # -- components (union-find over the edges) and their matchings ------------------------------
     nt = len(tracks)
@@ -400,16 +431,33 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             raise FastPathDeclined("component too large")
         if len(ces) == 1:  # one track, one detection, one pair option: closed form
             i, j, o = ces[0]
-            g = scalar(solo_t[i].cost) + scalar(solo_d[j].cost) - scalar(o.cost)
-            if g == 0:
+            # the pair wins iff the solos' cost vector minus its own is lexicographically > 0;
+            # above the event level the solos' costs are known without their explanations
+            st = solo_t[i]
+            gain = _lex_sign(_HALT_HIGH if st is None else st.cost[:_HIGH], high_d[j], o.cost[:_HIGH])
+            if gain == 0:
+                gain = _lex_sign(halt_of(i).cost if st is None else st.cost, det_of(j).cost, o.cost)
+            if gain == 0:
                 raise FastPathDeclined("tie")
-            if g > 0:
+            if gain > 0:
                 chosen.append(o)
                 matched_t.add(i)
                 matched_d.add(j)
             continue
         ls = sorted({i for i, _, _ in ces})
         rs = sorted({j for _, j, _ in ces})
+        solos = [halt_of(i) if solo_t[i] is None else solo_t[i] for i in ls] + [det_of(j) for j in rs]
+        # one integer per cost vector, in the lexicographic order: base B larger than twice any
+        # level's range over this component's options (the matching compares sums within it)
+        bound = sum(sum(map(abs, o.cost)) for o in solos) + sum(sum(map(abs, o.cost)) for _, _, o in ces)
+        base = 2 * bound + 1
+
+        def scalar(v: tuple[int, ...]) -> int:
+            out = 0
+            for c in v:
+                out = out * base + c
+            return out
+
         lpos = {i: a for a, i in enumerate(ls)}
         rpos = {j: b for b, j in enumerate(rs)}
         by_pair = {(lpos[i], rpos[j]): o for i, j, o in ces}
@@ -421,8 +469,8 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
                 chosen.append(by_pair[(a, b)])
                 matched_t.add(ls[a])
                 matched_d.add(rs[b])
-    chosen += [o for i, o in enumerate(solo_t) if i not in matched_t]
-    chosen += [o for j, o in enumerate(solo_d) if j not in matched_d]
+    chosen += [halt_of(i) if o is None else o for i, o in enumerate(solo_t) if i not in matched_t]
+    chosen += [det_of(j) for j in range(len(dets)) if j not in matched_d]
     if any(o.tie for o in chosen):
         raise FastPathDeclined("tie")
     t = problem.time

@@ -31,10 +31,34 @@ and the tracker's outputs would change.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _dot = np.dot
-_inv = np.linalg.inv
+
+try:  # numpy.linalg.inv's own kernel (LAPACK gesv against the identity), without its wrapper
+    from numpy.linalg import _umath_linalg as _linalg_kernels
+    _KERNEL_INV = _linalg_kernels.inv
+except (ImportError, AttributeError):  # a numpy without it: the public function, same numbers
+    _KERNEL_INV = None
+
+
+def _inv(S: np.ndarray) -> np.ndarray:
+    """numpy.linalg.inv(S) for a float64 matrix, bit for bit: the same gufunc numpy.linalg.inv
+    calls, without the ``errstate`` context it enters on every call (about three quarters of
+    its time on a 4 x 4 matrix, and inv was a quarter of an update).  S = H P H^T + R is
+    positive definite for a finite P (R > 0), so gesv never reports it singular; should it (or
+    should P hold a non-finite value), the result is not finite and numpy.linalg.inv is called
+    after all: it raises LinAlgError for a singular S as before."""
+    if _KERNEL_INV is not None and S.dtype == np.float64:
+        out = _KERNEL_INV(S, signature="d->d")
+        try:  # the cheapest test that every entry is finite (fsum raises for +inf + -inf or overflow)
+            if math.isfinite(math.fsum(out.flat)):
+                return out
+        except (ValueError, OverflowError):
+            pass
+    return np.linalg.inv(S)
 
 
 class LinearKalman:
