@@ -260,7 +260,8 @@ class LazyTiebreak:
         self._others: dict[int, list[str]] = {}
         nu, nb = len(_UNARY_AT), len(_BINARY_AT)
         # overlapping other tracks per row (inter[i, i] is the box's own area, > 0)
-        over = ((inter != 0).sum(axis=1) - (np.diagonal(inter) != 0)).tolist() if len(tracks) else []  # count_nonzero(axis=1), faster
+        nonzero = inter != 0
+        over = (nonzero.sum(axis=1) - nonzero.diagonal()).tolist() if len(tracks) else []
         bound = len(dets) * (nu - 1)
         for i, t in enumerate(tracks):
             extra = named.get(t.id)

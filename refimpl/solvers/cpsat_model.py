@@ -84,16 +84,15 @@ def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: n
 def _has_explanation(action: str, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,
                      state: EventState, constants: Mapping[str, int],
                      by_id: Mapping[str, TrackPrediction]) -> bool:
-    """bool(_explanations(...)), stopping at the first possible event."""
+    """bool(_explanations(...)), stopping at the first possible event (the one-track events first:
+    a precondition or two, where a pair event tests every candidate partner)."""
     t = tracks[i]
-    for spec in explaining(action):
-        if spec.arity == 1:
-            if spec.poss(state, constants, t, tracks=by_id):
-                return True
-        elif any(spec.poss(state, constants, t, t2, tracks=by_id)
-                 for t2 in _pair_candidates(spec, i, tracks, top, state)):
-            return True
-    return False
+    specs = explaining(action)
+    if any(spec.arity == 1 and spec.poss(state, constants, t, tracks=by_id) for spec in specs):
+        return True
+    return any(spec.arity != 1 and any(spec.poss(state, constants, t, t2, tracks=by_id)
+                                       for t2 in _pair_candidates(spec, i, tracks, top, state))
+               for spec in specs)
 
 
 EXPLANATION = -1
