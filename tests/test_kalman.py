@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from refimpl import io
-from refimpl.tracking.kalman import LinearKalman
+from refimpl.tracking.kalman import LinearKalman, update_many
 from refimpl.tracking.motion import BoxKalman, InvalidPrediction, x_to_xywh, xywh_to_z
 
 filterpy_kalman = pytest.importorskip("filterpy.kalman")  # the reference (the test extra)
@@ -237,3 +237,80 @@ def test_boxes_on_python_floats_are_numpys_bit_for_bit():
             ref = np.array([b[0] + b[2] / 2.0, b[1] + b[3] / 2.0, b[2] * b[3], b[2] / b[3]])  # numpy scalars
             assert _bits(xywh_to_z(b)) == _bits(ref)
     assert verdicts == {True, False}
+
+
+def _box_filters(rng: np.random.Generator, n: int) -> list[BoxKalman]:
+    """n BoxKalman filters with different noise, each a few predict/update steps into a track
+    (so x and P are full, not the initial diagonal)."""
+    out = []
+    for k in range(n):
+        box = np.array([rng.uniform(0, 1200), rng.uniform(0, 350), rng.uniform(8, 300), rng.uniform(8, 300)])
+        f = BoxKalman(box, velocity_noise=(1.0, 10.0)[k % 2], area_noise=(1.0, 100.0)[k % 3 == 0])
+        for _ in range(int(rng.integers(1, 6))):
+            f.predict()
+            box = box + rng.normal(size=4) * np.array([4, 4, 1, 1])
+            box[2:] = np.maximum(box[2:], 2.0)
+            f.update(box)
+        f.predict()
+        out.append(f)
+    return out
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_batch_update_is_one_update_per_filter_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    n = 2 + seed * 3  # 2, 5, 8, 11, 14 filters: one batch each
+    batch = _box_filters(rng, n)
+    single = _box_filters(np.random.default_rng(seed), n)  # the same draws: the same filters
+    boxes = [np.array([rng.uniform(0, 1200), rng.uniform(0, 350), rng.uniform(8, 300), rng.uniform(8, 300)])
+             for _ in range(n)]
+    before = [f.kf.x.copy() for f in batch]
+    BoxKalman.update_many(batch, boxes)
+    for f, box in zip(single, boxes):
+        f.update(box)
+    for k, (a, b) in enumerate(zip(batch, single)):
+        _same(a.kf, b.kf, f"filter {k} of {n}")
+        assert (a.hits, a.hit_streak, a.time_since_update) == (b.hits, b.hit_streak, b.time_since_update)
+        assert not np.array_equal(a.kf.x, before[k])  # the batch did correct every filter
+
+
+def test_a_batch_update_matches_filterpy_on_real_tracks(shared_data):
+    # every Car of KITTI label_02/0011 present in a frame is updated in that frame's one batch;
+    # filterpy's KalmanFilter, one per id, takes the same boxes one by one
+    gt = io.read_kitti_ground_truth(shared_data / "KITTI/tracking/training/label_02/0011.txt", "Car")
+    ours: dict[int, BoxKalman] = {}
+    refs: dict[int, object] = {}
+    batches = 0
+    for f in sorted(set(gt.frames.tolist())):
+        rows = [(int(i), np.asarray(b, dtype=float)) for fr, i, b in zip(gt.frames.tolist(), gt.ids.tolist(), gt.boxes)
+                if fr == f]
+        for i, _ in rows:  # predict the live ones (a new id starts below, after this frame's batch)
+            if i in ours:
+                ours[i].predict()
+                refs[i].predict()
+        seen = [(i, b) for i, b in rows if i in ours]
+        BoxKalman.update_many([ours[i] for i, _ in seen], [b for _, b in seen])
+        for i, b in seen:
+            refs[i].update(xywh_to_z(b).reshape(4, 1))
+            _same(ours[i].kf, refs[i], f"id {i} at frame {f}")
+        batches += len(seen) >= 2
+        for i, b in rows:
+            if i not in ours:
+                ours[i] = BoxKalman(b)
+                refs[i] = _twin(ours[i].kf)
+    assert batches > 300  # 0011 has 373 frames, most with several cars: real batches, not singles
+
+
+def test_filters_without_a_shared_model_are_updated_one_by_one():
+    # a filter with its own R (a copy, not the shared array) leaves the batch path: the same
+    # numbers as update() either way, so this pins only that nothing breaks and all are updated
+    rng = np.random.default_rng(3)
+    fs = _box_filters(rng, 3)
+    fs[1].kf.R = fs[1].kf.R * 2.0
+    ref = _box_filters(np.random.default_rng(3), 3)
+    ref[1].kf.R = ref[1].kf.R * 2.0
+    zs = np.stack([xywh_to_z(np.array([50.0 + 9 * k, 60.0, 40.0, 80.0])).reshape(4, 1) for k in range(3)])
+    update_many([f.kf for f in fs], zs)
+    for f, r, z in zip(fs, ref, zs):
+        r.kf.update(z)
+        _same(f.kf, r.kf, "outside the batch")

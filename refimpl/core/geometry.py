@@ -14,7 +14,7 @@ from .spec import IOU_SCALE, Box
 def xywh_to_xyxy(boxes: np.ndarray) -> np.ndarray:
     """(x, y, w, h) -> (x1, y1, x2, y2)."""
     b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    return np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3]])
+    return np.concatenate((b[:, :2], b[:, :2] + b[:, 2:]), axis=1)  # the same additions, one array
 
 
 def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
@@ -35,9 +35,9 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
     area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
     union = area_a[:, None] + area_b[None, :] - inter
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = np.where(union > 0, inter / union, 0.0)
-    return out
+    # inter / union where union > 0, else 0.0 (the divisions of np.where(union > 0, inter / union, 0.0),
+    # without computing, or warning about, the ones it throws away)
+    return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
 
 
 def scale_iou(iou: np.ndarray) -> np.ndarray:

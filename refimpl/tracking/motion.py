@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from .kalman import LinearKalman
+from .kalman import LinearKalman, update_many
 
 DIM_X = 7
 """State size: [u, v, s, r, du, dv, ds]."""
@@ -276,6 +276,18 @@ class BoxKalman:
         z = xywh_to_z(box_xywh)
         self.kf.update(z.reshape(DIM_Z, 1))
         self._observed(box_xywh)
+
+    @staticmethod
+    def update_many(filters: "list[BoxKalman]", boxes) -> None:
+        """``f.update(box)`` for every (filter, box) pair, the filters corrected as one batch
+        (refimpl.tracking.kalman.update_many: the same bits).  Every box is checked before any
+        filter changes."""
+        zs = [xywh_to_z(b).reshape(DIM_Z, 1) for b in boxes]
+        if not zs:
+            return
+        update_many([f.kf for f in filters], np.stack(zs))
+        for f, b in zip(filters, boxes):
+            f._observed(b)
 
     def _observed(self, box_xywh) -> None:
         self._last_obs = (self.kf.x.copy(), self.kf.P.copy(), np.asarray(box_xywh, dtype=float).reshape(4).copy())

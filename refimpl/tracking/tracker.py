@@ -299,8 +299,12 @@ class AbductionTracker:
         event_terms = hyp.event_terms
         self.owners = {index[d]: t for t, d in (*assignments, *resumes)}
         scene = self._scene_velocity(frame) if self.scene_velocity else None
-        for trk_id, det_id in assignments:  # sorted atom order: deterministic
-            self._observe(self.tracks[trk_id], frame, boxes[index[det_id]])
+        # every assigned track's filter corrected in one batch (the same bits as one by one), then
+        # each track's streak and rows in sorted atom order: deterministic
+        observed = [(self.tracks[trk_id], boxes[index[det_id]]) for trk_id, det_id in assignments]
+        BoxKalman.update_many([trk.kalman for trk, _ in observed], [box for _, box in observed])
+        for trk, box in observed:
+            self._observed(trk, frame, box)
         unhidden = {args[0] for name, args in event_terms
                     if name in _UNHIDING} if self.fill_hidden and resumes else set()
         for trk_id, det_id in resumes:
@@ -378,6 +382,10 @@ class AbductionTracker:
             trk.kalman.reupdate(box)  # observation-centric re-update along the gap
         else:
             trk.kalman.update(box)
+        self._observed(trk, frame, box)
+
+    def _observed(self, trk: _Track, frame: int, box: np.ndarray) -> None:
+        """After the track's filter took the detection: SORT's hit streak, the written box, the rows."""
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.observed[frame] = self._written(trk.kalman, box)
         self._confirm(trk, frame)
