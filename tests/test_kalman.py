@@ -314,3 +314,23 @@ def test_filters_without_a_shared_model_are_updated_one_by_one():
     for f, r, z in zip(fs, ref, zs):
         r.kf.update(z)
         _same(f.kf, r.kf, "outside the batch")
+
+
+@pytest.mark.parametrize("hold", [False, True])
+def test_a_batch_predict_is_one_predict_per_filter_bit_for_bit(hold):
+    rng = np.random.default_rng(11)
+    batch, single = _box_filters(rng, 9), _box_filters(np.random.default_rng(11), 9)
+    for f in batch[::3] + single[::3]:  # a third went a frame without an update: hold mode applies
+        f.time_since_update = 2
+    batch[4].kf.x[6, 0] = single[4].kf.x[6, 0] = -batch[4].kf.x[2, 0] * 2  # s + ds <= 0: ds is zeroed
+    batch[7].kf.x[2, 0] = single[7].kf.x[2, 0] = -5.0  # a negative area: an invalid prediction
+    got = BoxKalman.predict_many(batch, hold)
+    for k, (a, b) in enumerate(zip(batch, single)):
+        try:
+            want = b.predict(hold)
+        except InvalidPrediction:
+            want = None
+        _same(a.kf, b.kf, f"filter {k}")
+        assert (a.age, a.hit_streak, a.time_since_update) == (b.age, b.hit_streak, b.time_since_update)
+        assert (got[k] is None) == (want is None) and (want is None or _bits(got[k]) == _bits(want))
+    assert got[7] is None and sum(g is None for g in got) == 1

@@ -162,3 +162,28 @@ def test_compacted_history_gives_the_same_answers_as_the_full_one(shared_data, n
     # a track keeps at most its start event and the halting events since its last resume: one,
     # or missing_detections and the hides_behind that re-explained it (explain_ignore)
     assert max(sizes) <= 3
+
+
+def test_a_degenerate_filter_restarts_motionless_at_the_last_observed_box():
+    # two cars, one detection each in frames 1 and 2; before frame 3 the first car's state gets a
+    # negative area (s = -1: w = sqrt(s * r) is not a number), so its prediction is invalid.  Its
+    # filter restarts at its last observed box (frame 2) with zero velocity: frame 3's prediction is
+    # that box, while the other car's prediction moves on with its velocity (+10 px a frame).
+    from refimpl.solvers import get_solver
+    from refimpl.tracking.tracker import AbductionTracker
+
+    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1000, "img_height": 600})
+    for f in (1, 2):
+        boxes = np.array([[100.0 + 10 * f, 300.0, 80.0, 60.0], [600.0 + 10 * f, 300.0, 80.0, 60.0]])
+        tracker.step(f, boxes, np.array([90, 90]), ("car", "car"))
+    first, second = tracker.tracks["trk_1"], tracker.tracks["trk_2"]
+    old_filter = first.kalman
+    last_box = first.observed[2]
+    first.kalman.kf.x[2, 0] = -1.0
+    problem = tracker.frame_problem(3, np.zeros((0, 4)), np.zeros(0), ())
+    assert first.kalman is not old_filter  # restarted
+    boxes = {t.id: t.box for t in problem.tracks}
+    # integer box2d of the last observed box, rounded half up (w, h as written)
+    assert boxes["trk_1"] == tuple(int(np.floor(v + 0.5)) for v in last_box)
+    assert np.allclose(first.kalman.velocity, 0.0)
+    assert second.kalman is not old_filter and boxes["trk_2"][0] > int(second.observed[2][0])  # moved on

@@ -27,7 +27,7 @@ import math
 
 import numpy as np
 
-from .kalman import LinearKalman, update_many
+from .kalman import LinearKalman, predict_many, update_many
 
 DIM_X = 7
 """State size: [u, v, s, r, du, dv, ds]."""
@@ -254,6 +254,26 @@ class BoxKalman:
         Raises InvalidPrediction if the predicted box is not finite or has w <= 0 or h <= 0
         (the state is still advanced and the counters still move; the caller should drop the track).
         """
+        self._before_predict(hold)
+        self.kf.predict()
+        self._after_predict()
+        return self.box  # raises InvalidPrediction for a non-finite box or w, h <= 0
+
+    @staticmethod
+    def predict_many(filters: "list[BoxKalman]", hold: bool = False) -> "list[np.ndarray | None]":
+        """``f.predict(hold)`` for every filter, the filters advanced as one batch
+        (refimpl.tracking.kalman.predict_many: the same bits): each one's predicted box, or None
+        where ``predict`` would raise InvalidPrediction (that filter is advanced all the same)."""
+        for f in filters:
+            f._before_predict(hold)
+        predict_many([f.kf for f in filters])
+        out = []
+        for f in filters:
+            f._after_predict()
+            out.append(_state_box(f.kf.x))
+        return out
+
+    def _before_predict(self, hold: bool) -> None:
         x = self.kf.x
         if hold and self.time_since_update > 0:
             x[6, 0] = 0.0
@@ -264,12 +284,12 @@ class BoxKalman:
                     x[4:6, 0] *= cap / speed
         if x[2, 0] + x[6, 0] <= 0:
             x[6, 0] = 0.0
-        self.kf.predict()
+
+    def _after_predict(self) -> None:
         self.age += 1
         if self.time_since_update > 0:
             self.hit_streak = 0
         self.time_since_update += 1
-        return self.box  # raises InvalidPrediction for a non-finite box or w, h <= 0
 
     def update(self, box_xywh) -> None:
         """Correct the state with a detected (x, y, w, h) box. Counters: hits += 1, hit_streak += 1, time_since_update = 0."""

@@ -44,7 +44,7 @@ import numpy as np
 from ..core.geometry import integer_box, integer_boxes, iou_matrix, scale_iou
 from ..knowledge.events import explaining
 from ..core.hypothesis import Hypothesis, parse_action
-from .motion import BoxKalman, InvalidPrediction
+from .motion import BoxKalman
 from .options import TrackerOptions, WrittenBox
 from ..core.ranges import check_ranges
 from ..solvers import DEFAULT_BACKEND, Solver, get_solver
@@ -188,7 +188,9 @@ class AbductionTracker:
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        predicted = np.array([self._bounded(self._predict(t, self.hold_hidden)) for t in tracks]).reshape(-1, 4)
+        boxes_now = BoxKalman.predict_many([t.kalman for t in tracks], self.hold_hidden)  # one batch
+        predicted = np.array([self._bounded(self._restarted(t) if b is None else b)
+                              for t, b in zip(tracks, boxes_now)]).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
@@ -228,14 +230,12 @@ class AbductionTracker:
         return np.array([x1, y1, bw, bh])
 
     @staticmethod
-    def _predict(trk: _Track, hold: bool = False) -> np.ndarray:
-        """Kalman prediction; a filter whose state degenerated restarts, motionless, at the last observed box."""
-        try:
-            return trk.kalman.predict(hold)
-        except InvalidPrediction:
-            trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise,
-                                   area_noise=trk.kalman.area_noise)
-            return trk.kalman.predict()
+    def _restarted(trk: _Track) -> np.ndarray:
+        """The prediction of a track whose filter's state degenerated (BoxKalman.predict would raise
+        InvalidPrediction): the filter restarts, motionless, at the last observed box."""
+        trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise,
+                               area_noise=trk.kalman.area_noise)
+        return trk.kalman.predict()
 
     # -- steps 2-3 and the update ------------------------------------------------------------
     def step(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
