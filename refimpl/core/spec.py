@@ -14,7 +14,8 @@ exactly the ASP fact syntax the paper prints::
     iou(trk_0,det_0,34625).
     occurs_at(missing_detections(trk_0),70).
 
-This module is layer 0: it imports nothing of refimpl and nothing heavy.
+This module is layer 0: of refimpl it imports only the errors' base (refimpl.core.errors), and
+nothing heavy.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Callable, Iterable, Mapping
 from functools import lru_cache
+
+from .errors import UserFacingError
 
 IOU_SCALE = 100_000
 """Matching likelihood unit: IoU 1.0 is written as 100000 (the paper's iou/3 facts)."""
@@ -39,7 +42,7 @@ Box = tuple[int, int, int, int]
 """An integer box (x, y, w, h) in pixels: top-left corner, width, height; x, y may be negative."""
 
 
-class ProblemFormatError(ValueError):
+class ProblemFormatError(ValueError, UserFacingError):
     """A fact file (or fact text) that is not a valid frame problem; the message names file and line."""
 
     def __init__(self, message: str, source: str = "<text>", line: int | None = None):
