@@ -8,7 +8,8 @@ import sys
 from .. import io
 from ..core.constants import resolve_constants
 from ..core.ranges import check_constant, check_ranges
-from ..core.spec import ProblemFormatError, read_problem, with_constants
+from ..core.spec import ProblemFormatError, with_constants
+from ..core.facts import read_problem
 from ..experiments.diff import DiffReport
 from ..experiments.scaleout import run_tasks
 from ..experiments.tasks import DiffJob, diff_job

@@ -10,7 +10,8 @@ import json
 import math
 import os
 
-from ..core.spec import HistoryEvent, ProblemFormatError, parse_term
+from ..core.spec import HistoryEvent, ProblemFormatError
+from ..core.facts import parse_term
 from ..io import write_text_atomic
 from ..knowledge.events import EFFECTS
 from .model import Box, Scene, SceneError, SceneTrack
