@@ -1,6 +1,7 @@
 """Pictures of a scene (refimpl.scene): the space-time picture of all tracks, and one frame's boxes.
 
-matplotlib is imported only inside the drawing functions (the ``plot`` extra), and only its
+matplotlib is imported only inside the drawing functions (the ``plot`` extra), by this module
+alone (the benchmarks' figures come from :func:`agg_figure` and :func:`colormap`), and only its
 object-oriented API with the Agg canvas is used: no pyplot, no global backend switch, no window.
 
 * :func:`plot_timeline`: one row per track over time; observed frames, halted frames that end in
