@@ -2,8 +2,9 @@
 and BoxMOT's motion-only trackers (ByteTrack, OC-SORT, BoT-SORT, HybridSORT, BoostTrack).
 
 The peers are a second reference beside refimpl's own SORT baseline (which reproduces the
-paper's baseline): what a user already runs.  Every peer is one ``Peer`` row of ``PEERS``: the
-package it comes from, its class, and what is set beyond the class's constructor defaults.
+paper's baseline): what a user already runs.  Every peer is one ``Peer`` row of ``PEERS``
+(refimpl.experiments.peer_table, re-exported here): the package it comes from, its class, and what
+is set beyond the class's constructor defaults.
 
 * ``trackers`` (roboflow; optional extra ``peers``, ``trackers==2.6.1``): the package's *default*
   parameters, except for the two things a caller must say: the frame rate and the confidences.
