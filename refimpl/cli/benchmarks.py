@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from .. import io
@@ -142,8 +143,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
             print(f"written: {args.out}")
         if args.write_presets:
-            from dataclasses import replace
-
             preset = chosen_preset(cal)
             share = startable_share([d for _, d, _ in load_dataset(name, args.data)], preset.constants)
             print(f"preset {cal.format}/{cal.object_class} written: "

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from ..io.outputs import STDOUT
 from ..scene import explain, load_scene, query, reasoning_config
@@ -29,8 +30,6 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    import sys
-
     summary = write_report(args.scene, args.out, frame=args.frame)
     print(summary, file=sys.stderr if args.out == STDOUT else sys.stdout)  # the page itself may be stdout
     return EXIT_OK

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import io as stdio
 import json
 import sys
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 from .. import io
@@ -70,8 +72,6 @@ def _track_constants(args: argparse.Namespace) -> dict[str, int]:
 
 
 def cmd_track(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
     out_fmt, in_fmt = io.get_format(args.out_format), io.get_format(args.format)
     if out_fmt.needs_class and out_fmt is not in_fmt:
         raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
@@ -228,8 +228,6 @@ def _track_pipe(args: argparse.Namespace) -> int:
     them, each frame's rows written as soon as they are final (to standard output, flushed, with
     ``--out -``; else streamed into the staged outputs), in the tracker's bounded streaming mode.
     The rows equal those of the file run on the same lines (docs/robustness.md, "A detector pipe")."""
-    import io as stdio
-
     if len(args.dets) > 1:
         raise UserError("--dets - reads one sequence from standard input: give it alone")
     if args.out is None or args.out_dir is not None:
