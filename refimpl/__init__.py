@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from .core.loader import load
+
 __version__ = "0.1.0"
 __all__ = ["Tracker", "__version__"]
 
@@ -14,9 +16,12 @@ if TYPE_CHECKING:
     from .api import Tracker
 
 
+_LAZY = {"Tracker": "refimpl.api:Tracker"}
+"""Public names loaded on first use (refimpl.core.loader), so that `import refimpl` (and the CLI's
+start) stays light: the library interface imports the whole tracking path."""
+
+
 def __getattr__(name: str):
-    # imported on first use, so that `import refimpl` (and the CLI's start) stays light
-    if name == "Tracker":
-        from .api import Tracker
-        return Tracker
+    if name in _LAZY:
+        return load(_LAZY[name])
     raise AttributeError(f"module 'refimpl' has no attribute {name!r}")

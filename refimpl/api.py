@@ -20,25 +20,25 @@ KITTI Car preset, ``preset="none"`` none.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .core.confidence import RANK, OnlineRank
-from .io import MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, DetectionFrame, DetectionSequence
+from .core.constants import default_constants
+from .core.spec import HistoryEvent, track_number
+from .io import (DetectionFrame, DetectionSequence, FORMAT_NAMES, KITTI, KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD,
+                 MIN_DET_SIZE, OBJECT_TYPES, get_format)
+from .scene import Scene, scene_from_result
+from .solvers import BACKENDS, DEFAULT_BACKEND
 from .tracking.options import TrackerOptions
 from .tracking.pipeline import AUTO, new_tracker, setup_for
-from .solvers import BACKENDS, DEFAULT_BACKEND
-from .core.spec import HistoryEvent, track_number
 from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
 
 API_SCORE_RULES = ("auto", RANK, "probability", "sigmoid")
 DEFAULT_CLASS_TYPES = {0: "pedestrian", 1: "cyclist", 2: "car"}
 """COCO's class ids (what YOLO-family detectors and supervision use): person, bicycle, car."""
-
-if TYPE_CHECKING:
-    from .scene import Scene
 
 __all__ = ["Tracker", "confidences_from_scores"]
 
@@ -95,7 +95,6 @@ class Tracker:
                  class_types: Mapping[int, str] | None = None, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
-        from .io import FORMAT_NAMES, KITTI, KITTI_FPS, KITTI_IMAGE_SIZE, get_format
         if format not in FORMAT_NAMES:
             raise ValueError(f"format must be one of {', '.join(FORMAT_NAMES)}, got {format!r}")
         if scores not in API_SCORE_RULES:
@@ -141,7 +140,6 @@ class Tracker:
     # -- validation --------------------------------------------------------------------------
     @staticmethod
     def _constants(constants: Mapping[str, int] | None) -> dict[str, int]:
-        from .core.constants import default_constants
         known = default_constants()
         out: dict[str, int] = {}
         for key, value in dict(constants or {}).items():
@@ -320,8 +318,7 @@ class Tracker:
         """The detections given so far as a DetectionSequence (refimpl.io)."""
         return DetectionSequence(self.name, tuple(self._frames), self.first_frame, self.image_size, self.fps)
 
-    def scene(self) -> "Scene":
+    def scene(self) -> Scene:
         """The scene so far (refimpl.scene.Scene): tracks, events and fluent timelines, for
         refimpl.scene.query / explain and refimpl.scene.plots."""
-        from .scene import scene_from_result
         return scene_from_result(self.sequence(), self.result())

@@ -23,8 +23,8 @@ from refimpl.core.constants import default_constants
 from refimpl.core.hypothesis import Hypothesis, parse_action
 from plain_tiebreak import event_index, largest_index, pair_index, plain_level0, shift
 from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable, get_solver
-from refimpl.core.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term,
-                          read_problem, write_facts)
+from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, TrackPrediction, write_facts
+from refimpl.core.facts import parse_facts, parse_term, read_problem
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "data" / "examples"
@@ -666,9 +666,9 @@ iou(trk_1,det_1,25000).
 
 
 def test_const_in_the_fact_text_overrides_the_default(backend):
-    default = solve(backend, FrameProblem.from_facts(_OVERRIDE_FACTS))
+    default = solve(backend, parse_facts(_OVERRIDE_FACTS))
     assert "assign(trk_1,det_1)" not in default.actions  # 25000 <= 30000
-    lowered = FrameProblem.from_facts(_OVERRIDE_FACTS.replace(
+    lowered = parse_facts(_OVERRIDE_FACTS.replace(
         "#const curr_time=10.\n", "#const curr_time=10.\n#const iou_thresh=20000.\n"))
     h = solve(backend, lowered)
     assert h.answer == ("assign(trk_1,det_1)",)

@@ -6,7 +6,7 @@ import pytest
 
 from refimpl.solvers.check import check_answer
 from refimpl.core.hypothesis import Hypothesis
-from refimpl.core.spec import read_problem
+from refimpl.core.facts import read_problem
 from plain_tiebreak import event_index, largest_index, pair_index, shift
 
 # the optimal answer of the paper's bus frame (Section 4.1.1), as both backends give it

@@ -15,7 +15,8 @@ from plain_tiebreak import event_index, largest_index, shift
 from refimpl.solvers import NoAdmissibleHypothesis, SolveTimeout, get_solver
 from refimpl.solvers.common import tiebreak_weights
 from refimpl.solvers.cpsat import CpSatFailure, CpSatSolver, build_model, solve_lexicographic
-from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, TrackPrediction, parse_term, read_problem
+from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, TrackPrediction
+from refimpl.core.facts import parse_term, read_problem
 
 
 def H(event: str, t: int) -> HistoryEvent:

@@ -24,7 +24,8 @@ from refimpl.core.constants import resolve_constants
 from refimpl.knowledge.events import EventState
 from refimpl.solvers import NoAdmissibleHypothesis
 from refimpl.solvers.cpsat import CpSatSolver, build_model, solve_lexicographic
-from refimpl.core.spec import FrameProblem, parse_term
+from refimpl.core.spec import FrameProblem
+from refimpl.core.facts import parse_term
 
 N_PLAIN = 1600
 N_HISTORY = 600
@@ -160,7 +161,7 @@ def test_backends_agree_with_history(historic, clingo_solver):
 
 
 def test_examples_agree(examples, clingo_solver):
-    from refimpl.core.spec import read_problem
+    from refimpl.core.facts import read_problem
     frames = [read_problem(str(f)) for f in sorted(examples.glob("*.lp"))]
     _compare(frames, _solve_all(CpSatSolver(), frames), clingo_solver, "examples")
 

@@ -14,7 +14,7 @@ from refimpl.core.hypothesis import ACTION_TABLE, PRIORITIES, action_cost
 from refimpl.scene.plots import EVENT_STYLE
 from refimpl.scene import Episode, SceneTrack, explain_episode, make_scene
 from refimpl.solvers.cpsat import build_model
-from refimpl.core.spec import parse_facts
+from refimpl.core.facts import parse_facts
 
 
 def _lp(name: str) -> str:

@@ -20,7 +20,8 @@ from refimpl.knowledge.events import (
     poss_unhides_from_behind,
     possible_events,
 )
-from refimpl.core.spec import FrameProblem, HistoryEvent, TrackPrediction, parse_term
+from refimpl.core.spec import FrameProblem, HistoryEvent, TrackPrediction
+from refimpl.core.facts import parse_term
 
 
 def H(event: str, t: int) -> HistoryEvent:

@@ -20,7 +20,8 @@ import pytest
 
 from refimpl import cli, io
 from refimpl.io import InputFormatError
-from refimpl.core.spec import ProblemFormatError, parse_facts, read_problem, write_facts
+from refimpl.core.spec import ProblemFormatError, write_facts
+from refimpl.core.facts import parse_facts, read_problem
 from tools import fuzzing as fuzz
 
 REPO = Path(__file__).resolve().parent.parent

@@ -10,7 +10,8 @@ import pytest
 from refimpl import cli
 from refimpl.core.ranges import check_ranges
 from refimpl.solvers import BACKENDS
-from refimpl.core.spec import ProblemFormatError, parse_facts
+from refimpl.core.spec import ProblemFormatError
+from refimpl.core.facts import parse_facts
 from tools.fuzzing import agreement
 
 pytest.importorskip("clingo")

@@ -24,8 +24,8 @@ from refimpl.knowledge.relations import near_border, overlapping_top  # noqa: E4
 from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable  # noqa: E402
 from refimpl.solvers.clingo_backend import (ClingoSolver, clingo_arguments,  # noqa: E402
                                             default_model_files, problem_facts)
-from refimpl.core.spec import (Detection, FrameProblem, HistoryEvent, TrackPrediction,  # noqa: E402
-                          parse_term, read_problem)
+from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, TrackPrediction
+from refimpl.core.facts import parse_term, read_problem
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "data" / "examples"

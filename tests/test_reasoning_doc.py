@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from refimpl import cli
-from refimpl.cli import build_parser
+from refimpl.cli import COMMANDS, build_parser
 
 REPO = Path(__file__).resolve().parent.parent
 DOC = REPO / "docs" / "reasoning.md"
@@ -91,7 +91,7 @@ def test_command_parses(lineno, args):
         ns = build_parser().parse_args(shlex.split(args))
     except SystemExit as exc:  # argparse reports a bad command line by exiting
         pytest.fail(f"docs/reasoning.md:{lineno}: 'refimpl {args}' does not parse (exit {exc.code})")
-    assert callable(getattr(ns, "func", None)), f"docs/reasoning.md:{lineno}: no command selected"
+    assert ns.command in COMMANDS, f"docs/reasoning.md:{lineno}: no command selected"
 
 
 PINNED_PRESET = ("--no-preset", "--const", "conf_thresh_new_track=80", "--const", "conf_thresh_assign=60", "--const",

@@ -13,7 +13,8 @@ from refimpl import cli
 from refimpl.io import InputFormatError, InputFormatWarning, read_mot_detections
 from refimpl.core.ranges import check_ranges
 from refimpl.scene import save_scene, scene_to_json
-from refimpl.core.spec import ProblemFormatError, parse_facts
+from refimpl.core.spec import ProblemFormatError
+from refimpl.core.facts import parse_facts
 from refimpl.experiments.synthetic import synthetic_frame
 from refimpl.solvers import BACKENDS
 

@@ -28,7 +28,8 @@ from refimpl.scene import (EgoRegion, ReasoningConfig, SceneError, SceneTrack, a
                            fluent_timelines, hidden_behind_at, hiding_episodes, load_scene, make_scene, query,
                            save_scene, scene_from_json, scene_to_json, score_scene, situations,
                            summarise_outcomes)
-from refimpl.core.spec import HistoryEvent, parse_term
+from refimpl.core.spec import HistoryEvent
+from refimpl.core.facts import parse_term
 from refimpl.solvers import BACKENDS
 
 

@@ -1,13 +1,12 @@
-"""The frame problem and the paper's fact format (refimpl.core.spec)."""
+"""The frame problem (refimpl.core.spec) and the paper's fact format (refimpl.core.facts reads it, spec.write_facts writes it)."""
 
 from __future__ import annotations
 
 import pytest
 
-from refimpl.core.spec import (
-    Detection, FrameProblem, HistoryEvent, ProblemFormatError, Term, TrackPrediction,
-    natural_key, parse_facts, parse_term, read_problem, write_facts,
-)
+from refimpl.core.spec import (Detection, FrameProblem, HistoryEvent, ProblemFormatError, Term, TrackPrediction,
+                               natural_key, write_facts)
+from refimpl.core.facts import parse_facts, parse_term, read_problem
 
 PAPER_FRAMES = ["kitti_0020_t79.lp", "bus_t235.lp"]
 

@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 
 from refimpl.knowledge.events import EventState, explaining
 from refimpl.core.geometry import iou_matrix, scale_iou
-from refimpl.core.spec import IOU_SCALE, FrameProblem, parse_facts, read_problem, write_facts
+from refimpl.core.spec import IOU_SCALE, FrameProblem, write_facts
+from refimpl.core.facts import parse_facts, read_problem
 from refimpl.experiments.synthetic import (
     overlapping_count,
     suite_file_name,

@@ -17,7 +17,8 @@ import pytest
 from framegen import random_frame
 from refimpl.solvers import BACKENDS, NoAdmissibleHypothesis, SolveTimeout, check_time_limit, get_solver
 from refimpl.solvers.common import components, tiebreak_level, tiebreak_weights
-from refimpl.core.spec import Detection, FrameProblem, TrackPrediction, read_problem, with_constants
+from refimpl.core.spec import Detection, FrameProblem, TrackPrediction, with_constants
+from refimpl.core.facts import read_problem
 from refimpl.experiments.synthetic import synthetic_frame
 
 EQUAL_COSTS = {name: 1 for name in ("cost_hides_behind", "cost_missing_detections", "cost_unhides_from_behind",
@@ -169,7 +170,8 @@ def test_no_time_gives_the_obvious_answer_flagged(examples, backend):
 
 
 def test_no_time_and_no_admissible_fallback_raises_solve_timeout(backend):
-    from refimpl.core.spec import HistoryEvent, parse_term
+    from refimpl.core.spec import HistoryEvent
+    from refimpl.core.facts import parse_term
     # a clipped active track cannot be halted by missing_detections: the obvious answer breaks a rule
     p = FrameProblem(time=5, detections=(Detection("det_0", "car", 90, (50, 50, 20, 20)),),
                      tracks=(TrackPrediction("trk_1", "car", "active", (50, 50, 20, 20)),),

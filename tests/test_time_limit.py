@@ -9,7 +9,7 @@ from refimpl import io
 from refimpl.solvers.check import check_answer
 from refimpl.solvers import get_solver
 from refimpl.solvers.fallback import obvious_hypothesis
-from refimpl.core.spec import read_problem
+from refimpl.core.facts import read_problem
 from refimpl.tracking.tracker import track_sequence
 
 
@@ -27,7 +27,7 @@ def test_obvious_hypothesis_is_refused_where_it_breaks_a_rule(examples):
     # leaves it unclipped; trk_0 / trk_9 are halted: admissible.  Make an active track clipped:
     p = read_problem(str(examples / "kitti_0020_t79.lp"))
     text = p.to_facts().replace("occurs_at(recover(trk_7),73).\n", "")
-    from refimpl.core.spec import parse_facts
+    from refimpl.core.facts import parse_facts
     assert obvious_hypothesis(parse_facts(text), "cpsat") is None
 
 

@@ -1,11 +1,12 @@
 """The `refimpl` command: argument parsing, exit codes and one-line errors; no logic of its own.
 
 This package holds the entry points (``main``, ``run``) and the error handling; ``parser`` builds
-the argument parser, ``common`` holds what the commands share (exit codes, ``UserError``), and one
-module per command group holds the commands: ``solving`` (solve, diff), ``tracking`` (track,
-eval), ``benchmarks`` (benchmark, calibrate, table6, sweep, bench-scale, detectors,
-occlusion-suite, bench-occlusion), ``scenes`` (query, explain, plot, report) and ``demo``.  Every name
-that refimpl/cli.py had is importable from here."""
+the argument parser and holds ``COMMANDS``, the function of each command (loaded when it runs, so
+a command imports only its own group's module); ``common`` holds what the commands share (exit
+codes, ``UserError``), and one module per command group holds the commands: ``solving`` (solve, diff),
+``tracking`` (track), ``evaluation`` (eval), ``benchmarks`` (benchmark, calibrate, table6, sweep,
+bench-scale, detectors, occlusion-suite, bench-occlusion), ``scenes`` (query, explain, plot, report)
+and ``demo``.  A command's function is imported from its module (``refimpl.cli.tracking.cmd_track``)."""
 
 from __future__ import annotations
 
@@ -13,22 +14,15 @@ import argparse
 import os
 import signal
 import sys
+import threading
 import warnings
 from typing import Sequence
 
+from ..core.errors import UserFacingError
+from ..core.loader import load
 from ..experiments.progress import Progress  # noqa: F401  (re-exported, as refimpl/cli.py had it)
+from ..experiments.scaleout import ClusterError
 from ..solvers import BACKENDS  # noqa: F401
-from .benchmarks import (  # noqa: F401  (re-exported: every command stays importable from refimpl.cli)
-    _benchmark_peers,
-    cmd_bench_occlusion,
-    cmd_bench_scale,
-    cmd_benchmark,
-    cmd_calibrate,
-    cmd_detectors,
-    cmd_occlusion_suite,
-    cmd_sweep,
-    cmd_table6,
-)
 from .common import (  # noqa: F401  (the public names of refimpl.cli)
     BENCHMARKS,
     CLASSES,
@@ -38,40 +32,13 @@ from .common import (  # noqa: F401  (the public names of refimpl.cli)
     TRACKERS,
     CheckFailed,
     UserError,
-    _setup,
-    _load_sequence,
-    _parse_const,
-    _parse_img_size,
-    _plan,
-    _time_limit,
 )
-from .demo import _run_tracker, cmd_demo  # noqa: F401
-from .parser import _add_scaleout, _class_name, _parse_grid, build_parser  # noqa: F401
-from .scenes import cmd_explain, cmd_plot, cmd_query, cmd_report  # noqa: F401
-from .solving import cmd_diff, cmd_solve  # noqa: F401
-from .tracking import (  # noqa: F401
-    _prefix,
-    _track_constants,
-    _track_inputs,
-    _track_outputs,
-    _track_streaming,
-    cmd_eval,
-    cmd_track,
-)
+from .parser import COMMANDS, build_parser
 
-
-def _user_errors() -> tuple[type[BaseException], ...]:
-    from ..experiments.calibrate import CalibrationRefused
-    from ..io import InputFormatError
-    from ..experiments.peers import PeersUnavailable
-    from ..solvers import NoAdmissibleHypothesis, SolverUnavailable, SolveTimeout
-    from ..core.spec import ProblemFormatError
-    from ..scene import SceneError
-    from ..experiments.scaleout import ClusterError
-    from ..io.outputs import OutputError
-    from ..experiments.benchmarks import BenchmarkFileError
-    return (UserError, OutputError, BenchmarkFileError, ProblemFormatError, InputFormatError, SolverUnavailable,
-            NoAdmissibleHypothesis, SceneError, ClusterError, PeersUnavailable, CalibrationRefused, SolveTimeout)
+USER_ERRORS: tuple[type[BaseException], ...] = (UserFacingError, ClusterError)
+"""What a command may raise that ends it with one line and exit code 2: every refimpl error deriving
+from refimpl.core.errors.UserFacingError (a mistake in an argument or a file, a problem without an
+answer), and a Dask cluster that cannot be reached or used (refimpl.experiments.scaleout)."""
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -118,7 +85,6 @@ def _interrupt_handler(exception: type[BaseException]):
     ``track`` were swallowed by ``Control.__del__`` and the run went on)."""
     def handler(signum, frame) -> None:
         if _in_finalizer(frame):
-            import threading
             threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
             return
         raise exception()
@@ -171,8 +137,8 @@ def run() -> None:
 
 def _run(args: argparse.Namespace) -> int:
     try:
-        return args.func(args)
-    except _user_errors() as exc:
+        return load(COMMANDS[args.command])(args)
+    except USER_ERRORS as exc:
         print(f"refimpl {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenPipeError:

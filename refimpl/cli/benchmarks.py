@@ -6,19 +6,34 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
+from .. import io
+from ..evaluation.evaluate import format_table
+from ..experiments import benchmarks as bm, detector_sweep as sw, detectors as dt
+from ..experiments.benchmarks import format_command, machine_note, write_section
+from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
+                                     chosen_preset, default_preset, parse_grid, refuse_held_out, robust_default,
+                                     robust_report, write_preset)
+from ..experiments.occlusion import SCENARIOS, write_suite
+from ..experiments.occlusion_bench import format_results, parse_variant, run_suite
+from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
+                                 peer_class, per_sequence_table)
 from ..experiments.progress import Progress
+from ..experiments.sweep import format_sweep, plan_sweep, run_sweep, sweep_json
+from ..experiments.table6 import BenchmarkRun, format_table6
+from ..experiments.tasks import RunRequest, run_requests
+from ..io import InputFormatError, write_text_atomic
+from ..io.datasets import DATASETS, TABLE6_DATASETS, TITLES, dataset_kind, load_dataset
+from ..io.outputs import OutputSet, check_outputs
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
 from ..tracking.options import option_flags
+from ..tracking.presets import startable_share
 from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
-    from ..evaluation.evaluate import format_table
-    from ..io.datasets import TITLES, dataset_kind, load_dataset
-    from ..experiments.tasks import RunRequest, run_requests
-    from ..io.outputs import check_outputs
     check_outputs({"--json": args.json, "--out": args.out})
     if args.results_dir and args.peers is not None:
         raise UserError("--results-dir writes the results files of refimpl's tracker: give it without --peers")
@@ -49,7 +64,6 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         print()
         report[name] = {"per_sequence": run.per_sequence, "overall": run.overall, "events": run.events}
     if args.json:
-        from ..io import write_text_atomic
         write_text_atomic(args.json, json.dumps({"backend": args.backend, "benchmarks": report}, indent=2,
                                                 default=float))
     return EXIT_OK
@@ -58,9 +72,6 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
 def _write_results(args: argparse.Namespace, runs) -> None:
     """benchmark --results-dir DIR: every scored sequence's rows as DIR/<dataset>/<sequence>.txt, in
     the MOTChallenge lines ``refimpl track`` writes (KITTI frames kept 0-based), all files together."""
-    from .. import io
-    from ..io.datasets import dataset_kind
-    from ..io.outputs import OutputSet
     with OutputSet() as files:
         for name, run in zip(args.names, runs):
             fmt, cls = dataset_kind(name, args.data)
@@ -73,10 +84,6 @@ def _write_results(args: argparse.Namespace, runs) -> None:
 
 def _benchmark_peers(args: argparse.Namespace) -> int:
     """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
-    from ..experiments.benchmarks import format_command, machine_note, write_section
-    from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
-                         peer_class, per_sequence_table)
-    from ..io.datasets import dataset_kind, load_dataset
     try:
         peers = list(parse_peers(args.peers))
     except ValueError as exc:
@@ -108,7 +115,6 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
                                         args.per_sequence))
         print(f"written: {args.out}")
     if args.json:
-        from ..io import write_text_atomic
         write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "benchmarks": report},
                                                 indent=2, default=float))
     return EXIT_OK
@@ -116,9 +122,6 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     """Calibrate every named benchmark in turn (each is independent: its own preset and section)."""
-    from ..experiments.benchmarks import format_command, write_section
-    from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
-                            chosen_preset, parse_grid, refuse_held_out)
     if args.default:
         return _calibrate_default(args)
     try:
@@ -140,11 +143,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             write_section(args.out, CALIBRATE_BEGIN.format(name=name), CALIBRATE_END.format(name=name), text)
             print(f"written: {args.out}")
         if args.write_presets:
-            from ..experiments.calibrate import write_preset
-            from dataclasses import replace
-
-            from ..io.datasets import load_dataset
-            from ..tracking.presets import startable_share
             preset = chosen_preset(cal)
             share = startable_share([d for _, d, _ in load_dataset(name, args.data)], preset.constants)
             print(f"preset {cal.format}/{cal.object_class} written: "
@@ -154,8 +152,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _calibrate_default(args: argparse.Namespace) -> int:
     """calibrate --default: the robust default preset over every named tuning benchmark at once."""
-    from ..experiments.benchmarks import format_command, write_section
-    from ..experiments.calibrate import check_tunable, default_preset, robust_default, robust_report
     if args.grid:
         raise UserError("--default chooses among the stored presets: give no --grid")
     for name in args.benchmark:
@@ -167,17 +163,12 @@ def _calibrate_default(args: argparse.Namespace) -> int:
         write_section(args.out, "<!-- calibrate:default:begin -->", "<!-- calibrate:default:end -->", text)
         print(f"written: {args.out}")
     if args.write_presets:
-        from ..experiments.calibrate import write_preset
         print(f"preset default written: {write_preset(default_preset(choice))}")
     return EXIT_OK
 
 
 def cmd_table6(args: argparse.Namespace) -> int:
-    from ..io.datasets import DATASETS, TABLE6_DATASETS, load_dataset
-    from ..experiments.table6 import BenchmarkRun, format_table6
-    from ..experiments.tasks import RunRequest, run_requests
     datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
-    from ..io.outputs import check_outputs
     check_outputs({"--out": args.out})
     unknown = [d for d in datasets if d not in DATASETS]
     if unknown or not all(datasets):
@@ -194,15 +185,11 @@ def cmd_table6(args: argparse.Namespace) -> int:
     text = format_table6([tuple(runs[i:i + 2]) for i in range(0, len(runs), 2)])
     print(text)
     if args.out:
-        from ..io import write_text_atomic
         write_text_atomic(args.out, text + "\n")
     return EXIT_OK
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from ..io import InputFormatError
-    from ..io.outputs import check_outputs
-    from ..experiments.sweep import format_sweep, plan_sweep, run_sweep, sweep_json
     check_outputs({"--json": args.json})
     plan = _plan(args)
     try:
@@ -214,13 +201,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     result = run_sweep(sweep, plan, quiet=args.quiet)
     print(format_sweep(result), end="")
     if args.json:
-        from ..io import write_text_atomic
         write_text_atomic(args.json, json.dumps(sweep_json(result), indent=2, default=float) + "\n")
     return EXIT_OK
 
 
 def cmd_bench_scale(args: argparse.Namespace) -> int:
-    from ..experiments import benchmarks as bm
     try:
         sizes = bm.parse_list(args.sizes, int) if args.sizes is not None else list(
             bm.DENSE_SIZES if args.dense else bm.DEFAULT_SIZES)
@@ -238,7 +223,6 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
         raise UserError("--seeds must be >= 1, --time-limit > 0, --sizes and --overlaps not empty")
     if args.dense and min(sizes) < 1:
         raise UserError(f"--dense needs --sizes of at least 1 track, got {min(sizes)}")
-    from ..io.outputs import check_outputs
     out = None if args.out == "-" else args.out
     default_plot = (str(Path(out).with_name("scalability.png"))
                     if out and not args.throughput and not args.dense else None)
@@ -254,9 +238,6 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
 
 
 def cmd_detectors(args: argparse.Namespace) -> int:
-    from ..experiments import benchmarks as bm
-    from ..experiments import detector_sweep as sw
-    from ..experiments import detectors as dt
     if args.backend not in BACKENDS:
         raise UserError(f"--backend takes one of {', '.join(BACKENDS)}, got {args.backend!r}")
     try:
@@ -290,7 +271,6 @@ def cmd_detectors(args: argparse.Namespace) -> int:
 
 
 def cmd_occlusion_suite(args: argparse.Namespace) -> int:
-    from ..experiments.occlusion import SCENARIOS, write_suite
     out = Path(args.out)
     taken = [s.name for s in SCENARIOS if (out / s.name).exists() and any((out / s.name).iterdir())]
     if taken and not args.force:
@@ -301,9 +281,6 @@ def cmd_occlusion_suite(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_occlusion(args: argparse.Namespace) -> int:
-    from ..experiments.benchmarks import write_section
-    from ..experiments.occlusion_bench import format_results, parse_variant, run_suite
-    from ..experiments.occlusion import SCENARIOS
     variants = [v.strip() for v in args.trackers.split(",") if v.strip()]
     for v in variants:
         try:

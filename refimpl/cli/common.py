@@ -6,14 +6,19 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND, TRACKERS  # noqa: F401  (the registry)
+from .. import io
+from ..core.errors import UserFacingError
+from ..experiments.scaleout import Plan
 from ..io.datasets import DATASETS as BENCHMARKS  # noqa: F401  (the one dataset catalogue)
+from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND, TRACKERS  # noqa: F401  (the registry)
+from ..tracking.options import TrackerOptions
+from ..tracking.pipeline import AUTO, NONE, setup_for
 
 EXIT_OK, EXIT_FAILURE, EXIT_USAGE = 0, 1, 2
 CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 
-class UserError(Exception):
+class UserError(UserFacingError):
     """A mistake in the command line or its inputs: reported in one line, exit code 2."""
 
 
@@ -49,7 +54,6 @@ def _parse_img_size(text: str) -> tuple[int, int]:
 
 
 def _load_sequence(args: argparse.Namespace, path: str | None = None):
-    from .. import io
     path = args.dets if path is None else path
     fmt = io.get_format(args.format)
     if fmt.needs_class and args.cls is None:
@@ -66,7 +70,6 @@ def _load_sequence(args: argparse.Namespace, path: str | None = None):
 def _setup(args: argparse.Namespace, fmt: str, cls: str | None, constants=None):
     """What to track with, by the one rule (refimpl.tracking.pipeline.setup_for): the preset of (format,
     class) unless --no-preset or another --preset, then --const and the tracker option flags."""
-    from ..tracking.pipeline import AUTO, NONE, setup_for
     asked = getattr(args, "preset", None)
     if getattr(args, "no_preset", False) and asked not in (None, AUTO, NONE):
         raise UserError(f"give --no-preset or --preset {asked}, not both")
@@ -80,7 +83,6 @@ def _setup(args: argparse.Namespace, fmt: str, cls: str | None, constants=None):
 
 def _option_overrides(args: argparse.Namespace) -> dict[str, object]:
     """{name: value} of the tracker option flags given on the command line."""
-    from ..tracking.options import TrackerOptions
     return {name: getattr(args, name) for name in TrackerOptions.names() if getattr(args, name, None) is not None}
 
 
@@ -91,7 +93,6 @@ def _option_flags_given(args: argparse.Namespace) -> bool:
 
 def _plan(args: argparse.Namespace):
     """Where the tasks of a many-sequence command run (refimpl.experiments.scaleout)."""
-    from ..experiments.scaleout import Plan
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers must be >= 1, got {args.workers}")
     if args.workers is not None and args.scheduler is not None:

@@ -5,19 +5,19 @@ from __future__ import annotations
 import argparse
 import time
 
+from .. import io
+from ..evaluation.evaluate import evaluate_many, format_table
+from ..tracking.pipeline import run_sequence, setup_for
 from .common import EXIT_OK, TRACKERS, UserError
 
 
 def _run_tracker(seq, backend: str):
     """What ``refimpl track --format mot`` runs: the MOTChallenge preset (refimpl.tracking.pipeline.setup_for)."""
-    from ..tracking.pipeline import run_sequence, setup_for
     result = run_sequence(seq, setup_for("mot", None, backend))
     return result.rows, result.events
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from .. import io
-    from ..evaluation.evaluate import evaluate_many, format_table
     backends = [b.strip() for b in args.backends.split(",")]
     if not all(backends) or any(b not in TRACKERS for b in backends):
         raise UserError(f"--backends takes a comma-separated list out of {','.join(TRACKERS)}, got {args.backends!r}")

@@ -1,23 +1,18 @@
-"""The argument parser of the `refimpl` command: every subcommand, its options and help."""
+"""The argument parser of the `refimpl` command: every subcommand, its options and help, and the
+command table (``COMMANDS``: the function that runs each command)."""
 
 from __future__ import annotations
 
 import argparse
 
-from .benchmarks import (cmd_bench_occlusion, cmd_bench_scale, cmd_benchmark, cmd_calibrate, cmd_detectors,
-                         cmd_occlusion_suite, cmd_sweep, cmd_table6)
-from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
-from ..evaluation.devkits import DEVKITS
-from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
+from ..evaluation import DEVKITS
+from ..experiments.peer_table import PEERS
 from ..experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
+from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
+from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
+from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_img_size, _time_limit)
-from .demo import cmd_demo
-from .scenes import cmd_explain, cmd_plot, cmd_query, cmd_report
-from .solving import cmd_diff, cmd_solve
-from .tracking import cmd_eval, cmd_track
-from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
-from ..experiments.peers import PEERS
 
 
 _SEEN = "_refimpl_options_seen"
@@ -173,7 +168,6 @@ def _add_solve(sub: "argparse._SubParsersAction") -> None:
                    help="override a model constant (repeatable)")
     s.add_argument("--check", action="store_true",
                    help="verify the answer with the independent checker; exit 1 on any violation")
-    s.set_defaults(func=cmd_solve)
 
 
 def _add_track(sub: "argparse._SubParsersAction") -> None:
@@ -218,7 +212,6 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
     _add_tracker_options(t)
     _add_scaleout(t)
     t.add_argument("--quiet", action="store_true", help="no progress bar")
-    t.set_defaults(func=cmd_track)
 
 
 def _add_eval(sub: "argparse._SubParsersAction") -> None:
@@ -237,7 +230,6 @@ def _add_eval(sub: "argparse._SubParsersAction") -> None:
                    help="refimpl (default): refimpl's simplified devkit (no KITTI truncation/occlusion/height filter; "
                         "docs/evaluation.md); trackeval: TrackEval's own Kitti2DBox / MotChallenge2DBox pipeline on "
                         "the same files, the numbers a TrackEval leaderboard gives")
-    e.set_defaults(func=cmd_eval)
 
 
 def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
@@ -266,7 +258,6 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
     _add_preset(b)
     _add_tracker_options(b)
     _add_scaleout(b)
-    b.set_defaults(func=cmd_benchmark)
 
 
 def _add_calibrate(sub: "argparse._SubParsersAction") -> None:
@@ -288,7 +279,6 @@ def _add_calibrate(sub: "argparse._SubParsersAction") -> None:
     cb.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
     cb.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scaleout(cb)
-    cb.set_defaults(func=cmd_calibrate)
 
 
 def _add_table6(sub: "argparse._SubParsersAction") -> None:
@@ -299,7 +289,6 @@ def _add_table6(sub: "argparse._SubParsersAction") -> None:
     t6.add_argument("--out", help="also write the markdown table to this file")
     t6.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scaleout(t6)
-    t6.set_defaults(func=cmd_table6)
 
 
 def _add_diff(sub: "argparse._SubParsersAction") -> None:
@@ -322,7 +311,6 @@ def _add_diff(sub: "argparse._SubParsersAction") -> None:
                         "levels 10..1 and equal-cost different answers are counted as ties")
     x.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scaleout(x)
-    x.set_defaults(func=cmd_diff)
 
 
 def _add_sweep(sub: "argparse._SubParsersAction") -> None:
@@ -340,14 +328,12 @@ def _add_sweep(sub: "argparse._SubParsersAction") -> None:
     sw.add_argument("--json", help="also write every setting's overall scores as JSON")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_scaleout(sw)
-    sw.set_defaults(func=cmd_sweep)
 
 
 def _add_demo(sub: "argparse._SubParsersAction") -> None:
     d = sub.add_parser("demo", help="track the bundled sample sequence and print its metrics")
     d.add_argument("--backends", default=f"{BASELINE},{DEFAULT_BACKEND}",
                    help=f"comma-separated trackers to run out of {','.join(TRACKERS)} (default {BASELINE},{DEFAULT_BACKEND})")
-    d.set_defaults(func=cmd_demo)
 
 
 def _add_bench_scale(sub: "argparse._SubParsersAction") -> None:
@@ -374,7 +360,6 @@ def _add_bench_scale(sub: "argparse._SubParsersAction") -> None:
                     help=f"trackers for --throughput out of {','.join(TRACKERS)} (default {BASELINE},{DEFAULT_BACKEND},{REFERENCE_BACKEND})")
     sc.add_argument("--data", default="../shared/data", help="benchmark data root for --throughput")
     sc.add_argument("--quiet", action="store_true", help="no progress bar")
-    sc.set_defaults(func=cmd_bench_scale)
 
 
 def _add_detectors(sub: "argparse._SubParsersAction") -> None:
@@ -399,7 +384,6 @@ def _add_detectors(sub: "argparse._SubParsersAction") -> None:
     dt.add_argument("--plot", help="sweep: PNG plot (default detectors-sweep.png beside --out)")
     dt.add_argument("--json", help="also write the raw numbers as JSON")
     dt.add_argument("--quiet", action="store_true", help="no progress bar")
-    dt.set_defaults(func=cmd_detectors)
 
 
 def _add_occlusion_suite(sub: "argparse._SubParsersAction") -> None:
@@ -408,7 +392,6 @@ def _add_occlusion_suite(sub: "argparse._SubParsersAction") -> None:
     oc.add_argument("--out", required=True, metavar="DIR", help="folder to write the scenarios into")
     oc.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     oc.add_argument("--force", action="store_true", help="overwrite scenario folders that exist")
-    oc.set_defaults(func=cmd_occlusion_suite)
 
 
 def _add_bench_occlusion(sub: "argparse._SubParsersAction") -> None:
@@ -421,7 +404,6 @@ def _add_bench_occlusion(sub: "argparse._SubParsersAction") -> None:
     bo.add_argument("--out", default="docs/occlusion.md",
                     help="markdown file whose generated section is replaced (default docs/occlusion.md; - for none)")
     bo.add_argument("--quiet", action="store_true", help="no progress bar")
-    bo.set_defaults(func=cmd_bench_occlusion)
 
 
 def _add_query(sub: "argparse._SubParsersAction") -> None:
@@ -435,14 +417,12 @@ def _add_query(sub: "argparse._SubParsersAction") -> None:
                    help="warn when a hidden track reappears in front within this many frames (default 30)")
     q.add_argument("--ego-region", default=None, metavar="X0,X1,Y0,Y1",
                    help="the region in front of the ego vehicle, fractions of the image (default 0.333,0.667,0.5,1)")
-    q.set_defaults(func=cmd_query)
 
 
 def _add_explain(sub: "argparse._SubParsersAction") -> None:
     xp = sub.add_parser("explain", help="the event log of a scene as plain English sentences")
     xp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
     xp.add_argument("--track", help="only the episodes of this track (13 or trk_13)")
-    xp.set_defaults(func=cmd_explain)
 
 
 def _add_plot(sub: "argparse._SubParsersAction") -> None:
@@ -452,7 +432,6 @@ def _add_plot(sub: "argparse._SubParsersAction") -> None:
     pl.add_argument("--frame", type=int, help="draw the boxes and relations of this frame instead")
     pl.add_argument("--tracks", help="comma-separated tracks to draw (default: those observed in 3+ frames)")
     pl.add_argument("--frames", metavar="FROM:TO", help="frame range of the space-time picture")
-    pl.set_defaults(func=cmd_plot)
 
 
 def _add_report(sub: "argparse._SubParsersAction") -> None:
@@ -461,7 +440,6 @@ def _add_report(sub: "argparse._SubParsersAction") -> None:
     rp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
     rp.add_argument("--out", required=True, help="HTML file to write (- for standard output)")
     rp.add_argument("--frame", type=int, help="the frame shown first (default: the one with the most hidden tracks)")
-    rp.set_defaults(func=cmd_report)
 
 
 _COMMANDS = (
@@ -483,8 +461,32 @@ _COMMANDS = (
     _add_plot,
     _add_report,
 )
-"""One function per command, each adding its subparser with its options and handler; the order of
-``refimpl --help``."""
+"""One function per command, each adding its subparser with its options (the function that runs
+it is named in COMMANDS); the order of ``refimpl --help``."""
+
+COMMANDS: dict[str, str] = {
+    "solve": "refimpl.cli.solving:cmd_solve",
+    "track": "refimpl.cli.tracking:cmd_track",
+    "eval": "refimpl.cli.evaluation:cmd_eval",
+    "benchmark": "refimpl.cli.benchmarks:cmd_benchmark",
+    "calibrate": "refimpl.cli.benchmarks:cmd_calibrate",
+    "table6": "refimpl.cli.benchmarks:cmd_table6",
+    "diff": "refimpl.cli.solving:cmd_diff",
+    "sweep": "refimpl.cli.benchmarks:cmd_sweep",
+    "demo": "refimpl.cli.demo:cmd_demo",
+    "bench-scale": "refimpl.cli.benchmarks:cmd_bench_scale",
+    "detectors": "refimpl.cli.benchmarks:cmd_detectors",
+    "occlusion-suite": "refimpl.cli.benchmarks:cmd_occlusion_suite",
+    "bench-occlusion": "refimpl.cli.benchmarks:cmd_bench_occlusion",
+    "query": "refimpl.cli.scenes:cmd_query",
+    "explain": "refimpl.cli.scenes:cmd_explain",
+    "plot": "refimpl.cli.scenes:cmd_plot",
+    "report": "refimpl.cli.scenes:cmd_report",
+}
+"""The command table: command name -> the function that runs it, as ``"module:function"`` (it takes
+the parsed arguments and returns the exit code).  ``main`` loads the function of the command given,
+and only that one (refimpl.core.loader), so that ``refimpl track`` imports the tracking path and not
+the scorers, the experiments or the scene tools; one module per command group holds the functions."""
 
 
 def build_parser() -> argparse.ArgumentParser:

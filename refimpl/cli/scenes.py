@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
+from ..io.outputs import STDOUT
+from ..scene import explain, load_scene, query, reasoning_config
+from ..scene.plots import plot_scene_file
+from ..scene.report_html import write_report
 from .common import EXIT_OK
 
 
 def cmd_query(args: argparse.Namespace) -> int:
-    from ..scene import load_scene, query, reasoning_config
     config = reasoning_config(args.anticipation_threshold, args.ego_region)
     answer = query(load_scene(args.scene), " ".join(args.query), config)
     print(answer.to_json() if args.json else "\n".join(answer.lines))
@@ -16,22 +20,16 @@ def cmd_query(args: argparse.Namespace) -> int:
 
 
 def cmd_explain(args: argparse.Namespace) -> int:
-    from ..scene import explain, load_scene
     print("\n".join(explain(load_scene(args.scene), args.track)))
     return EXIT_OK
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from ..scene.plots import plot_scene_file
     print(plot_scene_file(args.scene, args.out, frame=args.frame, tracks=args.tracks, frames=args.frames))
     return EXIT_OK
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    import sys
-
-    from ..io.outputs import STDOUT
-    from ..scene.report_html import write_report
     summary = write_report(args.scene, args.out, frame=args.frame)
     print(summary, file=sys.stderr if args.out == STDOUT else sys.stdout)  # the page itself may be stdout
     return EXIT_OK

@@ -5,16 +5,23 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..solvers import BACKENDS
+from .. import io
+from ..core.constants import resolve_constants
+from ..core.ranges import check_constant, check_ranges
+from ..core.spec import ProblemFormatError, with_constants
+from ..core.facts import read_problem
+from ..experiments.diff import DiffReport
+from ..experiments.scaleout import run_tasks
+from ..experiments.tasks import DiffJob, diff_job
+from ..io.datasets import load_dataset
+from ..solvers import BACKENDS, CLINGO, get_solver
+from ..solvers.asp_model import AspModelError, load_asp_model
+from ..solvers.check import check_answer
+from ..solvers.check_optimum import FrameOptimum
 from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    from ..solvers import get_solver
-    from ..core.spec import ProblemFormatError, read_problem, with_constants
-
-    from ..core.constants import resolve_constants
-    from ..core.ranges import check_constant, check_ranges
     problem = read_problem(args.file)
     if args.const:
         for name, value in args.const:
@@ -28,14 +35,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
     hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
     violations = ()
     if args.check:
-        from ..solvers.check import check_answer
         report = check_answer(problem, hyp)
         violations = report.messages
         if report.cost != hyp.cost:
             violations += (f"[cost_vector] the answer's cost is {list(report.cost)}, not {list(hyp.cost)}",)
         optimum = ""
         if not violations and hyp.optimal:  # the checker's own enumeration where components are small
-            from ..solvers.check_optimum import FrameOptimum
             verdict = FrameOptimum.of(problem).verdict(hyp)
             if verdict.better is not None:
                 violations += (f"[optimum] flagged optimal, but {verdict.detail}",)
@@ -56,18 +61,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
-    from .. import io
-    from ..experiments.diff import DiffReport
-    from ..experiments.scaleout import run_tasks
-    from ..experiments.tasks import DiffJob, diff_job
     backends = tuple(b.strip() for b in args.backends.split(","))
     if len(backends) not in (2, 3) or any(b not in BACKENDS for b in backends) or len(set(backends)) != len(backends):
         raise UserError(f"--backends takes two or three different backends out of {','.join(BACKENDS)}, "
                         f"got {args.backends!r}")
     asp_model = None
     if args.asp_model is not None:
-        from ..solvers import CLINGO
-        from ..solvers.asp_model import AspModelError, load_asp_model
         if CLINGO not in backends:
             raise UserError(f"--asp-model runs your encoding on the {CLINGO} backend: add it to --backends "
                             f"(got {args.backends!r})")
@@ -77,7 +76,6 @@ def cmd_diff(args: argparse.Namespace) -> int:
             raise UserError(str(exc)) from None
     plan = _plan(args)
     if args.benchmark:
-        from ..io.datasets import load_dataset  # real and simulated (*-sim) benchmarks alike
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
     elif args.dets:
         seqs = [_load_sequence(args, path) for path in args.dets]

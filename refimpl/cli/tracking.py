@@ -1,22 +1,33 @@
-"""The commands that track and score: `track` and `eval`."""
+"""The `track` command: detections in, results files (and event logs, a scene) out."""
 
 from __future__ import annotations
 
 import argparse
+import io as stdio
 import json
 import sys
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
+from .. import io
+from ..core.constants import default_constants
+from ..core.ranges import check_constant
 from ..experiments.progress import Progress
-from ..solvers import BACKENDS, BASELINE
+from ..experiments.scaleout import run_tasks
+from ..experiments.tasks import AnswerCheck, TrackJob, results_file_name, track_job
+from ..io import ResultWriter, results_formatter
+from ..io.outputs import OutputSet, STDOUT, check_outputs
+from ..scene import scene_from_result, scene_to_json
+from ..solvers import BACKENDS, BASELINE, get_solver
 from ..tracking.options import option_flags
+from ..tracking.pipeline import run_sequence
+from ..tracking.presets import preset_named, score_warning
 from .common import CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup
 
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
     """Where each --dets goes: --out for one, or DIR/<sequence>.txt with --out-dir."""
-    from ..experiments.tasks import results_file_name
     if (args.out is None) == (args.out_dir is None):
         raise UserError("give --out FILE (one --dets) or --out-dir DIR (one results file per --dets)")
     if args.out is not None:
@@ -36,7 +47,6 @@ def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
 
 def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
     """The files `track` reads: the detections and the sequence files found beside them."""
-    from .. import io
     inputs: dict[str, str | None] = {}
     for k, path in enumerate(args.dets):
         dets = Path(path)
@@ -49,7 +59,6 @@ def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
 
 def _track_constants(args: argparse.Namespace) -> dict[str, int]:
     """--const overrides, checked against the model's constants before any frame is tracked."""
-    from ..core.constants import default_constants
     consts = dict(args.const or [])
     known = default_constants()
     unknown = sorted(set(consts) - set(known))
@@ -57,19 +66,12 @@ def _track_constants(args: argparse.Namespace) -> dict[str, int]:
         raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
     if args.img_size is not None and {"img_width", "img_height"} & set(consts):
         raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
-    from ..core.ranges import check_constant
     for name, value in consts.items():
         check_constant(name, value, f"--const {name}={value}")
     return consts
 
 
 def cmd_track(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
-    from .. import io
-    from ..io.outputs import STDOUT, OutputSet, check_outputs
-    from ..experiments.scaleout import run_tasks
-    from ..experiments.tasks import TrackJob, track_job
     out_fmt, in_fmt = io.get_format(args.out_format), io.get_format(args.format)
     if out_fmt.needs_class and out_fmt is not in_fmt:
         raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
@@ -139,7 +141,6 @@ def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
         print(f"refimpl track: note: {setup.describe()}", file=sys.stderr)
     if setup.preset == "none":
         return
-    from ..tracking.presets import preset_named, score_warning
     for seq in seqs:
         if not isinstance(seq.frames, tuple):
             continue  # a pipe (refimpl.io.stream): its frames are read once, by the tracker
@@ -160,7 +161,6 @@ def _warn_if_empty(seq, tracks: int, setup, args: argparse.Namespace) -> None:
         low, high = seq.confidence_range
         need = dict(setup.constants).get("conf_thresh_new_track")
         if need is None and not setup.baseline:
-            from ..core.constants import default_constants
             need = default_constants()["conf_thresh_new_track"]
         why = (f"{n} detections, confidences {low}..{high}" +
                (f" (a new track needs > {need}: conf_thresh_new_track; see --scores)" if need is not None else ""))
@@ -172,11 +172,6 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, li
     decided (bounded memory, docs/robustness.md), committed together at the end.  ``live`` (a
     detector pipe): ``seq`` is a refimpl.io.DetectionStream, and an output to standard output is
     written and flushed as each frame's rows are final instead of staged."""
-    from ..io import ResultWriter, results_formatter
-    from ..io.outputs import STDOUT, OutputSet
-    from ..tracking.pipeline import run_sequence
-    from ..solvers import get_solver
-    from ..experiments.tasks import AnswerCheck
     solver = None if setup.baseline else get_solver(setup.backend)  # its libraries loaded before any output is staged
     with OutputSet() as outs:
         def open_out(path):
@@ -199,7 +194,6 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, li
             if check.violations:
                 raise CheckFailed(f"{len(check.violations)} answers break a rule of the model")
         if args.scene:
-            from ..scene import scene_from_result, scene_to_json
             outs.write(args.scene, json.dumps(scene_to_json(scene_from_result(seq, result)),
                                               separators=(",", ":")) + "\n")
     print(f"{seq.name}: {result.frames} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
@@ -234,10 +228,6 @@ def _track_pipe(args: argparse.Namespace) -> int:
     them, each frame's rows written as soon as they are final (to standard output, flushed, with
     ``--out -``; else streamed into the staged outputs), in the tracker's bounded streaming mode.
     The rows equal those of the file run on the same lines (docs/robustness.md, "A detector pipe")."""
-    import io as stdio
-
-    from .. import io
-    from ..io.outputs import STDOUT, check_outputs
     if len(args.dets) > 1:
         raise UserError("--dets - reads one sequence from standard input: give it alone")
     if args.out is None or args.out_dir is not None:
@@ -275,38 +265,3 @@ def _track_pipe(args: argparse.Namespace) -> int:
 
 def _prefix(seqs, seq) -> str:
     return f"{seq.name}: " if len(seqs) > 1 else ""
-
-
-def cmd_eval(args: argparse.Namespace) -> int:
-    from .. import io
-    from ..evaluation.devkits import check_devkit, evaluate_sequences
-    from ..evaluation.evaluate import format_table
-    from ..evaluation.folder_eval import load_folder, load_sequence, metrics_json
-    from ..io.outputs import check_outputs
-    check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
-    if io.get_format(args.format).needs_class and args.cls is None:
-        raise UserError(f"--format {args.format} needs --class Car|Pedestrian")
-    try:
-        check_devkit(args.devkit, args.format, args.cls)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    if Path(args.results).is_dir():
-        sequences, unscored = load_folder(args.results, args.gt, args.format, args.cls)
-        if unscored:
-            print(f"refimpl eval: note: {len(unscored)} ground-truth sequence(s) without a results file "
-                  f"not scored: {', '.join(unscored)}", file=sys.stderr)
-    else:
-        if Path(args.gt).is_dir():
-            raise UserError(f"{args.gt}: with one results file, --gt is that sequence's ground-truth file")
-        sequences = [load_sequence(None, args.results, args.gt, args.format, args.cls, allow_empty=True)]
-        if not len(sequences[0].results):  # as TrackEval scores a tracker that wrote nothing: every target missed
-            print(f"refimpl eval: note: {args.results} holds no rows: scored as no tracks (every target missed)",
-                  file=sys.stderr)
-    scores = evaluate_sequences(sequences, args.format, args.cls, args.devkit)
-    print(scores.header)
-    print(format_table(scores.per_sequence, scores.overall))
-    if args.json:
-        report = {"devkit": scores.devkit, "convention": scores.convention,
-                  **metrics_json(scores.per_sequence, scores.overall)}
-        io.write_text_atomic(args.json, json.dumps(report, indent=2) + "\n")
-    return EXIT_OK

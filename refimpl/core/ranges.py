@@ -42,6 +42,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 from .spec import ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, FrameProblem, ProblemFormatError
+from .constants import resolve_constants
 
 BOX_LIMIT = 2 ** 28
 TIME_LIMIT = 2 ** 30
@@ -65,7 +66,6 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
 def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
     """Raise ProblemFormatError (one line) if any value of the problem leaves the range (every
     backend; the optimisation sums are clingo's alone: ``clingo_overflow``)."""
-    from .constants import resolve_constants
     consts = resolve_constants(problem)
     # a tracker's constants are the same on every frame but curr_time: checked once
     if _constants_fit(tuple(kv for kv in consts.items() if kv[0] != "curr_time")):
@@ -132,7 +132,6 @@ def clingo_sum_bounds(problem: FrameProblem, explanation_bits: int) -> dict[int,
     by construction (refimpl.solvers.common.tiebreak_levels), so only the explanation part's sum
     of indices is bounded here, by 2^E - 1 where E = ``explanation_bits`` (the bit length of
     its largest possible sum, refimpl.solvers.common.TiebreakWeights.shift)."""
-    from .constants import resolve_constants
     consts = resolve_constants(problem)
     nt, nd = len(problem.tracks), len(problem.detections)
     matched = min(nt, nd)

@@ -19,17 +19,13 @@ from typing import TYPE_CHECKING, Sequence
 
 from .. import io
 from ..io.ground_truth import _KITTI_TARGETS, _MOT_DISTRACTORS
+from . import DEVKITS, REFIMPL, TRACKEVAL  # noqa: F401  (the --devkit choices, re-exported)
+from .evaluate import DONTCARE_MIN_COVER, evaluate_many
 from .trackeval_devkit import KITTI_CLASSES, MOT15, mot_benchmark, trackeval_scores
 
 if TYPE_CHECKING:
     from .folder_eval import LoadedSequence
 
-# refimpl.evaluation.evaluate (scipy, motmetrics) is imported where a score is computed, not with this module:
-# the command line reads DEVKITS for every command.
-
-REFIMPL, TRACKEVAL = "refimpl", "trackeval"
-DEVKITS = (REFIMPL, TRACKEVAL)
-"""The ``--devkit`` choices; the first is the default."""
 IOU_THRESHOLD = 0.5
 """The match threshold of CLEAR MOT, IDF1 and the distractor matching (both devkits)."""
 
@@ -74,7 +70,6 @@ def _names(types: Sequence[str]) -> str:
 
 def refimpl_rules(data_format: str, object_class: str | None, sequences: Sequence[LoadedSequence]) -> str:
     """What refimpl.evaluation.evaluate does with these sequences, in one phrase (refimpl.io's package doc)."""
-    from .evaluate import DONTCARE_MIN_COVER
     cover = f"{100 * DONTCARE_MIN_COVER:g}%"
     if data_format == io.KITTI:
         targets, distractors = _KITTI_TARGETS[str(object_class)]
@@ -97,7 +92,6 @@ def refimpl_rules(data_format: str, object_class: str | None, sequences: Sequenc
 def evaluate_sequences(sequences: Sequence[LoadedSequence], data_format: str, object_class: str | None,
                        devkit: str = REFIMPL) -> Scores:
     """Score the sequences with the devkit; ``Scores.convention`` says what it applied."""
-    from .evaluate import evaluate_many
     check_devkit(devkit, data_format, object_class)
     if devkit == TRACKEVAL:
         te = trackeval_scores(sequences, data_format, object_class)

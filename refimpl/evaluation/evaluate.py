@@ -26,11 +26,11 @@ import math
 from typing import Iterable
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
+from ..core.assignment import linear_sum_assignment
 from ..core.geometry import iou_matrix, xywh_to_xyxy
+from ..io import GroundTruth, InputFormatError, data_line_numbers
 from .hota import ALPHA_KEY, combine_hota, hota_sequence
-from ..io import GroundTruth
 
 DONTCARE_MIN_COVER = 0.5
 """A hypothesis is inside a DontCare region if intersection / hypothesis area >= this."""
@@ -333,7 +333,6 @@ def check_results_fit(gt: GroundTruth, results: np.ndarray) -> tuple[int, str] |
 
 def refuse_misfit(gt: GroundTruth, results: np.ndarray, path) -> None:
     """Raise InputFormatError (naming the line where it can) if results do not fit gt (check_results_fit)."""
-    from ..io import InputFormatError, data_line_numbers
     misfit = check_results_fit(gt, results)
     if misfit is None:
         return

@@ -38,10 +38,17 @@ ALPHA_KEY = "hota_alpha"
 _ALPHA_FIELDS = ("HOTA_TP", "HOTA_FN", "HOTA_FP", "AssA", "AssRe", "AssPr", "LocA")
 
 
-def _metric():
-    from trackeval.metrics import HOTA  # imported lazily: trackeval pulls in scipy and its datasets
+def trackeval_package():
+    """The ``trackeval`` package, imported when a score is first computed (it pulls in scipy and
+    its datasets): this module is the one that imports it, for its HOTA metric here and for its
+    dataset pipeline (refimpl.evaluation.trackeval_devkit)."""
+    import trackeval
 
-    return HOTA()
+    return trackeval
+
+
+def _metric():
+    return trackeval_package().metrics.HOTA()
 
 
 def _relabel(ids: Sequence[np.ndarray]) -> tuple[list[np.ndarray], int]:

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from .. import io
+from .hota import trackeval_package
 
 if TYPE_CHECKING:  # the type only: importing this module stays light (the command line reads KITTI_CLASSES)
     from .folder_eval import LoadedSequence
@@ -147,7 +148,7 @@ def _row(res: dict) -> dict:
 def trackeval_scores(sequences: Sequence[LoadedSequence], data_format: str,
                      object_class: str | None = None) -> TrackEvalScores:
     """Score the sequences with TrackEval's dataset pipeline (module doc); KITTI needs car or pedestrian."""
-    import trackeval  # heavy and only needed here
+    trackeval = trackeval_package()  # heavy and only needed here
     if data_format == io.KITTI and object_class not in KITTI_CLASSES:
         raise ValueError(f"TrackEval's Kitti2DBox evaluates {' and '.join(KITTI_CLASSES)} only, not {object_class}")
     if not sequences:

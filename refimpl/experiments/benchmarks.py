@@ -31,12 +31,20 @@ import platform
 import statistics
 import time
 import warnings
+from importlib import metadata
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
+from .. import io
+from ..core.errors import UserFacingError
 from ..io.datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS, benchmark_sequences
+from ..io.outputs import OutputSet, section_text, write_atomic, write_section  # noqa: F401  (section_text, write_section: re-exported for the report writers)
 from ..solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BACKEND, REFERENCE_BACKEND, TRACKERS, get_solver
+from ..scene.plots import agg_figure
+from ..solvers.common import components
+from ..tracking.pipeline import Setup, run_sequence
+from .synthetic import dense_frame, synthetic_frame
 
 THROUGHPUT_TRACKERS = TRACKERS
 DEFAULT_SIZES = (5, 10, 20, 50, 100, 200)
@@ -69,12 +77,12 @@ class _NoProgress:
 
 def machine_note() -> str:
     """One line naming the machine the numbers come from."""
-    try:
-        import clingo
-        clingo_version = clingo.__version__
-    except ImportError:
-        clingo_version = "not installed"
-    import ortools
+    versions = {}
+    for package in ("ortools", "clingo"):  # the installed distributions' versions: nothing is imported
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            versions[package] = "not installed"
     cpus = os.cpu_count()
     model = ""
     try:
@@ -85,7 +93,7 @@ def machine_note() -> str:
     except OSError:
         pass
     return (f"{platform.system()} {platform.machine()}, {cpus} cores{' (' + model + ')' if model else ''}, "
-            f"Python {platform.python_version()}, OR-Tools {ortools.__version__}, clingo {clingo_version}; "
+            f"Python {platform.python_version()}, OR-Tools {versions['ortools']}, clingo {versions['clingo']}; "
             f"every solver single-threaded")
 
 
@@ -136,8 +144,6 @@ def bench_scale(sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[float] 
                 dense: bool = False) -> ScaleResult:
     """Solve every synthetic frame (n, overlap, seed) with every backend; see the module docstring.
     ``dense``: the frames are synthetic.dense_frame(n, seed) instead (``overlaps`` is ignored)."""
-    from ..solvers.common import components
-    from .synthetic import dense_frame, synthetic_frame
 
     if dense:
         overlaps = [0.0]
@@ -310,14 +316,10 @@ def scale_report(result: ScaleResult, command: str) -> str:
 
 def plot_scale(result: ScaleResult, path: str | os.PathLike) -> None:
     """Log-scale ms/frame vs tracks: one line per backend x overlap, the paper's clingo as reference."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg  # the 'plot' extra: only when a plot is drawn
-    from matplotlib.figure import Figure
-
     rows = summarise_scale(result)
     colours = COLOURS
     styles = {0.2: ":", 0.5: "--", 0.8: "-"}
-    fig = Figure(figsize=(8.5, 5.5), dpi=110)
-    FigureCanvasAgg(fig)  # this figure's own Agg canvas: no pyplot, no process-wide backend
+    fig = agg_figure((8.5, 5.5), 110)
     ax = fig.subplots()
     for b in result.backends:
         for ov in result.overlaps:
@@ -384,8 +386,6 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
                      progress: ProgressFactory = _NoProgress) -> ThroughputResult:
     """Frames per second of the whole tracking loop per tracker and sequence (files read beforehand;
     every sequence is tracked by every tracker in turn, in an order rotated from sequence to sequence)."""
-    from .. import io
-    from ..tracking.pipeline import Setup, run_sequence
 
     for tr in trackers:
         if tr not in THROUGHPUT_TRACKERS:
@@ -456,15 +456,12 @@ def throughput_report(result: ThroughputResult, command: str) -> str:
 # docs/benchmarks.md, JSON
 # ---------------------------------------------------------------------------------------
 
-from ..io.outputs import section_text, write_section  # noqa: E402  (re-exported for the report writers)
 
-
-class BenchmarkFileError(Exception):
+class BenchmarkFileError(UserFacingError):
     """A saved benchmark JSON file (``--from-json``) that is not one this module wrote: one line, exit 2."""
 
 
 def save_json(path: str | os.PathLike, result: ScaleResult | ThroughputResult) -> None:
-    from ..io.outputs import write_atomic
     write_atomic(path, json_text(result))
 
 
@@ -571,7 +568,6 @@ def run_bench_scale(*, sizes: Sequence[int] = DEFAULT_SIZES, overlaps: Sequence[
         result = bench_throughput(data, trackers=trackers, progress=progress)
     else:
         result = bench_scale(sizes, overlaps, seeds, backends, time_limit, progress, dense)
-    from ..io.outputs import OutputSet
     with OutputSet() as outs:  # every output of the run lands together, or none does
         if json_path:
             outs.write(json_path, json_text(result))

@@ -33,10 +33,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping, Sequence
 
-from ..io.datasets import BENCHMARKS, benchmark_sequences, tuning_split
-from ..io import write_text_atomic
-from ..tracking.presets import Preset, preset_entry, presets_path
+from .. import io
+from ..core.constants import default_constants
+from ..core.errors import UserFacingError
+from ..evaluation.evaluate import combine
+from ..io import KITTI, write_text_atomic
+from ..io.datasets import BENCHMARKS, CATALOGUE, benchmark_sequences, dataset_kind, load_dataset, tuning_split
 from ..solvers import DEFAULT_BACKEND
+from ..tracking.options import TrackerOptions
+from ..tracking.pipeline import NONE
+from ..tracking.presets import DEFAULT_KEY, Preset, load_presets, preset_entry, presets_path
+from .scaleout import Plan, run_tasks
+from .table6 import run_benchmark
+from .tasks import RunRequest, run_requests
 
 DEFAULT_GRID: dict[str, tuple] = {
     "conf_thresh_new_track": (80, 90),
@@ -63,7 +72,7 @@ CALIBRATE_BEGIN = "<!-- calibrate:{name}:begin -->"
 CALIBRATE_END = "<!-- calibrate:{name}:end -->"
 
 
-class CalibrationRefused(ValueError):
+class CalibrationRefused(ValueError, UserFacingError):
     """Calibrating on these sequences would tune on data that is reported as held out."""
 
 
@@ -116,7 +125,6 @@ def rank_key(overall: Mapping, use_hota: bool) -> tuple[float, ...]:
 def refuse_held_out(benchmark: str) -> None:
     """Refuse a held-out dataset (refimpl.io.datasets.Dataset.held_out: KITTI Cyclist, MOT15 with ACF):
     it is run only to report, never tuned on."""
-    from ..io.datasets import CATALOGUE
     entry = CATALOGUE.get(benchmark)
     if entry is not None and entry.held_out:
         raise CalibrationRefused(f"{benchmark} is held out: never used for tuning (run it only to report: "
@@ -126,7 +134,6 @@ def refuse_held_out(benchmark: str) -> None:
 def check_tunable(benchmark: str, data_root: str) -> None:
     """Refuse a held-out dataset, and a KITTI benchmark holding a sequence of the val split (they are
     reported, never tuned on)."""
-    from .. import io
     refuse_held_out(benchmark)
     seqs = benchmark_sequences(benchmark, data_root) if benchmark in BENCHMARKS else []
     if seqs and seqs[0].format == io.KITTI:  # KITTI has a held-out val split
@@ -139,7 +146,6 @@ def check_tunable(benchmark: str, data_root: str) -> None:
 
 def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:
     """A grid point's (name, value) pairs as model constants and tracker options (TrackerOptions)."""
-    from ..tracking.options import TrackerOptions
     names = set(TrackerOptions.names())
     constants = {k: int(v) for k, v in point if k not in names}
     return constants, TrackerOptions.from_mapping({k: v for k, v in point if k in names}, "--grid")
@@ -148,7 +154,6 @@ def split_point(point) -> tuple[dict[str, int], "TrackerOptions"]:
 def _run_point(args) -> GridPoint:
     """One grid point: track and score the whole dataset with these settings (a Dask task)."""
     name, data_root, point, backend, dataset = args
-    from .table6 import run_benchmark
     constants, options = split_point(point)
     run = run_benchmark(name, data_root, backend, dataset=dataset, constants=constants, options=options)
     return GridPoint(tuple(point), run.per_sequence, run.overall, run.seconds)
@@ -156,7 +161,6 @@ def _run_point(args) -> GridPoint:
 
 def leave_one_sequence_out(points: Sequence[GridPoint], use_hota: bool) -> dict:
     """For each sequence the point best on the others, and the combined scores of those choices."""
-    from ..evaluation.evaluate import combine
     names = list(points[0].per_sequence)
     chosen, held_out = {}, []
     for s in names:
@@ -174,8 +178,6 @@ def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] 
     """Run the grid on a benchmark and rank it; see the module docstring.  The grid points run as
     tasks on ``plan`` (refimpl.experiments.scaleout.Plan: serial by default, or a Dask cluster), each with
     the dataset it tracks; results come back in grid order whatever the worker count."""
-    from .scaleout import Plan, run_tasks
-    from ..io.datasets import dataset_kind, load_dataset
 
     check_tunable(benchmark, data_root)
     fmt, cls = dataset_kind(benchmark, data_root)
@@ -191,7 +193,6 @@ def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] 
     ranked = tuple(sorted(range(len(points)), key=lambda i: (rank_key(points[i].overall, use_hota), -i),
                           reverse=True))
     if loso is None:
-        from ..io import KITTI
         loso = fmt != KITTI  # no held-out split: leave one sequence out
     loso_result = leave_one_sequence_out(points, use_hota) if loso and len(points[0].per_sequence) > 1 else None
     return Calibration(benchmark, fmt, cls, {k: tuple(v) for k, v in grid.items()}, tuple(points), ranked,
@@ -255,8 +256,6 @@ def chosen_preset(cal: Calibration):
 def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple]:
     """DEFAULT_GRID with NAME=V1,V2,... replacing a dimension (or adding one of the known constants
     or tracker options)."""
-    from ..core.constants import default_constants
-    from ..tracking.options import TrackerOptions
     grid = dict(DEFAULT_GRID)
     for spec in specs or ():
         name, sep, values = spec.partition("=")
@@ -317,12 +316,6 @@ def robust_default(benchmarks: Sequence[str], data_root: str, backend: str = DEF
                    quiet: bool = True) -> RobustChoice:
     """Run every stored preset (and none) on every tuning benchmark, each with its own reader's
     score rule, and choose the default by :func:`choose_robust`."""
-    from ..io.datasets import load_dataset
-    from ..tracking.options import TrackerOptions
-    from ..tracking.pipeline import NONE
-    from ..tracking.presets import DEFAULT_KEY, load_presets
-    from .scaleout import Plan
-    from .tasks import RunRequest, run_requests
     for name in benchmarks:
         check_tunable(name, data_root)
     presets = {k: p for k, p in sorted(load_presets().items()) if k != DEFAULT_KEY}
@@ -359,8 +352,6 @@ def robust_report(choice: RobustChoice, command: str) -> str:
 
 def default_preset(choice: RobustChoice):
     """The chosen candidate as the stored `default` preset (its values, the procedure said)."""
-    from ..tracking.options import TrackerOptions
-    from ..tracking.presets import load_presets
     name = choice.candidates[choice.chosen]
     source = load_presets().get(name)
     procedure = (f"the stored preset with the best mean rank of HOTA over {', '.join(choice.benchmarks)} "

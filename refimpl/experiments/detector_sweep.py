@@ -36,6 +36,7 @@ from .detectors import (REAL_BEGIN, REAL_DETECTORS, REAL_END, SWEEP_BEGIN, SWEEP
                         first_frames, fmt_pct, fmt_ratio, real_report, results_json, track_and_evaluate,
                         write_section)
 from ..io.simulate import MOT17_GT_VARIANT, MOT17_TRAIN, DetectorParams, simulate_detections
+from ..scene.plots import agg_figure, colormap
 from ..solvers import BASELINE, DEFAULT_BACKEND
 
 
@@ -162,18 +163,13 @@ def plot_sweep(points: Sequence[SweepPoint], path: str | os.PathLike) -> str:
     detector recall, one line per FP rate and noise level, one row of panels per dataset.
     Written atomically (a temporary file in the same folder, then renamed).  Returns the metric
     used for the first column."""
-    from matplotlib import colormaps  # the 'plot' extra: only when a plot is drawn
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     key = "hota" if _has_hota(points) else "mota"
     datasets = list(dict.fromkeys(p.dataset for p in points))
-    fig = Figure(figsize=(10, 3.8 * len(datasets)), dpi=100)
-    FigureCanvasAgg(fig)  # this figure's own Agg canvas: no pyplot, no process-wide backend
+    fig = agg_figure((10, 3.8 * len(datasets)), 100)
     axes = fig.subplots(len(datasets), 2, squeeze=False)
     fps_levels = sorted({p.fp_per_frame for p in points})
     noise_levels = sorted({p.noise for p in points})
-    colours = colormaps["viridis"](np.linspace(0.0, 0.85, max(len(fps_levels), 1)))
+    colours = colormap("viridis")(np.linspace(0.0, 0.85, max(len(fps_levels), 1)))
     styles = ["-", "--", ":", "-."]
     for row, ds in enumerate(datasets):
         for col, metric in enumerate((key, "idf1")):

@@ -41,9 +41,12 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .. import io
+from ..core.constants import default_constants
 from ..evaluation.evaluate import _check_results, _frame_slices, _match, _preprocess, evaluate_many
 from ..io.datasets import REAL_DETECTORS, benchmark_sequences  # noqa: F401  (benchmark -> (key, file beside its detections or None, label))
+from ..io.outputs import write_section as write
 from ..solvers import BASELINE, DEFAULT_BACKEND
+from .table6 import run_tracker
 
 IOU_THRESHOLD = 0.5
 
@@ -86,7 +89,6 @@ class DetectionQuality:
 
 
 def new_track_threshold() -> int:
-    from ..core.constants import default_constants
     return int(default_constants()["conf_thresh_new_track"])
 
 
@@ -144,7 +146,6 @@ class TrackerRun:
 def track_and_evaluate(triples: Sequence[tuple[str, io.DetectionSequence, io.GroundTruth]],
                        tracker: str, step: ProgressStep | None = None) -> TrackerRun:
     """Track every sequence with 'baseline' (SORT) or an abduction backend; the overall scores."""
-    from .table6 import run_tracker
     scored, seconds, frames = [], 0.0, 0
     for name, dets, gt in triples:
         t0 = time.perf_counter()
@@ -160,7 +161,6 @@ def track_and_evaluate(triples: Sequence[tuple[str, io.DetectionSequence, io.Gro
 
 def warm_up(triples, tracker: str, frames: int = 5) -> None:
     """Track the first few frames once, untimed (lazy imports, solver start-up)."""
-    from .table6 import run_tracker
     if triples:
         _, dets, _ = triples[0]
         run_tracker(dataclasses.replace(dets, frames=dets.frames[:frames]), tracker)
@@ -329,7 +329,6 @@ SWEEP_BEGIN, SWEEP_END = "<!-- detectors-sweep:begin -->", "<!-- detectors-sweep
 
 def write_section(path: str | os.PathLike, begin: str, end: str, body: str) -> None:
     """Replace the text between the markers of a markdown file (appended if absent), atomically."""
-    from ..io.outputs import write_section as write
     write(path, begin, end, body, title="# Detectors")
 
 

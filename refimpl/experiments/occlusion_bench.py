@@ -28,11 +28,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..evaluation.evaluate import evaluate_sequence
 from ..core.geometry import iou_matrix
+from ..evaluation.evaluate import evaluate_sequence
 from ..knowledge.events import EVENT_TABLE
-from .occlusion import Scenario, build_suite
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
+from ..tracking.options import TrackerOptions
+from ..tracking.pipeline import Setup, run_sequence
+from .occlusion import Scenario, build_suite
 
 TOLERANCE = 5
 MOTION_OPTIONS = {"hold": "hold_hidden", "oru": "reupdate_on_resume"}
@@ -132,8 +134,6 @@ def score(scenario: Scenario, variant: str, rows: np.ndarray, events=()) -> Scen
 
 def run_variant(scenario: Scenario, variant: str) -> ScenarioResult:
     head, options = parse_variant(variant)
-    from ..tracking.options import TrackerOptions
-    from ..tracking.pipeline import Setup, run_sequence
     setup = Setup(head) if head == BASELINE else Setup(head, options=TrackerOptions.from_mapping(options))
     result = run_sequence(scenario.detections, setup)
     return score(scenario, variant, result.rows, result.events)

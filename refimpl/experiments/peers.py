@@ -2,8 +2,9 @@
 and BoxMOT's motion-only trackers (ByteTrack, OC-SORT, BoT-SORT, HybridSORT, BoostTrack).
 
 The peers are a second reference beside refimpl's own SORT baseline (which reproduces the
-paper's baseline): what a user already runs.  Every peer is one ``Peer`` row of ``PEERS``: the
-package it comes from, its class, and what is set beyond the class's constructor defaults.
+paper's baseline): what a user already runs.  Every peer is one ``Peer`` row of ``PEERS``
+(refimpl.experiments.peer_table, re-exported here): the package it comes from, its class, and what
+is set beyond the class's constructor defaults.
 
 * ``trackers`` (roboflow; optional extra ``peers``, ``trackers==2.6.1``): the package's *default*
   parameters, except for the two things a caller must say: the frame rate and the confidences.
@@ -39,79 +40,20 @@ import logging
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
 
+from ..core.errors import UserFacingError
+from ..core.loader import load
+from ..evaluation.evaluate import evaluate_many
+from ..io.datasets import TITLES, load_dataset
 from ..solvers import BASELINE, DEFAULT_BACKEND
+from ..tracking.options import TrackerOptions
+from .latency import summarise
+from .peer_table import PACKAGES, PEERS, Package, Peer  # noqa: F401  (re-exported: the registry)
+from .table6 import change, run_benchmark
 
-
-@dataclass(frozen=True)
-class Package:
-    """An optional package peers come from."""
-
-    module: str
-    requirement: str
-    extra: str
-    note: str = ""
-
-
-PACKAGES = {
-    "trackers": Package("trackers", "trackers==2.6.1", "peers"),
-    "boxmot": Package("boxmot", "boxmot==25.0.0", "peers-boxmot",
-                      "; it brings torch: install a CPU torch and its torchvision first (docs/peers.md), "
-                      "or pip takes a CUDA build of several GB"),
-}
-
-
-@dataclass(frozen=True)
-class Peer:
-    """One peer tracker: where it comes from and what it runs with beyond its constructor defaults."""
-
-    name: str
-    """As on the command line (``--peers``)."""
-    package: str
-    """A key of PACKAGES."""
-    class_name: str
-    settings: Mapping[str, object] = field(default_factory=dict)
-    """Set beyond the constructor defaults (BoxMOT: no ReID, no camera-motion compensation)."""
-    frame_rate: bool = True
-    """The constructor takes the sequence's frame rate (``frame_rate``)."""
-    shown: tuple[str, ...] = ()
-    """The parameters listed under a comparison table (the ones that shape the result)."""
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "settings", MappingProxyType(dict(self.settings)))  # read-only
-
-
-_TRACKERS_SHOWN = ("lost_track_buffer", "frame_rate", "track_activation_threshold", "minimum_consecutive_frames",
-                   "minimum_iou_threshold", "high_conf_det_threshold", "direction_consistency_weight", "delta_t",
-                   "state_estimator_class")
-_SORT_FAMILY = ("det_thresh", "max_age", "min_hits", "iou_threshold")
-"""BoxMOT's base-tracker parameters that its OC-SORT, HybridSORT and BoostTrack read."""
-_NO_REID = {"use_embeddings": False}
-
-_ROWS = (
-    Peer("sort", "trackers", "SORTTracker", shown=_TRACKERS_SHOWN),
-    Peer("bytetrack", "trackers", "ByteTrackTracker", shown=_TRACKERS_SHOWN),
-    Peer("ocsort", "trackers", "OCSORTTracker", shown=_TRACKERS_SHOWN),
-    Peer("boxmot-bytetrack", "boxmot", "ByteTrack",
-         shown=("min_conf", "track_thresh", "match_thresh", "track_buffer", "frame_rate")),
-    Peer("boxmot-ocsort", "boxmot", "OcSort", frame_rate=False,
-         shown=(*_SORT_FAMILY, "min_conf", "delta_t", "inertia", "use_byte", "asso_func")),
-    Peer("boxmot-botsort", "boxmot", "BotSort", {**_NO_REID, "use_cmc": False},
-         shown=("track_high_thresh", "track_low_thresh", "new_track_thresh", "track_buffer", "match_thresh",
-                "proximity_thresh", "frame_rate", "fuse_first_associate", "use_embeddings", "use_cmc")),
-    Peer("boxmot-hybridsort", "boxmot", "HybridSort", {**_NO_REID, "cmc_method": None}, frame_rate=False,
-         shown=(*_SORT_FAMILY, "low_thresh", "track_thresh", "delta_t", "inertia", "use_byte", "TCM_first_step",
-                "TCM_byte_step", "use_embeddings", "cmc_method")),
-    Peer("boxmot-boosttrack", "boxmot", "BoostTrack", {**_NO_REID, "use_cmc": False}, frame_rate=False,
-         shown=(*_SORT_FAMILY, "min_box_area", "aspect_ratio_thresh", "lambda_iou", "lambda_mhd", "lambda_shape",
-                "use_dlo_boost", "use_duo_boost", "dlo_boost_coef", "use_embeddings", "use_cmc")),
-)
-PEERS: dict[str, Peer] = {p.name: p for p in _ROWS}
-"""Peer name (as on the command line) -> Peer; ``--peers all`` runs every one."""
 
 DEFAULT_FRAME_RATE = 30.0
 """The packages' own default, used for a sequence without a frame rate."""
@@ -119,7 +61,7 @@ _UNSET_NAMES = ("self", "args", "kwargs", "reid_model", "reid_weights", "device"
 """Constructor arguments that are no tracker parameter (BoxMOT's ReID model loading)."""
 
 
-class PeersUnavailable(Exception):
+class PeersUnavailable(UserFacingError):
     """An optional peer package is missing (install its extra)."""
 
 
@@ -156,7 +98,7 @@ def parse_peers(text: str) -> tuple[str, ...]:
 def _package(name: str):
     pkg = PACKAGES[name]
     try:
-        module = __import__(pkg.module)
+        module = load(pkg.module)  # a registry entry naming its package (refimpl.core.loader)
     except ImportError as exc:
         raise PeersUnavailable(f"the {name} peers need the '{pkg.module}' package ({pkg.requirement}): "
                                f"pip install 'refimpl[{pkg.extra}]'{pkg.note} ({exc})") from None
@@ -332,17 +274,12 @@ class Comparison:
 def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAULT_BACKEND,
             constants: Mapping[str, int] | None = None, dataset=None, step=None, options=None) -> Comparison:
     """Every tracker on the same detections of a dataset, scored by the same evaluator."""
-    from ..evaluation.evaluate import evaluate_many
-    from ..io.datasets import TITLES, load_dataset
-    from .latency import summarise
-    from .table6 import run_benchmark
 
     for p in peers:
         peer_class(p)  # unknown name or missing package: fail before tracking anything
     dataset = dataset if dataset is not None else load_dataset(name, data_root)
     frames = sum(len(d.frames) for _, d, _ in dataset)
     scores = []
-    from ..tracking.options import TrackerOptions
     options = options or TrackerOptions()
     runs = [(BASELINE, "refimpl baseline (SORT)", None, None),
             (backend, f"refimpl abduction ({backend})", dict(constants or {}), options)]
@@ -398,7 +335,6 @@ def score_cells(s: TrackerScore) -> list[str]:
 def comparison_table(c: Comparison) -> str:
     """Markdown: one row per tracker, the peers' parameters and the abduction constants below, and
     every tracker's ID switches against the baseline's."""
-    from .table6 import change  # it reads refimpl.evaluation.evaluate (scipy): not at the CLI's start
     head = "| tracker | " + " | ".join(COMPARISON_COLUMNS) + " |"
     lines = [head, "|---|" + "---:|" * len(COMPARISON_COLUMNS)]
     lines += ["| " + " | ".join([s.label, *score_cells(s)]) + " |" for s in c.scores]

@@ -18,8 +18,9 @@ from pathlib import Path
 from typing import Sequence
 
 from .. import io
+from ..core.constants import default_constants
+from ..io.datasets import BENCHMARKS, benchmark_sequences, load_dataset
 from .calibrate import refuse_held_out
-from ..io.datasets import BENCHMARKS, benchmark_sequences
 from .tasks import RunRequest, RunSummary, run_requests
 
 SPLITS = ("all", "tune", "val")
@@ -28,7 +29,6 @@ VAL_SEQMAP = Path("KITTI") / "tracking" / "training" / "evaluate_tracking.seqmap
 
 def grid_settings(grid: Sequence[tuple[str, Sequence[int]]]) -> tuple[tuple[str, ...], tuple[tuple[int, ...], ...]]:
     """Constant names and every combination of their values, in grid order; names are checked."""
-    from ..core.constants import default_constants
     known = default_constants()
     names = tuple(name for name, _ in grid)
     for name in names:
@@ -93,7 +93,6 @@ class SweepResult:
 def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tuple[str, Sequence[int]]],
                split: str = "all") -> SweepPlan:
     """Check the grid and read the data: ValueError (or io.InputFormatError) for a user's mistake."""
-    from ..io.datasets import load_dataset
     refuse_held_out(benchmark)  # a held-out dataset is never tuned on (CalibrationRefused, a ValueError)
     names, settings = grid_settings(grid)
     split_dataset(benchmark, [], data_root, split)  # a split that does not apply, before reading the data

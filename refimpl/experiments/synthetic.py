@@ -60,6 +60,7 @@ from ..knowledge.relations import overlapping_top
 from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, write_facts
 from ..knowledge.events import EventType, explaining
 from ..solvers.common import components
+from ..io.outputs import OutputSet
 
 HIDE_OVERLAP = 10
 """The overlap (percent of the back box's area) the generator builds for: model/constants.lp's default."""
@@ -207,7 +208,6 @@ def write_synthetic_suite(folder: str | Path, sizes: Iterable[int] = (5, 10, 20,
     seeds = list(seeds)
     overlaps = list(overlaps)
     paths = []
-    from ..io.outputs import OutputSet
     with OutputSet() as outs:  # the suite lands whole or not at all
         for n in sizes:
             for ov in overlaps:

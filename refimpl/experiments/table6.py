@@ -14,9 +14,11 @@ from typing import Callable
 
 import numpy as np
 
-from ..io.datasets import TABLE6_DATASETS, TITLES, load_dataset
 from ..evaluation.evaluate import evaluate_many
+from ..io.datasets import TABLE6_DATASETS, TITLES, load_dataset
 from ..solvers import BASELINE, DEFAULT_BACKEND
+from ..tracking.options import TrackerOptions
+from ..tracking.pipeline import Setup, run_sequence
 
 
 @dataclass(frozen=True)
@@ -37,8 +39,6 @@ def run_tracker(seq, tracker: str, constants=None, options=None, frame_times: li
     """Results rows and events of one sequence with 'baseline' (SORT) or an abduction backend
     (with these model constants on top of model/constants.lp and these TrackerOptions), through
     the one pipeline (refimpl.tracking.pipeline)."""
-    from ..tracking.pipeline import Setup, run_sequence
-    from ..tracking.options import TrackerOptions
     setup = Setup(tracker) if tracker == BASELINE else \
         Setup(tracker, tuple((constants or {}).items()), options or TrackerOptions())
     result = run_sequence(seq, setup, frame_times=frame_times)

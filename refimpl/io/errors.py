@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import os
 
+from ..core.errors import UserFacingError
 
-class InputFormatError(ValueError):
+
+class InputFormatError(ValueError, UserFacingError):
     """A user mistake in an input file; the message is ``"<path>:<line>: <reason>"``."""
 
     def __init__(self, reason: str, path: str | os.PathLike, line: int | None = None):

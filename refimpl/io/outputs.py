@@ -40,10 +40,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Iterator, Mapping
 
+from ..core.errors import UserFacingError
+
 STDOUT = "-"
 
 
-class OutputError(Exception):
+class OutputError(UserFacingError):
     """An output path that cannot or must not be written: one line, exit code 2."""
 
 

@@ -13,6 +13,7 @@ from .event_logs import event_json_line, event_line
 from .ground_truth import _KITTI_LABEL_TYPES
 from .lines import (_check_coordinates, _check_integral, _check_min_frame, _check_positive_size, _check_unique,
                     _first_bad, _numbers, _object_type, _read_lines, _split, _table)
+from .outputs import write_atomic
 
 
 _KITTI_RESULT_TYPE = {"car": "Car", "pedestrian": "Pedestrian", "cyclist": "Cyclist"}
@@ -60,7 +61,6 @@ def _fmt2(v: float) -> str:
 def write_text_atomic(path, text: str) -> None:
     """Write text atomically through refimpl.io.outputs (never a partial file; symlinks, device
     nodes, modes and the umask handled as its module doc says)."""
-    from .outputs import write_atomic
     write_atomic(path, text)
 
 

@@ -41,7 +41,8 @@ from typing import Callable, Iterable, Mapping, Union
 
 from ..core.geometry import intersection_area
 from .relations import near_border, outside_fov, overlapping_top
-from ..core.spec import FrameProblem, HistoryEvent, Term, TrackPrediction, parse_term
+from ..core.spec import FrameProblem, HistoryEvent, Term, TrackPrediction
+from ..core.facts import parse_term
 
 # ---------------------------------------------------------------------------------------
 # Fluents, values, initial values

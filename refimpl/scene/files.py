@@ -10,7 +10,10 @@ import json
 import math
 import os
 
-from ..core.spec import HistoryEvent, ProblemFormatError, parse_term
+from ..core.spec import HistoryEvent, ProblemFormatError
+from ..core.facts import parse_term
+from ..io import write_text_atomic
+from ..knowledge.events import EFFECTS
 from .model import Box, Scene, SceneError, SceneTrack
 
 
@@ -76,7 +79,6 @@ def _boxes(rows, what: str) -> tuple[tuple[int, Box], ...]:
 
 
 def _event(text, i: int) -> HistoryEvent:
-    from ..knowledge.events import EFFECTS
     _need(isinstance(text, str), f"events[{i}] must be a string 'occurs_at(E,T)'")
     try:
         term = parse_term(text)
@@ -163,7 +165,6 @@ def scene_from_json(data) -> Scene:
 
 def save_scene(path: str | os.PathLike, scene: Scene) -> None:
     """Write the scene as JSON, atomically (a temporary file in the same folder, then a rename)."""
-    from ..io import write_text_atomic
     write_text_atomic(path, json.dumps(scene_to_json(scene), separators=(",", ":")) + "\n")
 
 

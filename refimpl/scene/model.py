@@ -13,13 +13,14 @@ from dataclasses import dataclass, field
 from typing import Iterable, Mapping, Sequence
 
 from ..knowledge.events import EVENT_TABLE, EventState
+from ..core.errors import UserFacingError
 from ..core.spec import HistoryEvent, Term, natural_key
 
 
 Box = tuple[float, float, float, float]
 
 
-class SceneError(ValueError):
+class SceneError(ValueError, UserFacingError):
     """A user mistake with a scene (bad scene file, bad query, unknown track): one line, exit 2."""
 
 

@@ -1,6 +1,7 @@
 """Pictures of a scene (refimpl.scene): the space-time picture of all tracks, and one frame's boxes.
 
-matplotlib is imported only inside the drawing functions (the ``plot`` extra), and only its
+matplotlib is imported only inside the drawing functions (the ``plot`` extra), by this module
+alone (the benchmarks' figures come from :func:`agg_figure` and :func:`colormap`), and only its
 object-oriented API with the Agg canvas is used: no pyplot, no global backend switch, no window.
 
 * :func:`plot_timeline`: one row per track over time; observed frames, halted frames that end in
@@ -18,6 +19,7 @@ import os
 from . import EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, load_scene
 from ..knowledge.events import EVENT_TABLE
 from ..core.spec import natural_key
+from ..io.outputs import atomic_file, check_outputs
 
 OBSERVED_COLOUR = "#1f77b4"
 RESUMED_COLOUR = "#ff7f0e"
@@ -40,6 +42,25 @@ def _matplotlib():
     except ImportError:
         raise SceneError("plots need matplotlib: pip install 'refimpl[plot]'") from None
     return Figure, Line2D, Patch, Rectangle
+
+
+def agg_figure(figsize: tuple[float, float], dpi: int):
+    """A matplotlib Figure with its own Agg canvas (no pyplot, no process-wide backend), for the
+    benchmarks' plots (refimpl.experiments): this module is the one that imports matplotlib."""
+    Figure, _, _, _ = _matplotlib()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = Figure(figsize=figsize, dpi=dpi)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def colormap(name: str):
+    """matplotlib's colormap of that name (``"viridis"``)."""
+    _matplotlib()
+    from matplotlib import colormaps
+
+    return colormaps[name]
 
 
 def _select(scene: Scene, tracks: str | None) -> list[SceneTrack] | None:
@@ -275,7 +296,6 @@ def _palette() -> list[str]:
 def plot_scene_file(scene_path: str, out: str, frame: int | None = None, tracks: str | None = None,
                     frames: str | None = None) -> str:
     """``refimpl plot``: load the scene, draw the space-time picture (or one frame) to out; a summary line."""
-    from ..io.outputs import atomic_file, check_outputs
     check_outputs({"--out": out}, {"scene": scene_path})
     scene = load_scene(scene_path)
     chosen = _select(scene, tracks)

@@ -13,6 +13,7 @@ from .anticipation import DEFAULT_CONFIG, ReasoningConfig, anticipate, no_antici
 from .episodes import ENDINGS, episodes
 from .model import Box, Scene, SceneError, frame_runs, track_id
 from .situations import situations
+from ..core.constants import default_constants
 
 
 # ---------------------------------------------------------------------------------------
@@ -55,7 +56,6 @@ def _spatial_relations() -> dict[str, Callable[[Box, Box], bool]]:
 
 def _hide_overlap() -> int:
     """model/constants.lp hide_overlap: overlapping_top needs more than this % of T1 covered."""
-    from ..core.constants import default_constants
     return default_constants()["hide_overlap"]
 
 

@@ -11,9 +11,12 @@ import sys
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
+from .. import io
 from ..io.datasets import THROUGHPUT_DATASETS, benchmark_sequences
+from ..io.outputs import write_atomic
 from ..knowledge.events import EVENT_TABLE
 from ..solvers import DEFAULT_BACKEND
+from ..tracking.pipeline import Setup, run_sequence
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate
 from .episodes import hiding_episodes
 from .files import load_scene, save_scene
@@ -148,8 +151,6 @@ def format_evaluation(rows: Sequence[tuple[str, str, str, dict]]) -> str:
 
 
 def _benchmark_scenes(name: str, data_root: str, cache: str | None, progress: bool) -> list[Scene]:
-    from .. import io
-    from ..tracking.pipeline import Setup, run_sequence
     out = []
     for s in benchmark_sequences(name, data_root):
         path = os.path.join(cache, f"{name}-{s.name}.scene.json") if cache else None
@@ -191,7 +192,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             rows += [(name, motion, k, v) for k, v in result["by_hidden_frames"].items()]
     print(format_evaluation(rows))
     if args.json:
-        from ..io.outputs import write_atomic
         write_atomic(args.json, json.dumps([{"data": d, "motion": m, "bucket": b, **s} for d, m, b, s in rows],
                                            indent=2))
     return 0

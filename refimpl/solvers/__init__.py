@@ -35,12 +35,13 @@ runs asynchronously and is polled every 0.1 s, then cancelled.
 
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass
 from typing import Mapping, Protocol
 
+from ..core.errors import UserFacingError
 from ..core.hypothesis import Hypothesis
+from ..core.loader import load
 from ..core.spec import FrameProblem
 
 CPSAT, CPSAT_FULL, CLINGO = "cpsat", "cpsat-full", "clingo"
@@ -91,15 +92,15 @@ TRACKERS: tuple[str, ...] = (BASELINE,) + BACKENDS
 """What a tracking command's ``--backend`` accepts: the baseline, or abduction with a backend."""
 
 
-class SolverUnavailable(RuntimeError):
+class SolverUnavailable(RuntimeError, UserFacingError):
     """The backend's solver library is not installed (e.g. clingo without the 'asp' extra)."""
 
 
-class NoAdmissibleHypothesis(RuntimeError):
+class NoAdmissibleHypothesis(RuntimeError, UserFacingError):
     """The frame problem has no answer that satisfies every rule of the model."""
 
 
-class SolveTimeout(RuntimeError):
+class SolveTimeout(RuntimeError, UserFacingError):
     """Out of time without any admissible answer (see the time-out contract above)."""
 
 
@@ -128,4 +129,4 @@ def get_solver(backend: str, /, **options) -> Solver:
     if backend not in _REGISTRY:
         raise ValueError(f"unknown backend {backend!r} (choose from {', '.join(BACKENDS)})")
     entry = _REGISTRY[backend]
-    return getattr(importlib.import_module(entry.module), entry.cls)(**{"name": entry.name, **entry.options, **options})
+    return load(f"{entry.module}:{entry.cls}")(**{"name": entry.name, **entry.options, **options})

@@ -18,7 +18,8 @@ from ..core.constants import resolve_constants
 from ..knowledge.events import EVENT_TABLE, EventState, poss
 from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
 from .common import tiebreak_level
-from ..core.spec import FrameProblem, parse_term
+from ..core.spec import FrameProblem
+from ..core.facts import parse_term
 
 _ACTION_ARITY = {a.name: len(a.args) for a in ACTION_TABLE.values()}
 _EXPLAINED_BY = {e.name: e.explains for e in EVENT_TABLE.values()}  # event -> the action it explains

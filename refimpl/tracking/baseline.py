@@ -20,8 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
+from ..core.assignment import linear_sum_assignment
 from ..core.geometry import iou_matrix
 from .motion import BoxKalman, InvalidPrediction
 

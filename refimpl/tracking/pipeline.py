@@ -23,8 +23,12 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from ..solvers import BASELINE, DEFAULT_BACKEND, get_solver
+from .baseline import stream_sequence
 from .options import TrackerOptions
-from ..solvers import BASELINE, DEFAULT_BACKEND
+from .presets import merge_constants, merge_options, preset_named, resolve_preset
+from .tracker import (AbductionTracker, DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult,
+                      sequence_constants)
 
 AUTO = "auto"
 """Pick the preset by (format, class), falling back to the robust default."""
@@ -66,7 +70,6 @@ def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND
     NONE or None (no preset), or a preset's name (``kitti/car``, ``default``).  ``constants`` and
     ``options`` ({name: value}) override the preset's.  ValueError (one sentence) for an unknown
     preset, constant or option, or for constants/options given to the baseline."""
-    from .presets import merge_constants, merge_options, preset_named, resolve_preset
     if backend == BASELINE:
         if constants or options:
             raise ValueError("model constants and tracker options need an abduction backend; the baseline is SORT")
@@ -91,9 +94,6 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
     """The abduction tracker (refimpl.tracking.tracker.AbductionTracker) of a Setup for a sequence of this
     image size and frame rate, exactly as :func:`run_sequence` builds it (the library's
     refimpl.Tracker steps it frame by frame)."""
-    from ..solvers import get_solver
-    from .tracker import (DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, AbductionTracker,
-                          sequence_constants)
     if setup.baseline:
         raise ValueError("the baseline is SORT (refimpl.tracking.baseline), not an abduction tracker")
     return AbductionTracker(solver or get_solver(setup.backend),
@@ -115,9 +115,7 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     refimpl.tracking.tracker.track_sequence); ``solver``: a solver instance to use instead of the backend's; ``frame_times``: a list that
     receives each frame's CPU seconds of tracking (time.process_time around the frame's update:
     latency, issue 27)."""
-    from .tracker import TrackingResult
     if setup.baseline:
-        from .baseline import stream_sequence
         kept, frames = [], 0
         for rows in _timed(stream_sequence(seq), frame_times):  # seq.frames may be a stream, read once
             frames += 1

@@ -60,7 +60,8 @@ from refimpl.core.ranges import BOX_LIMIT, TIME_LIMIT, check_constant, check_ran
 from refimpl.solvers import BACKENDS, NoAdmissibleHypothesis, get_solver
 from refimpl.solvers.clingo_backend import check_representable
 from refimpl.core.spec import (ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, Detection, FrameProblem, HistoryEvent,
-                          ProblemFormatError, Term, TrackPrediction, parse_facts, write_facts)
+                               ProblemFormatError, Term, TrackPrediction, write_facts)
+from refimpl.core.facts import parse_facts
 
 TARGETS = ("frame", "sequence")
 OUTCOMES = ("agree", "infeasible", "not-proven", "refused", "differs", "violation", "crash")

@@ -12,7 +12,8 @@ from typing import Callable
 import numpy as np
 
 from refimpl import io as rio
-from refimpl.core.spec import ProblemFormatError, parse_facts, read_problem, write_facts
+from refimpl.core.spec import ProblemFormatError, write_facts
+from refimpl.core.facts import parse_facts, read_problem
 
 
 class CheckFailed(Exception):
