@@ -109,8 +109,8 @@ def predict_many(filters: "list[LinearKalman]") -> None:
         return
     F = filters[0].F
     mm = np.matmul
-    X = mm(F, np.stack([f.x for f in filters]))
-    P = mm(mm(F, np.stack([f.P for f in filters])), F.T) + np.stack([f.Q for f in filters])
+    X = mm(F, np.array([f.x for f in filters]))
+    P = mm(mm(F, np.array([f.P for f in filters])), F.T) + np.array([f.Q for f in filters])
     for k, f in enumerate(filters):
         f.x, f.P = X[k], P[k]
 
@@ -132,8 +132,8 @@ def update_many(filters: "list[LinearKalman]", zs: np.ndarray) -> None:
         return
     first = filters[0]
     H, R, I = first.H, first.R, first._I
-    X = np.stack([f.x for f in filters])
-    P = np.stack([f.P for f in filters])
+    X = np.array([f.x for f in filters])
+    P = np.array([f.P for f in filters])
     mm = np.matmul
     y = zs - mm(H, X)
     PHT = mm(P, H.T)

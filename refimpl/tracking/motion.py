@@ -305,7 +305,7 @@ class BoxKalman:
         zs = [xywh_to_z(b).reshape(DIM_Z, 1) for b in boxes]
         if not zs:
             return
-        update_many([f.kf for f in filters], np.stack(zs))
+        update_many([f.kf for f in filters], np.array(zs))
         for f, b in zip(filters, boxes):
             f._observed(b)
 
