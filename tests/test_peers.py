@@ -229,3 +229,37 @@ def test_grid_is_the_product_of_its_dimensions_and_grid_options_replace_one():
     for bad in ("nosuch=1", "iou_thresh=", "iou_thresh=0.3", "backfill=maybe"):
         with pytest.raises(ValueError):
             parse_grid([bad])
+
+
+def test_repeat_keeps_each_sequences_fastest_run_and_the_first_runs_scores(monkeypatch):
+    # the bundled TUD-Campus (71 frames), baseline and abduction, no peer.  The timed re-runs are
+    # scripted: the baseline's re-run takes 1 ns a frame (faster than any real run: kept), the
+    # abduction's 10 s a frame (slower: its first run is kept).  So the baseline's CPU seconds
+    # are exactly 71 ns, and the abduction's those of its real first run, below 71 x 10 s.
+    demo = io.demo_sequence_paths()
+    dataset = [("TUD-Campus", io.load_detections(demo), io.load_ground_truth(demo))]
+    first = peers.compare("demo", "/nonexistent", (), "cpsat", dataset=dataset)
+    calls = []
+
+    def scripted(seq, tracker, constants, options):
+        calls.append(tracker)
+        return [1e-9 if tracker == "baseline" else 10.0] * len(seq.frames)
+
+    monkeypatch.setattr(peers, "_refimpl_frame_times", scripted)
+    twice = peers.compare("demo", "/nonexistent", (), "cpsat", dataset=dataset, repeat=2)
+    assert calls == ["baseline", "cpsat"]  # one re-run per tracker and sequence, in the table's order
+    base, abd = twice.scores
+    assert base.seconds == pytest.approx(71 * 1e-9) and base.latency.frames == 71
+    assert 0 < abd.seconds < 71 * 10.0 and abd.latency.frames == 71
+    assert [s.overall for s in twice.scores] == [s.overall for s in first.scores]  # scores: the first runs'
+    assert twice.repeat == 2 and "fastest of 2 runs" in peers.comparison_table(twice)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--peers", "sort", "--repeat", "0"], "--repeat must be >= 1, got 0"),
+    (["--repeat", "3"], "--repeat times the peer comparison's trackers: give --peers too"),
+])
+def test_repeat_out_of_range_or_without_peers_is_one_line(capsys, args, message):
+    assert main(["benchmark", "mot15", "--data", "/nonexistent", *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1

@@ -44,6 +44,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
     if args.per_sequence:
         raise UserError("--per-sequence is for the peer comparison (without --peers every sequence is "
                         "printed already): give --peers too")
+    if args.repeat != 1:
+        raise UserError("--repeat times the peer comparison's trackers: give --peers too")
     if args.backend == BASELINE and (args.const or _option_flags_given(args)):
         raise UserError(f"{option_flags('--const')} need an abduction backend ({', '.join(BACKENDS)})")
     plan = _plan(args)
@@ -90,6 +92,8 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     for p in peers:
         peer_class(p)  # a missing package (PeersUnavailable, one line) before any data is read
+    if args.repeat < 1:
+        raise UserError(f"--repeat must be >= 1, got {args.repeat}")
     backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
     comparisons, report = [], {}
     for name in args.names:
@@ -99,7 +103,7 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
         progress = Progress(len(dataset) * (2 + bool(constants or options.changed()) + len(peers)),
                             f"{name}/peers", enabled=not args.quiet)
         c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step,
-                    options=options)
+                    options=options, repeat=args.repeat)
         comparisons.append(c)
         print(f"## {c.title}\n")
         print(comparison_table(c))

@@ -251,6 +251,9 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
                         "motion-only trackers, extra 'peers-boxmot'): baseline, abduction (--backend, "
                         f"{DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
+    b.add_argument("--repeat", type=int, default=1, metavar="N",
+                   help="with --peers: time every tracker on every sequence N times, interleaved, and report each "
+                        "sequence's fastest run (speed columns only; default 1)")
     b.add_argument("--per-sequence", action="store_true",
                    help="with --peers: also a table per dataset of every sequence (HOTA / IDF1 / IDs per tracker)")
     b.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
