@@ -215,7 +215,7 @@ def test_run_requests_regroups_tasks_per_request():
     from refimpl.tracking.baseline import track_sequence as sort_track
     from refimpl.evaluation.evaluate import evaluate_many
     from refimpl.experiments.scaleout import Plan
-    from refimpl.experiments.tasks import RunRequest, run_requests
+    from refimpl.experiments.benchmark_tasks import RunRequest, run_requests
     from refimpl.tracking.tracker import track_sequence
 
     seq = io.demo_sequence_paths()

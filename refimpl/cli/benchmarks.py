@@ -17,7 +17,7 @@ from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
 def cmd_benchmark(args: argparse.Namespace) -> int:
     from ..evaluation.evaluate import format_table
     from ..io.datasets import TITLES, dataset_kind, load_dataset
-    from ..experiments.tasks import RunRequest, run_requests
+    from ..experiments.benchmark_tasks import RunRequest, run_requests
     from ..io.outputs import check_outputs
     check_outputs({"--json": args.json, "--out": args.out})
     if args.results_dir and args.peers is not None:
@@ -175,7 +175,7 @@ def _calibrate_default(args: argparse.Namespace) -> int:
 def cmd_table6(args: argparse.Namespace) -> int:
     from ..io.datasets import DATASETS, TABLE6_DATASETS, load_dataset
     from ..experiments.table6 import BenchmarkRun, format_table6
-    from ..experiments.tasks import RunRequest, run_requests
+    from ..experiments.benchmark_tasks import RunRequest, run_requests
     datasets = tuple(d.strip() for d in args.datasets.split(",")) if args.datasets else TABLE6_DATASETS
     from ..io.outputs import check_outputs
     check_outputs({"--out": args.out})

@@ -322,7 +322,7 @@ def robust_default(benchmarks: Sequence[str], data_root: str, backend: str = DEF
     from ..tracking.pipeline import NONE
     from ..tracking.presets import DEFAULT_KEY, load_presets
     from .scaleout import Plan
-    from .tasks import RunRequest, run_requests
+    from .benchmark_tasks import RunRequest, run_requests
     for name in benchmarks:
         check_tunable(name, data_root)
     presets = {k: p for k, p in sorted(load_presets().items()) if k != DEFAULT_KEY}
