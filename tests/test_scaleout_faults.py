@@ -331,3 +331,28 @@ def test_a_cluster_run_advances_its_bar_by_each_tasks_frames(monkeypatch):
     assert bar.total == 5
     steps = sorted(e for e in bar.events if e[0] == "step")  # tasks finish in any order
     assert steps == [("step", "a", 3), ("step", "b", 2)] and bar.events[-1] == ("close",)
+
+
+# -- Ctrl-C ----------------------------------------------------------------------------------------
+
+def test_ctrl_c_on_a_local_cluster_is_the_commands_one_line(inputs, tmp_path):
+    # a Ctrl-C reaches the whole process group, the forked workers included: they ignore it
+    # (refimpl.experiments.worker_signals) and the command closes its cluster, says one line and
+    # exits 130, writing nothing (before, every worker printed its KeyboardInterrupt traceback)
+    import signal
+    run = subprocess.Popen([sys.executable, "-m", "refimpl", "track", "--backend", "cpsat", "--dets", *inputs,
+                            "--out-dir", str(tmp_path / "out"), "--quiet", "--workers", "2", "--serial-below", "0"],
+                           cwd=REPO, env=ENV, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 120
+    while run.poll() is None and time.monotonic() < deadline:  # until both workers run (a task each)
+        children = subprocess.run(["pgrep", "-P", str(run.pid)], capture_output=True, text=True).stdout.split()
+        if len(children) >= 2:
+            break
+        time.sleep(0.1)
+    assert run.poll() is None, "the run ended before its workers started"
+    time.sleep(1.0)  # the workers' start-up done (not a measurement: any moment of the run must do)
+    os.killpg(run.pid, signal.SIGINT)
+    code, out, err = _finish(run)
+    assert (code, err.splitlines()) == (130, ["refimpl: interrupted"]), err
+    assert out == "" and not (tmp_path / "out").exists()

@@ -34,6 +34,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence, TypeVar
 
+from . import worker_signals
 from .progress import Progress
 
 T = TypeVar("T")
@@ -384,7 +385,8 @@ class _client:
                 self.cluster = LocalCluster(n_workers=min(self.plan.workers, self.tasks), threads_per_worker=1,
                                             processes=True, host="127.0.0.1", dashboard_address=None,
                                             scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                                            memory_limit=0, silence_logs=logging.CRITICAL)
+                                            memory_limit=0, silence_logs=logging.CRITICAL,
+                                            preload=[worker_signals.__name__])  # Ctrl-C is this process's
                 self.client = Client(self.cluster)
         except (OSError, TimeoutError, ValueError) as exc:
             self.__exit__(None, None, None)
