@@ -62,11 +62,11 @@ tracked serially in this process, which writes the same bytes.  A local cluster 
 workers, OR-Tools imported by each; measured on 2 KITTI Car sequences of 296 frames: 2.4-3.0 CPU-s
 with 2 workers against 1.2-1.6 serially), and the workers of a longer run spend ~1 CPU-s more
 than one process would (12 sequences: each imports OR-Tools, and writes to pages it shares with
-this process); 1,000 frames are ~1.7-2 s of abduction per worker, so below that the
-fixed cost is more than a worker's share of the work saves, even on idle CPUs (docs/scale-out.md: on 6 sequences, 1,589 frames, 2 workers
-took 1.21-1.69x the serial time on the shared machine).  An existing cluster (``scheduler``) is
-always used: its start-up is paid already.  ``Plan(serial_below=...)`` (``--serial-below``) sets the
-threshold, 0 always uses the cluster."""
+this process); 1,000 frames are ~1.7-2 s of abduction per worker, so below that the fixed cost
+is more than a worker's share of the work saves, even on idle CPUs (docs/scale-out.md: on 6
+sequences, 1,589 frames, 2 workers took 1.21-2.63x the serial time in 6 pairs on the shared
+machine).  An existing cluster (``scheduler``) is always used: its start-up is paid already.
+``Plan(serial_below=...)`` (``--serial-below``) sets the threshold, 0 always uses the cluster."""
 
 SCHEMES = ("tcp", "tls", "ws", "wss")
 """Dask address schemes a separate process can connect to (``inproc://`` lives inside one process)."""
@@ -325,9 +325,11 @@ is a copy of this process, with Dask, distributed and the task's refimpl modules
 where a ``spawn`` worker starts a fresh interpreter and imports them again (measured here: a
 spawned worker had used 0.7-1.1 CPU-s before its first task, importing Dask and distributed, and
 then imported refimpl and the solvers while unpickling it; a forked one 0.09 CPU-s).  Forking is
-safe at that moment: this process's main thread waits for the cluster to start and holds no lock,
-and no solver has run yet.  Elsewhere (macOS: fork is unsafe with its system libraries) Dask's
-default, spawn."""
+safe here: the nannies fork from Dask's event-loop thread while this process's main thread waits
+(for the cluster to start, or for results when a nanny replaces a killed worker) holding no lock,
+and no solver leaves a thread behind (a CP-SAT run of KITTI Car 0011 in this process: 2 threads
+before and after).  Elsewhere (macOS: fork is unsafe with its system libraries) Dask's default,
+spawn."""
 
 LOCAL_CLUSTER_CONFIG = {
     # Measured here (2 cores): a 2-worker LocalCluster left idle for 30 s burns about 0.09
