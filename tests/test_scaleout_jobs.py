@@ -168,3 +168,16 @@ def test_local_workers_are_forked_from_this_process():
     pytest.importorskip("distributed")
     assert run_tasks(_imported, ["refimpl.experiments.bench_scaleout"] * 2, Plan(workers=2), quiet=True) == [True,
                                                                                                              True]
+
+
+def test_a_benchmark_job_pickles_its_detections_packed():
+    from refimpl.experiments.benchmark_tasks import BenchmarkJob, RunRequest
+    demo = io.demo_sequence_paths()
+    dets, gt = io.load_detections(demo), io.load_ground_truth(demo)
+    job = BenchmarkJob(demo.name, dets, gt, RunRequest("demo", (), "cpsat"))
+    data = pickle.dumps(job)
+    assert b"PackedSequence" in data and b"DetectionFrame" not in data
+    back = pickle.loads(data)
+    assert (back.name, back.request) == (job.name, job.request)
+    _assert_same_sequence(dets, back.dets)
+    assert back.gt.ids.tobytes() == gt.ids.tobytes() and back.gt.boxes.tobytes() == gt.boxes.tobytes()

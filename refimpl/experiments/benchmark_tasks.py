@@ -22,6 +22,7 @@ from ..solvers import BASELINE
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import NONE, Setup, run_sequence
 from .scaleout import run_tasks
+from .tasks import pack_sequence, unpack_sequence
 
 
 # ---------------------------------------------------------------------------------------
@@ -37,6 +38,15 @@ class BenchmarkJob:
     gt: GroundTruth
     request: RunRequest
     """Its request without the sequences (what a worker needs to know, nothing more)."""
+
+    def __reduce__(self):
+        # its detections packed, as a TrackJob's (refimpl.experiments.tasks.pack_sequence); the
+        # ground truth is a few arrays already
+        return _unpack_benchmark_job, (self.name, pack_sequence(self.dets), self.gt, self.request)
+
+
+def _unpack_benchmark_job(name: str, dets, gt: GroundTruth, request: RunRequest) -> BenchmarkJob:
+    return BenchmarkJob(name, unpack_sequence(dets), gt, request)
 
 
 @dataclass(frozen=True)
