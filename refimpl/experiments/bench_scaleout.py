@@ -8,7 +8,8 @@ For each input set (``kitti-car-12``: KITTI tracking train Car 0000-0011, issue 
 ``kitti-car``: all 21; ``mot15``: MOT15 train, 11 sequences) it runs the command as a user would
 (a fresh `python -m refimpl` process, so cluster start-up and worker imports are paid), serially
 and with --workers N alternately, ``--pairs`` times, checks that every run wrote the same bytes,
-and prints one markdown row per pair: wall-clock and CPU seconds of each run (user + system of the
+and prints one markdown row per pair: how many CPUs two CPU-bound processes got just before it
+(``session_cpus``), wall-clock and CPU seconds of each run (user + system of the
 command and the worker processes it waited for), their wall ratio, the 1-minute load average
 before each run and the CPU seconds that other processes used meanwhile (from /proc/stat: the
 machine is shared, and the kernel shares CPU time between sessions, so a run whose neighbours are
@@ -84,6 +85,25 @@ def run(argv: list[str]) -> tuple[float, float, float | None]:
     return wall, cpu, others
 
 
+PROBE = "import time\nt = time.process_time()\nwhile time.process_time() - t < 1.0:\n    pass\n"
+"""A process that burns one CPU-second."""
+
+
+def session_cpus(n: int) -> float:
+    """CPUs that n CPU-bound processes started from here get together right now: n probes of one
+    CPU-second each at once, their CPU seconds over the wall time (n on an idle machine; about 1
+    when the kernel gives this session one CPU's share, as autogroup scheduling does while another
+    session keeps the CPUs busy)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    procs = [subprocess.Popen([sys.executable, "-c", PROBE]) for _ in range(n)]
+    for proc in procs:
+        proc.wait()
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ((after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)) / wall
+
+
 def same_files(a: Path, b: Path) -> bool:
     names = sorted(p.name for p in a.iterdir())
     if names != sorted(p.name for p in b.iterdir()):
@@ -119,6 +139,7 @@ def main(argv: list[str] | None = None) -> int:
             first = None
             for pair in range(1, args.pairs + 1):
                 measured, identical = {}, True
+                probe = session_cpus(args.workers)
                 below = [] if args.serial_below is None else ["--serial-below", str(args.serial_below)]
                 for mode, opts in (("serial", []), ("workers", ["--workers", str(args.workers), *below])):
                     out = Path(tmp) / f"{name}-{pair}-{mode}"
@@ -129,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
                     identical = identical and same_files(first, out)
                 (ws, cs, os_, ls), (wp, cp, op, lp) = measured["serial"], measured["workers"]
                 ratios.append(wp / ws)
-                rows.append(f"| {label} | {frames} | {pair} | {ws:.1f} | {cs:.1f} | {ls:.1f} | {_others(os_)} | "
+                rows.append(f"| {label} | {frames} | {pair} | {probe:.2f} | {ws:.1f} | {cs:.1f} | {ls:.1f} | {_others(os_)} | "
                             f"{wp:.1f} | {cp:.1f} | {lp:.1f} | {_others(op)} | {wp / ws:.2f} | "
                             f"{'yes' if identical else 'NO'} |")
                 print(rows[-1], file=sys.stderr)
@@ -143,10 +164,11 @@ def main(argv: list[str] | None = None) -> int:
         f"`{command}` — `refimpl track --backend {args.backend} --out-dir D --quiet` on every sequence of a set, "
         f"serial and `--workers {w}` alternating, wall clock and CPU (user + system, the command and its workers) "
         f"of the whole command.  Load: the 1-minute load average before the run; others: CPU seconds other "
-        f"processes used during it.  Machine: {machine_note()}.\n",
-        f"| input set | frames | pair | serial s | serial CPU s | load | others CPU s | {w} workers s | "
+        f"processes used during it; probe: the CPUs {w} CPU-bound processes started by the benchmark got "
+        f"together just before the pair (`session_cpus`: {w} on an idle machine).  Machine: {machine_note()}.\n",
+        f"| input set | frames | pair | probe CPUs | serial s | serial CPU s | load | others CPU s | {w} workers s | "
         f"{w} workers CPU s | load | others CPU s | wall ratio | same bytes |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
         *rows, "", *(f"{line}." for line in summary)])
     print(table)
     if args.write:
