@@ -23,8 +23,7 @@ from test_architecture import DOC, modules, refimpl_imports
 LOADER = "core.loader"
 """The one module that imports by name (refimpl.core.loader)."""
 
-NOT_YET = {"experiments.tasks": "another developer's file (issue 28): its 6 local imports are theirs to move",
-           "solvers.asp_model": "another developer's file (issue 28): `default_constants` inside load_asp_model"}
+NOT_YET: dict[str, str] = {}
 """Modules whose function-local refimpl imports are tolerated for now, with the reason; a module may
 leave this list (it is not required to have one), never join it."""
 

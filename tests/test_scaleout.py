@@ -105,8 +105,8 @@ def test_the_scale_out_rule_runs_small_work_serially():
     assert Plan().serial_for(10 ** 9)  # no cluster asked for
     with pytest.raises(ValueError, match="serial_below"):
         Plan(workers=2, serial_below=-1)
-    # three tasks of 1,000 frames each with two workers: 3,000 < 4,000 frames, so they run in this
-    # process (a cluster could not even pickle the lambda), one tick per frame reaching the bar
+    # three tasks of 600 frames each with two workers: 1,800 < 2 x 1,000 frames, so they run in
+    # this process (a cluster could not even pickle the lambda), one tick per frame reaching the bar
     ticks = []
 
     def task(item, tick):
@@ -115,9 +115,9 @@ def test_the_scale_out_rule_runs_small_work_serially():
         ticks.append(item)
         return os.getpid()
 
-    assert LOCAL_MIN_FRAMES_PER_WORKER == 2000  # the numbers of this test
-    pids = run_tasks(task, [1000, 1000, 1000], two, quiet=True, steps=lambda item: item)
-    assert pids == [os.getpid()] * 3 and ticks == [1000, 1000, 1000]
+    assert LOCAL_MIN_FRAMES_PER_WORKER == 1000  # the numbers of this test
+    pids = run_tasks(task, [600, 600, 600], two, quiet=True, steps=lambda item: item)
+    assert pids == [os.getpid()] * 3 and ticks == [600, 600, 600]
 
 
 def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, serial, tmp_path):
@@ -215,7 +215,7 @@ def test_run_requests_regroups_tasks_per_request():
     from refimpl.tracking.baseline import track_sequence as sort_track
     from refimpl.evaluation.evaluate import evaluate_many
     from refimpl.experiments.scaleout import Plan
-    from refimpl.experiments.tasks import RunRequest, run_requests
+    from refimpl.experiments.benchmark_tasks import RunRequest, run_requests
     from refimpl.tracking.tracker import track_sequence
 
     seq = io.demo_sequence_paths()

@@ -331,3 +331,55 @@ def test_a_cluster_run_advances_its_bar_by_each_tasks_frames(monkeypatch):
     assert bar.total == 5
     steps = sorted(e for e in bar.events if e[0] == "step")  # tasks finish in any order
     assert steps == [("step", "a", 3), ("step", "b", 2)] and bar.events[-1] == ("close",)
+
+
+# -- Ctrl-C ----------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def long_inputs(tmp_path_factory) -> list[str]:
+    """Two sequence folders LongK with TUD-Campus's 71 frames repeated 15 times (1,065 frames, frame
+    f of copy k numbered f + 71 k): two tasks of a few seconds each with CP-SAT, long enough to be
+    interrupted while the workers run them."""
+    root = tmp_path_factory.mktemp("long")
+    lines = (DEMO / "det" / "det.txt").read_text().splitlines()
+    paths = []
+    for k in (1, 2):
+        det = root / f"Long{k}" / "det" / "det.txt"
+        det.parent.mkdir(parents=True)
+        rows = []
+        for copy in range(15):
+            for line in lines:
+                frame, rest = line.split(",", 1)
+                rows.append(f"{int(frame) + 71 * copy},{rest}\n")
+        det.write_text("".join(rows))
+        info = (DEMO / "seqinfo.ini").read_text()
+        info = info.replace("name=TUD-Campus\n", f"name=Long{k}\n").replace("seqLength=71\n", "seqLength=1065\n")
+        (det.parent.parent / "seqinfo.ini").write_text(info)
+        paths.append(str(det))
+    return paths
+
+
+def _children(pid: int) -> list[str]:
+    return subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout.split()
+
+
+def test_ctrl_c_on_a_local_cluster_is_the_commands_one_line(long_inputs, tmp_path):
+    # a Ctrl-C reaches the whole process group, the forked workers included: they ignore it
+    # (refimpl.experiments.worker_signals) and the command closes its cluster, says one line and
+    # exits 130, writing nothing (before, every worker printed its KeyboardInterrupt traceback)
+    import signal
+    run = subprocess.Popen([sys.executable, "-m", "refimpl", "track", "--backend", "cpsat", "--dets", *long_inputs,
+                            "--out-dir", str(tmp_path / "out"), "--quiet", "--workers", "2", "--serial-below", "0"],
+                           cwd=REPO, env=ENV, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 120
+    while run.poll() is None and time.monotonic() < deadline and len(_children(run.pid)) < 2:
+        time.sleep(0.1)  # until both workers exist
+    time.sleep(0.5)  # their first task begun (not a measurement: any moment while they run must do)
+    workers = _children(run.pid)
+    assert run.poll() is None and len(workers) >= 2, "the run ended (or lost its workers) before the interrupt"
+    os.killpg(run.pid, signal.SIGINT)
+    code, out, err = _finish(run)
+    assert (code, err.splitlines()) == (130, ["refimpl: interrupted"]), (code, err)
+    assert out == "" and not (tmp_path / "out").exists()
+    assert not [w for w in workers if Path(f"/proc/{w}").exists()]  # the workers are gone too

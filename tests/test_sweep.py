@@ -11,7 +11,7 @@ import pytest
 from refimpl import cli, io
 from refimpl.experiments.scaleout import Plan
 from refimpl.experiments.sweep import SweepPlan, format_sweep, grid_settings, run_sweep, split_dataset, val_sequences
-from refimpl.experiments.tasks import RunRequest, RunSummary
+from refimpl.experiments.benchmark_tasks import RunRequest, RunSummary
 
 
 def run_cli(argv, stderr=None):

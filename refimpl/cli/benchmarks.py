@@ -23,7 +23,7 @@ from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_rep
 from ..experiments.progress import Progress
 from ..experiments.sweep import format_sweep, plan_sweep, run_sweep, sweep_json
 from ..experiments.table6 import BenchmarkRun, format_table6
-from ..experiments.tasks import RunRequest, run_requests
+from ..experiments.benchmark_tasks import RunRequest, run_requests
 from ..io import InputFormatError, write_text_atomic
 from ..io.datasets import DATASETS, TABLE6_DATASETS, TITLES, dataset_kind, load_dataset
 from ..io.outputs import OutputSet, check_outputs

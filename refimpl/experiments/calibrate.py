@@ -45,7 +45,7 @@ from ..tracking.pipeline import NONE
 from ..tracking.presets import DEFAULT_KEY, Preset, load_presets, preset_entry, presets_path
 from .scaleout import Plan, run_tasks
 from .table6 import run_benchmark
-from .tasks import RunRequest, run_requests
+from .benchmark_tasks import RunRequest, run_requests
 
 DEFAULT_GRID: dict[str, tuple] = {
     "conf_thresh_new_track": (80, 90),

@@ -29,10 +29,12 @@ from __future__ import annotations
 
 import logging
 import os
+import sys
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence, TypeVar
 
+from . import worker_signals
 from .progress import Progress
 
 T = TypeVar("T")
@@ -52,16 +54,19 @@ WORKERS_PER_CPU = 4
 single-threaded, so workers beyond one per CPU only share the CPUs (and each costs a process with
 the solvers imported, about 150 MB); 4x leaves room to oversubscribe on purpose."""
 
-LOCAL_MIN_FRAMES_PER_WORKER = 2000
+LOCAL_MIN_FRAMES_PER_WORKER = 1000
 """The scale-out rule: a local cluster of N workers is started only for a run of at least N times
 this many frames (tasks whose size is counted in frames: track, benchmark); a smaller run is
 tracked serially in this process, which writes the same bytes.  A local cluster costs a fixed
-~8-10 CPU-seconds (the scheduler, nannies and worker processes importing Dask and refimpl;
-measured on 12 KITTI Car sequences: 21 CPU-s with 2 workers against 12 serially) and, on an idle
-2-core machine, ~3.5-4.5 s of wall time (docs/scale-out.md); 2,000 frames are ~4-5 s of
-abduction per worker, so below this a cluster cannot win.  An existing cluster (``scheduler``)
-is always used: its start-up is paid already.  ``Plan(serial_below=...)`` (``--serial-below``)
-sets the threshold, 0 always uses the cluster."""
+~1.2 CPU-seconds and ~1-1.5 s of wall time (Dask's import in this process, the scheduler, forked
+workers, OR-Tools imported by each; measured on 2 KITTI Car sequences of 296 frames: 2.4-3.0 CPU-s
+with 2 workers against 1.2-1.6 serially), and the workers of a longer run spend ~1 CPU-s more
+than one process would (12 sequences: each imports OR-Tools, and writes to pages it shares with
+this process); 1,000 frames are ~1.7-2 s of abduction per worker, so below that the fixed cost
+is more than a worker's share of the work saves, even on idle CPUs (docs/scale-out.md: on 6
+sequences, 1,589 frames, 2 workers took 1.21-2.63x the serial time in 6 pairs on the shared
+machine).  An existing cluster (``scheduler``) is always used: its start-up is paid already.
+``Plan(serial_below=...)`` (``--serial-below``) sets the threshold, 0 always uses the cluster."""
 
 SCHEMES = ("tcp", "tls", "ws", "wss")
 """Dask address schemes a separate process can connect to (``inproc://`` lives inside one process)."""
@@ -233,10 +238,17 @@ class _Ticks:
 
 def _run_on_cluster(fn, items, plan: Plan, progress: Progress, describe, sizes, with_tick: bool) -> list:
     with _client(plan, len(items)) as client:
-        # submitted in input order; pure=False: two equal items are still two tasks.  No cancel on
-        # the way out: closing the client (bounded by the connect timeout; a cancel call to a hung
-        # scheduler is not) releases every task it submitted.
-        futures = [client.submit(fn, item, *((no_tick,) if with_tick else ()), pure=False) for item in items]
+        # submitted longest first where sizes are known (ties, and tasks not counted in frames, in
+        # input order), with their size as Dask's priority (a higher one starts first), so the last
+        # task to finish is a short one; results are still returned in input order.  pure=False:
+        # two equal items are still two tasks.  No cancel on the way out: closing the client
+        # (bounded by the connect timeout; a cancel call to a hung scheduler is not) releases every
+        # task it submitted.
+        order = sorted(range(len(items)), key=lambda i: -sizes[i]) if with_tick else range(len(items))
+        futures: list = [None] * len(items)
+        for i in order:
+            futures[i] = client.submit(fn, items[i], *((no_tick,) if with_tick else ()), pure=False,
+                                       priority=sizes[i] if with_tick else 0)
         watchdog = _Watchdog(client, plan)
         results: list = [None] * len(items)
         pending = dict(enumerate(futures))
@@ -307,6 +319,18 @@ class _Watchdog:
                                "(none joined, or every one was lost); the tasks cannot run")
 
 
+START_METHOD = "fork" if sys.platform.startswith("linux") else "spawn"
+"""How the embedded cluster's nannies start their worker processes.  ``fork`` on Linux: the worker
+is a copy of this process, with Dask, distributed and the task's refimpl modules imported already,
+where a ``spawn`` worker starts a fresh interpreter and imports them again (measured here: a
+spawned worker had used 0.7-1.1 CPU-s before its first task, importing Dask and distributed, and
+then imported refimpl and the solvers while unpickling it; a forked one 0.09 CPU-s).  Forking is
+safe here: the nannies fork from Dask's event-loop thread while this process's main thread waits
+(for the cluster to start, or for results when a nanny replaces a killed worker) holding no lock,
+and no solver leaves a thread behind (a CP-SAT run of KITTI Car 0011 in this process: 2 threads
+before and after).  Elsewhere (macOS: fork is unsafe with its system libraries) Dask's default,
+spawn."""
+
 LOCAL_CLUSTER_CONFIG = {
     # Measured here (2 cores): a 2-worker LocalCluster left idle for 30 s burns about 0.09
     # CPU-seconds per second with Dask's defaults and 0.02 with these, which matters when the
@@ -316,6 +340,11 @@ LOCAL_CLUSTER_CONFIG = {
     "distributed.worker.profile.enabled": False,
     "distributed.admin.tick.interval": "1s",
     "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.multiprocessing-method": START_METHOD,
+    # one task per worker at a time (Dask's default, 1.1, hands a one-thread worker two): the
+    # scheduler keeps the rest queued and gives each worker the next, longest, task only when it
+    # is free, so one worker never holds a long task the other could have started
+    "distributed.scheduler.worker-saturation": 1.0,
 }
 """Dask settings of the embedded cluster only (an existing cluster keeps its own)."""
 
@@ -340,9 +369,7 @@ class _client:
         self.quiet: Any = None
 
     def __enter__(self):
-        import logging  # here, with Dask: the serial path (every one-sequence `track`) needs neither
-
-        import dask
+        import dask  # here: an optional dependency, and the serial path (every one-sequence `track`) needs none
         from distributed import Client, LocalCluster
         from distributed.utils import silence_logging_cmgr
         self.quiet = silence_logging_cmgr(logging.CRITICAL)  # Dask's stderr handlers, restored on exit
@@ -355,11 +382,16 @@ class _client:
             else:
                 # silence_logs: workers log connection errors while the cluster shuts down (a task's
                 # own error reaches us as its exception); no dashboard, and the scheduler's HTTP
-                # endpoint on a free port rather than a warning when 8787 is taken
+                # endpoint on a free port rather than a warning when 8787 is taken; memory_limit=0:
+                # no memory monitor in the nannies (this process) and workers, which polled every
+                # process's memory 10 times a second (idle: 0.019 CPU-s/s in this process, 0.011
+                # without); a worker out of memory is killed by the system instead, and its task
+                # re-run elsewhere or reported (docs/scale-out.md, "Faults")
                 self.cluster = LocalCluster(n_workers=min(self.plan.workers, self.tasks), threads_per_worker=1,
                                             processes=True, host="127.0.0.1", dashboard_address=None,
                                             scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-                                            silence_logs=logging.CRITICAL)
+                                            memory_limit=0, silence_logs=logging.CRITICAL,
+                                            preload=[worker_signals.__name__])  # Ctrl-C is this process's
                 self.client = Client(self.cluster)
         except (OSError, TimeoutError, ValueError) as exc:
             self.__exit__(None, None, None)

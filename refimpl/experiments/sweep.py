@@ -1,6 +1,6 @@
 """Parameter sweeps: a benchmark tracked and scored for every combination of model constants.
 
-Each (setting, sequence) pair is one task (refimpl.experiments.tasks.benchmark_job), so a sweep spreads
+Each (setting, sequence) pair is one task (refimpl.experiments.benchmark_tasks.benchmark_job), so a sweep spreads
 over a Dask cluster like any many-sequence command (refimpl.experiments.scaleout); the table lists the
 settings in grid order (the first constant varies slowest), whatever order tasks finish in.
 
@@ -21,7 +21,7 @@ from .. import io
 from ..core.constants import default_constants
 from ..io.datasets import BENCHMARKS, benchmark_sequences, load_dataset
 from .calibrate import refuse_held_out
-from .tasks import RunRequest, RunSummary, run_requests
+from .benchmark_tasks import RunRequest, RunSummary, run_requests
 
 SPLITS = ("all", "tune", "val")
 VAL_SEQMAP = Path("KITTI") / "tracking" / "training" / "evaluate_tracking.seqmap.val"

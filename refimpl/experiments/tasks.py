@@ -1,31 +1,32 @@
 """The units of work of the many-sequence commands, as picklable jobs and module-level functions.
 
-Each job carries its input data (a DetectionSequence, a GroundTruth), not file paths, so a
+Each job carries its input data (a DetectionSequence), not file paths, so a
 worker on another machine needs no shared file system.  Each function's result depends on its
 job only; refimpl.experiments.scaleout runs them serially or on a Dask cluster and returns results in input
 order, and the commands write from those results only, so outputs are the same bytes either way.
 
 * ``track_job``: one sequence tracked (``refimpl track`` with several ``--dets``);
-* ``benchmark_job``: one sequence tracked and scored (``benchmark``, ``table6``, ``sweep``);
 * ``diff_job``: one sequence tracked with one backend and re-solved with the other (``diff``).
+
+The scored jobs (``benchmark``, ``table6``, ``sweep``) are in refimpl.experiments.benchmark_tasks:
+they need the scorer (scipy), which a worker that only tracks never imports.
 """
 
 from __future__ import annotations
 
 import os
-import time
-from collections import Counter
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Mapping
 
 import numpy as np
 
-from ..io import DetectionSequence, GroundTruth
-from ..tracking.options import TrackerOptions
-from ..tracking.pipeline import NONE, Setup, run_sequence
-from ..solvers import BASELINE
+from ..io import DetectionFrame, DetectionSequence
+from ..scene import scene_from_result
 from ..solvers.asp_model import AspModel
+from ..solvers.check import check_answer
+from ..tracking.pipeline import Setup, run_sequence
+from .diff import diff_sequence
 
 
 # ---------------------------------------------------------------------------------------
@@ -38,6 +39,89 @@ class TrackJob:
     setup: Setup
     check: bool = False
     scene: bool = False
+    events: bool = False
+    """Hand the sequence's events back (TrackOutput.events).  Off by default: the many-sequence
+    ``track`` writes results rows only, and on a cluster every result is unpickled in the command's
+    process, where 1,175 events (KITTI Car 0001) cost 0.07 s against 0.001 s for its rows."""
+
+    def __reduce__(self):
+        # pickled with its sequence packed (pack_sequence): on a cluster a job is pickled by the
+        # client, unpickled and pickled again by the scheduler and unpickled by a worker, and
+        # 12 KITTI sequences as 4,500 frames of small arrays cost the command's process 1.7 CPU-s
+        return _unpack_track_job, (pack_sequence(self.seq), self.setup, self.check, self.scene, self.events)
+
+
+def _unpack_track_job(seq, setup: Setup, check: bool, scene: bool, events: bool) -> TrackJob:
+    return TrackJob(unpack_sequence(seq), setup, check, scene, events)
+
+
+@dataclass(frozen=True)
+class PackedSequence:
+    """A DetectionSequence as a few arrays (what pickles quickly): every frame's boxes, scores and
+    confidences one after another, the number of detections per frame, and the types as indices
+    into ``type_names``.  unpack_sequence gives the sequence back, equal array by array (values,
+    dtypes, shapes)."""
+
+    name: str
+    first_frame: int
+    image_size: tuple[int, int] | None
+    fps: float | None
+    dropped: tuple[tuple[int, str], ...]
+    numbers: np.ndarray
+    counts: np.ndarray
+    boxes: np.ndarray
+    scores: np.ndarray
+    confidences: np.ndarray
+    type_names: tuple[str, ...]
+    types: np.ndarray
+
+
+def _packable(frames) -> bool:
+    """Whether every frame's arrays stack into one of each kind with nothing lost: boxes (k, w),
+    scores and confidences (k,), each kind of one dtype (and one w), C-ordered (as a copy of a
+    slice of the stack is)."""
+    if not frames or frames[0].boxes.ndim != 2:
+        return False
+    first = frames[0]
+    width = first.boxes.shape[1]
+    for f in frames:
+        k = len(f.types)
+        if f.boxes.shape != (k, width) or f.scores.shape != (k,) or f.confidences.shape != (k,):
+            return False
+        if (f.boxes.dtype != first.boxes.dtype or f.scores.dtype != first.scores.dtype
+                or f.confidences.dtype != first.confidences.dtype):
+            return False
+        if not (f.boxes.flags.c_contiguous and f.scores.flags.c_contiguous and f.confidences.flags.c_contiguous):
+            return False
+    return True
+
+
+def pack_sequence(seq: DetectionSequence) -> PackedSequence | DetectionSequence:
+    """The sequence packed for pickling, or the sequence itself when its frames do not stack
+    (:func:`_packable`): then it pickles as it is."""
+    frames = seq.frames
+    if not _packable(frames):
+        return seq
+    names = tuple(sorted({t for f in frames for t in f.types}))
+    code = {name: i for i, name in enumerate(names)}
+    return PackedSequence(seq.name, seq.first_frame, seq.image_size, seq.fps, seq.dropped,
+                          np.array([f.frame for f in frames], dtype=np.int64),
+                          np.array([len(f.types) for f in frames], dtype=np.int64),
+                          np.concatenate([f.boxes for f in frames]), np.concatenate([f.scores for f in frames]),
+                          np.concatenate([f.confidences for f in frames]), names,
+                          np.array([code[t] for f in frames for t in f.types], dtype=np.int64))
+
+
+def unpack_sequence(packed: PackedSequence | DetectionSequence) -> DetectionSequence:
+    if isinstance(packed, DetectionSequence):
+        return packed
+    ends = np.cumsum(packed.counts).tolist()
+    starts = [0, *ends[:-1]]
+    names, types = packed.type_names, packed.types.tolist()
+    frames = tuple(DetectionFrame(int(number), packed.boxes[a:b].copy(), packed.scores[a:b].copy(),
+                                  packed.confidences[a:b].copy(), tuple(names[t] for t in types[a:b]))
+                   for number, a, b in zip(packed.numbers.tolist(), starts, ends))
+    return DetectionSequence(packed.name, frames, packed.first_frame, packed.image_size, packed.fps, packed.dropped)
 
 
 @dataclass(frozen=True)
@@ -46,6 +130,7 @@ class TrackOutput:
     rows: np.ndarray
     """(n, 6) MOT rows frame, id, x, y, w, h."""
     events: tuple
+    """The sequence's events when the job asked for them (TrackJob.events), else ()."""
     frames: int
     not_optimal_frames: int = 0
     checked: int = 0
@@ -64,7 +149,6 @@ class AnswerCheck:
         self.report = report
 
     def __call__(self, problem, hyp) -> None:
-        from ..solvers.check import check_answer
         found = check_answer(problem, hyp)
         self.checked += 1
         if found.violations or found.cost != hyp.cost:
@@ -80,110 +164,10 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
     result = run_sequence(job.seq, job.setup, observer=check, on_frame=on_frame)
     scene = None
     if job.scene and not job.setup.baseline:
-        from ..scene import scene_from_result
         scene = scene_from_result(job.seq, result)
-    return TrackOutput(job.seq.name, result.rows, result.events, result.frames, result.not_optimal_frames,
+    return TrackOutput(job.seq.name, result.rows, result.events if job.events else (), result.frames,
+                       result.not_optimal_frames,
                        check.checked if check else 0, tuple(check.violations) if check else (), scene)
-
-
-# ---------------------------------------------------------------------------------------
-# benchmark / table6 / sweep
-
-
-@dataclass(frozen=True)
-class BenchmarkJob:
-    """One sequence of a RunRequest: tracked as the request says, then scored."""
-
-    name: str
-    dets: DetectionSequence
-    gt: GroundTruth
-    request: RunRequest
-    """Its request without the sequences (what a worker needs to know, nothing more)."""
-
-
-@dataclass(frozen=True)
-class BenchmarkOutput:
-    metrics: dict
-    events: dict
-    """Event name -> count, in order of first occurrence."""
-    frames: int
-    seconds: float
-    rows: np.ndarray | None = None
-    """The results rows scored (only when the request keeps them: ``benchmark --results-dir``)."""
-
-
-def benchmark_job(job: BenchmarkJob, on_frame: Callable[[], None] | None = None) -> BenchmarkOutput:
-    """Track one sequence with job.tracker and score it against its ground truth (``on_frame``:
-    called once per frame, progress)."""
-    from ..evaluation.evaluate import evaluate_sequence
-    start = time.perf_counter()
-    result = run_sequence(job.dets, job.request.setup, on_frame=on_frame)
-    rows, events = result.rows, result.events
-    seconds = time.perf_counter() - start  # tracking only: scoring is not the tracker's time
-    metrics = evaluate_sequence(job.gt, rows)
-    return BenchmarkOutput(metrics, dict(Counter(e.event.name for e in events)), len(job.dets.frames), seconds,
-                           rows if job.request.keep_rows else None)
-
-
-@dataclass(frozen=True)
-class RunRequest:
-    """One (dataset, tracker, constants, tracker options) whose every sequence is a task."""
-
-    dataset: str
-    sequences: Sequence[tuple[str, DetectionSequence, GroundTruth]]
-    tracker: str
-    constants: tuple[tuple[str, int], ...] = ()
-    options: TrackerOptions = TrackerOptions()
-    preset: str = NONE
-    keep_rows: bool = False
-    """Hand every sequence's results rows back (RunSummary.rows)."""
-
-    @property
-    def setup(self) -> Setup:
-        """What each sequence is tracked with (refimpl.tracking.pipeline)."""
-        if self.tracker == BASELINE:
-            return Setup(BASELINE)
-        return Setup(self.tracker, tuple(self.constants), self.options, None, self.preset)
-
-
-@dataclass(frozen=True)
-class RunSummary:
-    request_index: int
-    per_sequence: dict = field(default_factory=dict)
-    overall: dict = field(default_factory=dict)
-    events: dict = field(default_factory=dict)
-    frames: int = 0
-    seconds: float = 0.0
-    """Summed tracking seconds of the tasks (not wall time, not scoring)."""
-    rows: dict = field(default_factory=dict)
-    """Sequence name -> its results rows, when the request keeps them."""
-
-
-def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
-                 quiet: bool = False) -> list[RunSummary]:
-    """Every sequence of every request as one task; per-request scores combined in input order."""
-    from ..evaluation.evaluate import combine
-    from .scaleout import run_tasks
-    jobs = [BenchmarkJob(name, dets, gt, replace(r, sequences=()))
-            for r in requests for name, dets, gt in r.sequences]
-    outs = run_tasks(benchmark_job, jobs, plan, label=label, quiet=quiet,
-                     describe=lambda j: f"{j.request.dataset}/{j.request.tracker}/{j.name}",
-                     steps=lambda j: len(j.dets.frames))
-    summaries, k = [], 0
-    for i, r in enumerate(requests):
-        mine = outs[k:k + len(r.sequences)]
-        k += len(r.sequences)
-        per_seq: dict[str, dict] = {}
-        events: Counter = Counter()
-        for (name, _, _), out in zip(r.sequences, mine):
-            if name in per_seq:
-                raise ValueError(f"sequence name {name!r} given twice")
-            per_seq[name] = out.metrics
-            events.update(out.events)
-        rows = {name: out.rows for (name, _, _), out in zip(r.sequences, mine) if out.rows is not None}
-        summaries.append(RunSummary(i, per_seq, combine(per_seq.values()), dict(events),
-                                    sum(o.frames for o in mine), sum(o.seconds for o in mine), rows))
-    return summaries
 
 
 # ---------------------------------------------------------------------------------------
@@ -202,7 +186,6 @@ class DiffJob:
 
 def diff_job(job: DiffJob):
     """refimpl.experiments.diff.diff_sequence of one sequence (a DiffReport)."""
-    from .diff import diff_sequence
     return diff_sequence(job.seq, job.backends, time_limit=job.time_limit, asp_model=job.asp_model)
 
 

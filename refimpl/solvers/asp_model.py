@@ -23,6 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.constants import default_constants
+
 TIEBREAK_PREDICATES = ("tiebreak_pair", "tiebreak_event")
 
 
@@ -60,8 +62,6 @@ def load_asp_model(folder: str | Path) -> AspModel:
         import clingo.ast
     except ImportError:
         raise AspModelError("--asp-model needs clingo: pip install 'refimpl[asp]'") from None
-    from ..core.constants import default_constants
-
     messages: list[str] = []
 
     def logger(code, message: str) -> None:
