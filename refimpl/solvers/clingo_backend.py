@@ -31,6 +31,7 @@ from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, event_of, parse_atom
 from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, check_time_limit
 from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
+from .certificate import certificate, certificate_facts
 from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
@@ -117,12 +118,15 @@ class ClingoSolver:
     process, whose memory then grows with every symbol clingo sees), ``checked_costs`` (default
     False; True: the cost vector is always the independent checker's, refimpl.solvers.check.recompute_cost,
     never the priorities clingo reports: for a user's encoding, refimpl.solvers.asp_model), ``name``
-    (the backend name its answers carry: ``get_solver`` passes its entry's, a user's encoding its label)."""
+    (the backend name its answers carry: ``get_solver`` passes its entry's, a user's encoding its label),
+    ``certify`` (default: True for the model in model/, False for other ``model_files``; True: each
+    solve also gets the level-10 certificate of refimpl.solvers.certificate as facts, which
+    model/certificate.lp checks and uses to prune, docs/model.md 2.10)."""
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
                  recycle: int | None = None, inline_solves: int = INLINE_SOLVES, checked_costs: bool = False,
-                 name: str = CLINGO):
+                 name: str = CLINGO, certify: bool | None = None):
         try:
             import clingo
         except ImportError:
@@ -138,13 +142,16 @@ class ClingoSolver:
         self.model_files = (
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
+        self.certify = (model_files is None) if certify is None else bool(certify)
+        """Whether a solve passes the level-10 certificate facts (model/certificate.lp checks them)."""
         self.isolate = isolate
         self.checked_costs = bool(checked_costs)
         self.inline_solves = int(inline_solves)
         self._calls = 0
         self._worker = None
         if isolate:  # clingo in a child process (refimpl.solvers.clingo_process): bounded memory
-            self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files},
+            self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files,
+                                         "certify": self.certify},
                                         DEFAULT_RECYCLE if recycle is None else recycle)
 
     @property
@@ -153,14 +160,16 @@ class ClingoSolver:
         return 0.0 if self._worker is None else self._worker.cpu_seconds
 
     # ------------------------------------------------------------------------------------
-    def control(self, problem: FrameProblem, extra: str = ""):
+    def control(self, problem: FrameProblem, extra: str = "", certify: bool = False):
         """A clingo Control with the model and the problem loaded, not yet grounded.
 
-        ``extra`` is more ASP text for the same program (tests use it to force atoms).
+        ``extra`` is more ASP text for the same program (tests use it to force atoms).  It has no
+        certificate facts (their pruning keeps only answers optimal at level 10, and tests force
+        others), unless ``certify``.
         """
-        return self._control(problem, extra)[0]
+        return self._control(problem, extra, certify)[0]
 
-    def _control(self, problem: FrameProblem, extra: str = ""):
+    def _control(self, problem: FrameProblem, extra: str = "", certify: bool = False):
         messages: list[str] = []
 
         def logger(code, message: str) -> None:
@@ -170,7 +179,8 @@ class ClingoSolver:
         try:
             for path in self.model_files:
                 ctl.load(str(path))
-            ctl.add("base", [], problem_facts(problem) + extra)
+            cert = certificate_facts(certificate(problem)) if certify else ""
+            ctl.add("base", [], problem_facts(problem) + cert + extra)
         except RuntimeError as exc:
             raise RuntimeError(f"clingo could not parse the model: {'; '.join(messages) or exc}") from None
         return ctl, messages
@@ -236,7 +246,7 @@ class ClingoSolver:
         time ran out before any model; NoAdmissibleHypothesis when the program has no model."""
         started = time.perf_counter()
         deadline = None if time_limit is None else started + time_limit
-        ctl, messages = self._control(problem)
+        ctl, messages = self._control(problem, certify=self.certify)
         try:
             ctl.ground([("base", [])])
         except RuntimeError as exc:

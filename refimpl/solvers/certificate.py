@@ -1,0 +1,155 @@
+"""A dual certificate for level 10, computed here and checked by clingo (model/certificate.lp).
+
+Level 10 (optimisation.lp [level10_likelihood], [level10_count]) is the only level that any
+assign reaches, and nothing else reaches it: an answer's level-10 value is the weight
+w(T, D) = IoU + 1 summed over its assigns, and its assigns are a matching of the pairs with
+``assignment_constraints`` (one action per track and per detection).  clingo's branch and bound
+cannot bound such a sum on a dense crowd; LP duality can (docs/model.md 2.10):
+
+* potentials u(T) >= 0, v(D) >= 0 with u(T) + v(D) >= w(T, D) on every assignable pair bound every
+  matching's weight by sum u + sum v;
+* a witness matching M that an answer can complete (every track outside M that has no solo action
+  is in M), each of its pairs tight (u + v = w) and every node of positive potential in M, reaches
+  that bound, so it is the level-10 optimum;
+* then every level-10 optimum, and so every lexicographic optimum, assigns only tight pairs and
+  covers every node of positive potential: the pruning model/certificate.lp adds.
+
+This module only proposes the numbers (``certificate``: the matching by scipy's
+linear_sum_assignment, the potentials as shortest-path distances in the matching's residual
+graph, all integers) and writes them as facts (``certificate_facts``); clingo checks every
+condition above itself and prunes only when all hold, so a wrong certificate costs time, never an
+answer.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.constants import resolve_constants
+from ..core.spec import FrameProblem
+from .admissibility import assignment_constraints
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """Potentials of the tracks and detections (every one of the problem), and the witness
+    matching, as (trk, det) pairs."""
+
+    trk: tuple[tuple[str, int], ...]
+    det: tuple[tuple[str, int], ...]
+    matching: tuple[tuple[str, str], ...]
+
+
+def assign_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
+    """w(T, D) = IoU + 1 for every pair with assignment_constraints (its level-10 weight)."""
+    constants = resolve_constants(problem)
+    iou = problem.iou_map
+    tracks = {t.id: t for t in problem.tracks}
+    dets = {d.id: d for d in problem.detections}
+    out: dict[tuple[str, str], int] = {}
+    for t, d, v in problem.iou:
+        trk, det = tracks.get(t), dets.get(d)
+        if trk is not None and det is not None and assignment_constraints(problem, constants, iou, trk, det):
+            out[(t, d)] = v + 1
+    return out
+
+
+def _max_matching(tracks: list[str], dets: list[str], w: dict[tuple[str, str], int]) -> list[tuple[str, str]]:
+    """A maximum-weight matching of the pairs ``w`` (weights > 0; a node may stay unmatched)."""
+    if not w:
+        return []
+    from scipy.optimize import linear_sum_assignment
+
+    ti = {t: i for i, t in enumerate(tracks)}
+    di = {d: j for j, d in enumerate(dets)}
+    gain = np.zeros((len(tracks), len(dets)), dtype=np.int64)
+    for (t, d), v in w.items():
+        gain[ti[t], di[d]] = v
+    rows, cols = linear_sum_assignment(gain, maximize=True)
+    return [(tracks[i], dets[j]) for i, j in zip(rows, cols) if gain[i, j] > 0]
+
+
+def _potentials(tracks: list[str], dets: list[str], w: dict[tuple[str, str], int],
+                matching: list[tuple[str, str]]) -> tuple[dict[str, int], dict[str, int]] | None:
+    """Optimal dual potentials for ``matching`` (None if it is not a maximum-weight matching).
+
+    With x(T) = u(T), x(D) = -v(D) and x(z) = 0 for a reference node z, dual feasibility and
+    complementary slackness with the matching are difference constraints x(b) <= x(a) + c, i.e.
+    arcs a -> b of length c: T -> D (-w) per pair, z -> D and T -> z (0) for v >= 0 and u >= 0,
+    D -> T (+w) per matched pair (tight), z -> T per unmatched track and D -> z per unmatched
+    detection (potential 0).  Every node is reachable from z; the shortest distances from z
+    satisfy every constraint unless a negative cycle shows the matching is not optimal."""
+    nodes = [("z", "")] + [("t", t) for t in tracks] + [("d", d) for d in dets]
+    index = {n: k for k, n in enumerate(nodes)}
+    arcs: list[tuple[int, int, int]] = []
+    z = 0
+    mt = {t: d for t, d in matching}
+    md = {d: t for t, d in matching}
+    for (t, d), v in w.items():
+        arcs.append((index[("t", t)], index[("d", d)], -v))
+    for t, d in matching:
+        arcs.append((index[("d", d)], index[("t", t)], w[(t, d)]))
+    for t in tracks:
+        arcs.append((index[("t", t)], z, 0))
+        if t not in mt:
+            arcs.append((z, index[("t", t)], 0))
+    for d in dets:
+        arcs.append((z, index[("d", d)], 0))
+        if d not in md:
+            arcs.append((index[("d", d)], z, 0))
+    near = _shortest(len(nodes), arcs, z)  # the greatest solution: x(b) <= x(z) + d(z, b)
+    if near is None:
+        return None  # a negative cycle: the matching is not a maximum
+    far = _shortest(len(nodes), [(b, a, c) for a, b, c in arcs], z)  # the least: x(a) >= -d(a, z)
+    # the midpoint of the two, rounded down, satisfies every constraint too (floor((a + b) / 2) is
+    # monotone and commutes with adding an integer); it is strictly inside wherever they differ,
+    # so fewer pairs are tight than at either end
+    dist = [(a - b) // 2 for a, b in zip(near, far)]
+    u = {t: int(dist[index[("t", t)]]) for t in tracks}
+    v = {d: -int(dist[index[("d", d)]]) for d in dets}
+    return u, v
+
+
+def _shortest(n: int, arcs: list[tuple[int, int, int]], source: int) -> list[int] | None:
+    """Shortest distances from ``source`` (Bellman-Ford; every node reachable), or None on a
+    negative cycle."""
+    dist: list[int | None] = [None] * n
+    dist[source] = 0
+    for _ in range(n):
+        changed = False
+        for a, b, c in arcs:
+            da = dist[a]
+            if da is not None and (dist[b] is None or da + c < dist[b]):
+                dist[b] = da + c
+                changed = True
+        if not changed:
+            return [int(d) for d in dist]
+    return None
+
+
+def certificate(problem: FrameProblem) -> Certificate | None:
+    """The proposed certificate of the problem's level 10 (module docstring), or None when no
+    pair is assignable (nothing to prune)."""
+    w = assign_weights(problem)
+    if not w:
+        return None
+    tracks = [t.id for t in problem.tracks]
+    dets = [d.id for d in problem.detections]
+    matching = _max_matching(tracks, dets, w)
+    pot = _potentials(tracks, dets, w, matching)
+    if pot is None:
+        return None
+    u, v = pot
+    return Certificate(tuple((t, u[t]) for t in tracks), tuple((d, v[d]) for d in dets), tuple(matching))
+
+
+def certificate_facts(cert: Certificate | None) -> str:
+    """cert_trk(T, U), cert_det(D, V), cert_match(T, D) facts (empty for None)."""
+    if cert is None:
+        return ""
+    lines = [f"cert_trk({t},{u})." for t, u in cert.trk]
+    lines += [f"cert_det({d},{v})." for d, v in cert.det]
+    lines += [f"cert_match({t},{d})." for t, d in cert.matching]
+    return "\n".join(lines) + "\n"
