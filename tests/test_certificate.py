@@ -58,7 +58,7 @@ def _derived(problem: FrameProblem, facts: str, names=("cert_ok", "cert_tight"))
     ctl.ground([("base", [])])
     out = {}
     for name in names:
-        arity = 0 if name == "cert_ok" else 2
+        arity = 0 if name.endswith("_ok") else 2
         out[name] = {str(a.symbol) for a in ctl.symbolic_atoms.by_signature(name, arity) if a.is_fact}
     return out
 
@@ -223,3 +223,85 @@ def test_the_halt_explanations_the_certificate_asks_about_are_those_of_explain_h
     choice = choice[:choice.index(":- halt(Trk).")]
     assert listed == set(re.findall(r"occurs_at\((\w+)\(", choice))
     assert listed == {e.name for e in EVENT_TABLE.values() if e.explains == "halt"}
+
+
+# Level 5.  trk_1 active, trk_2 halted (missing at t=95: clipped, so recover explains a resume);
+# iou(1,1) = 80000 is the only assignable pair; trk_2 may resume det_1 (60000) or det_2 (30000).
+# Level 10 must assign (1,1), so the resume with det_1 is not an option of any optimum at level 10:
+# trk_2 resumes det_2.
+RESUME = """#const curr_time=100.
+det(det_1, car, 90).
+box2d(det_1, 0, 0, 50, 50).
+det(det_2, car, 90).
+box2d(det_2, 500, 0, 50, 50).
+trk(trk_1, car).
+trk_state(trk_1, active).
+box2d(trk_1, 0, 0, 50, 50).
+trk(trk_2, car).
+trk_state(trk_2, halted).
+box2d(trk_2, 500, 0, 50, 50).
+iou(trk_1,det_1,80000).
+iou(trk_2,det_1,60000).
+iou(trk_2,det_2,30000).
+occurs_at(missing_detections(trk_2),95).
+"""
+
+
+def test_the_resume_certificate_is_the_hand_derived_one_and_prunes():
+    problem = _problem(RESUME)
+    # level 10: one pair, w = 80001; u2 = 0 and v2 = 0 (outside the witness {(1,1)}); greatest u1 =
+    # 80001 (v1 = 0), least u1 = 0 (v1 = 80001), midpoint u1 = 40000, v1 = 80001 - 40000 = 40001.
+    # Level 5: det_1 has positive potential (assigned in every level-10 optimum), so its pair
+    # (2,1) is out; the one pair left (2,2), weight ML = 30000, is the witness; u2 from 30000 (v2 = 0)
+    # and 0 (v2 = 30000): midpoint u2 = 15000, v2 = 15000; trk_1 and det_1 have no pair: 0.
+    level5 = Certificate((("trk_1", 0), ("trk_2", 15000)), (("det_1", 0), ("det_2", 15000)),
+                         (("trk_2", "det_2"),))
+    cert = certificate(problem)
+    assert cert == Certificate((("trk_1", 40000), ("trk_2", 0)), (("det_1", 40001), ("det_2", 0)),
+                               (("trk_1", "det_1"),), level5)
+    facts = certificate_facts(cert)
+    derived = _derived(problem, facts, ("cert_ok", "cert5_ok", "cert5_tight"))
+    assert derived == {"cert_ok": {"cert_ok"}, "cert5_ok": {"cert5_ok"}, "cert5_tight": {"cert5_tight(trk_2,det_2)"}}
+    # the answers in which trk_2 (potential 15000) does not resume are gone
+    force = ":- resumed(trk_2)."
+    assert _satisfiable(problem, force)
+    assert not _satisfiable(problem, force + facts)
+    atoms, level10, proven = _optimum(problem, facts)
+    assert proven and level10 == -80001 and {"assign(trk_1,det_1)", "resume(trk_2,det_2)"} <= atoms
+    assert (atoms, level10, proven) == _optimum(problem, "")
+
+
+def test_a_wrong_resume_certificate_prunes_nothing():
+    # all level-5 potentials 0 and no witness: the one violated inequality is (2,2): 0 + 0 < 30000.
+    # Trusted, it would allow no resume at all (no pair tight): trk_2 would end, level 5 0 not -30000
+    problem = _problem(RESUME)
+    wrong = Certificate((("trk_1", 0), ("trk_2", 0)), (("det_1", 0), ("det_2", 0)), ())
+    cert = certificate(problem)
+    facts = certificate_facts(Certificate(cert.trk, cert.det, cert.matching, wrong))
+    assert _derived(problem, facts, ("cert_ok", "cert5_ok")) == {"cert_ok": {"cert_ok"}, "cert5_ok": set()}
+    assert _satisfiable(problem, ":- resumed(trk_2)." + facts)  # nothing pruned
+    atoms, _, proven = _optimum(problem, facts)
+    assert proven and "resume(trk_2,det_2)" in atoms
+
+
+def test_the_resume_certificate_is_not_used_without_the_level_10_one():
+    # level 5's pairs are those of the answers optimal at level 10, which only a checked level-10
+    # certificate tells: the right level-5 certificate with a wrong level-10 one is not used
+    problem = _problem(RESUME)
+    cert = certificate(problem)
+    broken = Certificate((("trk_1", 40000), ("trk_2", 0)), (("det_1", 40000), ("det_2", 0)),  # 80000 < 80001
+                         cert.matching, cert.resume)
+    assert _derived(problem, certificate_facts(broken), ("cert_ok", "cert5_ok")) == {"cert_ok": set(), "cert5_ok": set()}
+
+
+def test_the_resume_explanations_the_certificate_asks_about_are_those_of_explain_resume():
+    import re
+
+    from refimpl.knowledge.events import EVENT_TABLE
+
+    text = (default_model_files()[0].parent / "events.lp").read_text()
+    listed = set(re.findall(r"^resume_explainable\(Trk\) :- poss\((\w+)\(Trk\b", text, flags=re.M))
+    choice = text[text.index("1 { occurs_at(unhides_from_behind(Trk, Trk2)"):]
+    choice = choice[:choice.index(":- resumed(Trk).")]
+    assert listed == set(re.findall(r"occurs_at\((\w+)\(", choice))
+    assert listed == {e.name for e in EVENT_TABLE.values() if e.explains == "resume"}

@@ -30,16 +30,18 @@ import numpy as np
 from ..core.constants import resolve_constants
 from ..core.spec import FrameProblem
 from .admissibility import assignment_constraints
+from .common import candidate_pairs
 
 
 @dataclass(frozen=True)
 class Certificate:
     """Potentials of the tracks and detections (every one of the problem), and the witness
-    matching, as (trk, det) pairs."""
+    matching, as (trk, det) pairs; ``resume``: the certificate of level 5, if there is one."""
 
     trk: tuple[tuple[str, int], ...]
     det: tuple[tuple[str, int], ...]
     matching: tuple[tuple[str, str], ...]
+    resume: "Certificate | None" = None
 
 
 def assign_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
@@ -54,6 +56,13 @@ def assign_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
         if trk is not None and det is not None and assignment_constraints(problem, constants, iou, trk, det):
             out[(t, d)] = v + 1
     return out
+
+
+def resume_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
+    """w(T, D) = IoU for every pair with resume_constraints (its level-5 weight)."""
+    halted = {t.id for t in problem.tracks if t.state == "halted"}
+    iou = problem.iou_map
+    return {(t, d): iou[(t, d)] for t, d in candidate_pairs(problem) if t in halted}
 
 
 def _max_matching(tracks: list[str], dets: list[str], w: dict[tuple[str, str], int]) -> list[tuple[str, str]]:
@@ -142,14 +151,40 @@ def certificate(problem: FrameProblem) -> Certificate | None:
     if pot is None:
         return None
     u, v = pot
-    return Certificate(tuple((t, u[t]) for t in tracks), tuple((d, v[d]) for d in dets), tuple(matching))
+    return Certificate(tuple((t, u[t]) for t in tracks), tuple((d, v[d]) for d in dets), tuple(matching),
+                       _resume_certificate(problem, tracks, dets, v, matching))
+
+
+def _resume_certificate(problem: FrameProblem, tracks: list[str], dets: list[str], v: dict[str, int],
+                        matching: list[tuple[str, str]]) -> Certificate | None:
+    """Level 5's certificate (model/certificate.lp [cert5_pairs]): the same for the resume pairs
+    whose detection has level-10 potential 0 (the others are assigned in every level-10 optimum),
+    with a witness that avoids the detections of the level-10 witness; None if no pair or if no
+    such witness is a maximum."""
+    w = {p: x for p, x in resume_weights(problem).items() if v[p[1]] == 0}
+    if not w:
+        return None
+    taken = {d for _, d in matching}
+    witness = _max_matching(tracks, dets, {p: x for p, x in w.items() if p[1] not in taken})
+    pot = _potentials(tracks, dets, w, witness)
+    if pot is None:
+        return None
+    u5, v5 = pot
+    return Certificate(tuple((t, u5[t]) for t in tracks), tuple((d, v5[d]) for d in dets), tuple(witness))
 
 
 def certificate_facts(cert: Certificate | None) -> str:
-    """cert_trk(T, U), cert_det(D, V), cert_match(T, D) facts (empty for None)."""
+    """cert_trk(T, U), cert_det(D, V), cert_match(T, D) facts, and level 5's as cert5_trk/2,
+    cert5_det/2, cert5_match/2 (empty for None)."""
     if cert is None:
         return ""
-    lines = [f"cert_trk({t},{u})." for t, u in cert.trk]
-    lines += [f"cert_det({d},{v})." for d, v in cert.det]
-    lines += [f"cert_match({t},{d})." for t, d in cert.matching]
+    return _facts("cert", cert) + _facts("cert5", cert.resume)
+
+
+def _facts(prefix: str, cert: Certificate | None) -> str:
+    if cert is None:
+        return ""
+    lines = [f"{prefix}_trk({t},{u})." for t, u in cert.trk]
+    lines += [f"{prefix}_det({d},{v})." for d, v in cert.det]
+    lines += [f"{prefix}_match({t},{d})." for t, d in cert.matching]
     return "\n".join(lines) + "\n"
