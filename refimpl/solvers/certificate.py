@@ -1,24 +1,27 @@
-"""A dual certificate for level 10, computed here and checked by clingo (model/certificate.lp).
+"""A dual certificate of levels 10 and 5, proposed here and checked by clingo (model/certificate.lp).
 
-Level 10 (optimisation.lp [level10_likelihood], [level10_count]) is the only level that any
-assign reaches, and nothing else reaches it: an answer's level-10 value is the weight
-w(T, D) = IoU + 1 summed over its assigns, and its assigns are a matching of the pairs with
-``assignment_constraints`` (one action per track and per detection).  clingo's branch and bound
-cannot bound such a sum on a dense crowd; LP duality can (docs/model.md 2.10):
+Only assigns have terms at level 10 (optimisation.lp [level10_likelihood], [level10_count]), and
+no other action or event does: an answer's level 10 is the weight w(T, D) = IoU + 1 summed over
+its assigns, and its assigns are a matching of the pairs with ``assignment_constraints`` (one
+action per track and per detection).  clingo's branch and bound cannot bound such a sum on a
+dense crowd; LP duality can (docs/model.md 2.10):
 
 * potentials u(T) >= 0, v(D) >= 0 with u(T) + v(D) >= w(T, D) on every assignable pair bound every
   matching's weight by sum u + sum v;
-* a witness matching M that an answer can complete (every track outside M that has no solo action
-  is in M), each of its pairs tight (u + v = w) and every node of positive potential in M, reaches
-  that bound, so it is the level-10 optimum;
+* a witness matching M that an answer can complete (every track outside M has a solo action),
+  each of its pairs tight (u + v = w) and every node of positive potential in M, reaches that
+  bound, so the bound is the level-10 optimum;
 * then every level-10 optimum, and so every lexicographic optimum, assigns only tight pairs and
   covers every node of positive potential: the pruning model/certificate.lp adds.
 
-This module only proposes the numbers (``certificate``: the matching by scipy's
-linear_sum_assignment, the potentials as shortest-path distances in the matching's residual
-graph, all integers) and writes them as facts (``certificate_facts``); clingo checks every
-condition above itself and prunes only when all hold, so a wrong certificate costs time, never an
-answer.
+Level 5 (the resumes, weight IoU) gets the same among the answers optimal at level 10: on the
+resume pairs whose detection has level-10 potential 0, with a witness apart from level 10's.
+
+This module only proposes the numbers (``certificate``: the witness by scipy's
+linear_sum_assignment, the potentials as the rounded-down midpoint of the greatest and the least
+solution of the dual's difference constraints, all integers) and writes them as facts
+(``certificate_facts``); clingo checks every condition above itself and prunes only when all
+hold, so a wrong certificate costs time, never an answer.
 """
 
 from __future__ import annotations
@@ -139,7 +142,7 @@ def _shortest(n: int, arcs: list[tuple[int, int, int]], source: int) -> list[int
 
 
 def certificate(problem: FrameProblem) -> Certificate | None:
-    """The proposed certificate of the problem's level 10 (module docstring), or None when no
+    """The proposed certificate of the problem's levels 10 and 5 (module docstring), or None when no
     pair is assignable (nothing to prune)."""
     w = assign_weights(problem)
     if not w:

@@ -21,7 +21,7 @@ clingo options (fixed, so that a run is reproducible):
                               (clingo's default, kept without the certificate) does not: a 200-track
                               crowd is proven in ~1 s of search with it and not in 40 s without.
                               Stratification (the heaviest weights first) because the tie-break's
-                              weights are powers of two: plain ``usc`` took 20 s on some 4-track
+                              weights are powers of two: plain ``usc`` took 20 s on some 4-5-track
                               frames that branch and bound proves in 0.04 s (docs/model.md 2.10)
 * ``-c name=value``           every model constant (refimpl.core.constants.resolve_constants), so
                               model/constants.lp gives only the defaults and the problem's
@@ -132,7 +132,7 @@ class ClingoSolver:
     never the priorities clingo reports: for a user's encoding, refimpl.solvers.asp_model), ``name``
     (the backend name its answers carry: ``get_solver`` passes its entry's, a user's encoding its label),
     ``certify`` (default: True for the model in model/, False for other ``model_files``; True: each
-    solve also gets the level-10 certificate of refimpl.solvers.certificate as facts, which
+    solve also gets the certificate of levels 10 and 5 (refimpl.solvers.certificate) as facts, which
     model/certificate.lp checks and uses to prune, docs/model.md 2.10)."""
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
@@ -155,7 +155,7 @@ class ClingoSolver:
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
         self.certify = (model_files is None) if certify is None else bool(certify)
-        """Whether a solve passes the level-10 certificate facts (model/certificate.lp checks them)."""
+        """Whether a solve passes the certificate facts (model/certificate.lp checks them)."""
         self.isolate = isolate
         self.checked_costs = bool(checked_costs)
         self.inline_solves = int(inline_solves)
