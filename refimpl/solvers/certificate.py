@@ -1,0 +1,193 @@
+"""A dual certificate of levels 10 and 5, proposed here and checked by clingo (model/certificate.lp).
+
+Only assigns have terms at level 10 (optimisation.lp [level10_likelihood], [level10_count]), and
+no other action or event does: an answer's level 10 is the weight w(T, D) = IoU + 1 summed over
+its assigns, and its assigns are a matching of the pairs with ``assignment_constraints`` (one
+action per track and per detection).  clingo's branch and bound cannot bound such a sum on a
+dense crowd; LP duality can (docs/model.md 2.10):
+
+* potentials u(T) >= 0, v(D) >= 0 with u(T) + v(D) >= w(T, D) on every assignable pair bound every
+  matching's weight by sum u + sum v;
+* a witness matching M that an answer can complete (every track outside M has a solo action),
+  each of its pairs tight (u + v = w) and every node of positive potential in M, reaches that
+  bound, so the bound is the level-10 optimum;
+* then every level-10 optimum, and so every lexicographic optimum, assigns only tight pairs and
+  covers every node of positive potential: the pruning model/certificate.lp adds.
+
+Level 5 (the resumes, weight IoU) gets the same among the answers optimal at level 10: on the
+resume pairs whose detection has level-10 potential 0, with a witness apart from level 10's.
+
+This module only proposes the numbers (``certificate``: the witness by scipy's
+linear_sum_assignment, the potentials as the rounded-down midpoint of the greatest and the least
+solution of the dual's difference constraints, all integers) and writes them as facts
+(``certificate_facts``); clingo checks every condition above itself and prunes only when all
+hold, so a wrong certificate costs time, never an answer.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.constants import resolve_constants
+from ..core.spec import FrameProblem
+from .admissibility import assignment_constraints
+from .common import candidate_pairs
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """Potentials of the tracks and detections (every one of the problem), and the witness
+    matching, as (trk, det) pairs; ``resume``: the certificate of level 5, if there is one."""
+
+    trk: tuple[tuple[str, int], ...]
+    det: tuple[tuple[str, int], ...]
+    matching: tuple[tuple[str, str], ...]
+    resume: "Certificate | None" = None
+
+
+def assign_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
+    """w(T, D) = IoU + 1 for every pair with assignment_constraints (its level-10 weight)."""
+    constants = resolve_constants(problem)
+    iou = problem.iou_map
+    tracks = {t.id: t for t in problem.tracks}
+    dets = {d.id: d for d in problem.detections}
+    out: dict[tuple[str, str], int] = {}
+    for t, d, v in problem.iou:
+        trk, det = tracks.get(t), dets.get(d)
+        if trk is not None and det is not None and assignment_constraints(problem, constants, iou, trk, det):
+            out[(t, d)] = v + 1
+    return out
+
+
+def resume_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
+    """w(T, D) = IoU for every pair with resume_constraints (its level-5 weight)."""
+    halted = {t.id for t in problem.tracks if t.state == "halted"}
+    iou = problem.iou_map
+    return {(t, d): iou[(t, d)] for t, d in candidate_pairs(problem) if t in halted}
+
+
+def _max_matching(tracks: list[str], dets: list[str], w: dict[tuple[str, str], int]) -> list[tuple[str, str]]:
+    """A maximum-weight matching of the pairs ``w`` (weights > 0; a node may stay unmatched)."""
+    if not w:
+        return []
+    from scipy.optimize import linear_sum_assignment
+
+    ti = {t: i for i, t in enumerate(tracks)}
+    di = {d: j for j, d in enumerate(dets)}
+    gain = np.zeros((len(tracks), len(dets)), dtype=np.int64)
+    for (t, d), v in w.items():
+        gain[ti[t], di[d]] = v
+    rows, cols = linear_sum_assignment(gain, maximize=True)
+    return [(tracks[i], dets[j]) for i, j in zip(rows, cols) if gain[i, j] > 0]
+
+
+def _potentials(tracks: list[str], dets: list[str], w: dict[tuple[str, str], int],
+                matching: list[tuple[str, str]]) -> tuple[dict[str, int], dict[str, int]] | None:
+    """Optimal dual potentials for ``matching`` (None if it is not a maximum-weight matching).
+
+    With x(T) = u(T), x(D) = -v(D) and x(z) = 0 for a reference node z, dual feasibility and
+    complementary slackness with the matching are difference constraints x(b) <= x(a) + c, i.e.
+    arcs a -> b of length c: T -> D (-w) per pair, z -> D and T -> z (0) for v >= 0 and u >= 0,
+    D -> T (+w) per matched pair (tight), z -> T per unmatched track and D -> z per unmatched
+    detection (potential 0).  Every node is reachable from z; the shortest distances from z
+    satisfy every constraint unless a negative cycle shows the matching is not optimal."""
+    nodes = [("z", "")] + [("t", t) for t in tracks] + [("d", d) for d in dets]
+    index = {n: k for k, n in enumerate(nodes)}
+    arcs: list[tuple[int, int, int]] = []
+    z = 0
+    mt = {t: d for t, d in matching}
+    md = {d: t for t, d in matching}
+    for (t, d), v in w.items():
+        arcs.append((index[("t", t)], index[("d", d)], -v))
+    for t, d in matching:
+        arcs.append((index[("d", d)], index[("t", t)], w[(t, d)]))
+    for t in tracks:
+        arcs.append((index[("t", t)], z, 0))
+        if t not in mt:
+            arcs.append((z, index[("t", t)], 0))
+    for d in dets:
+        arcs.append((z, index[("d", d)], 0))
+        if d not in md:
+            arcs.append((index[("d", d)], z, 0))
+    near = _shortest(len(nodes), arcs, z)  # the greatest solution: x(b) <= x(z) + d(z, b)
+    if near is None:
+        return None  # a negative cycle: the matching is not a maximum
+    far = _shortest(len(nodes), [(b, a, c) for a, b, c in arcs], z)  # the least: x(a) >= -d(a, z)
+    # the midpoint of the two, rounded down, satisfies every constraint too (floor((a + b) / 2) is
+    # monotone and commutes with adding an integer); it is strictly inside wherever they differ,
+    # so fewer pairs are tight than at either end
+    dist = [(a - b) // 2 for a, b in zip(near, far)]
+    u = {t: int(dist[index[("t", t)]]) for t in tracks}
+    v = {d: -int(dist[index[("d", d)]]) for d in dets}
+    return u, v
+
+
+def _shortest(n: int, arcs: list[tuple[int, int, int]], source: int) -> list[int] | None:
+    """Shortest distances from ``source`` (Bellman-Ford; every node reachable), or None on a
+    negative cycle."""
+    dist: list[int | None] = [None] * n
+    dist[source] = 0
+    for _ in range(n):
+        changed = False
+        for a, b, c in arcs:
+            da = dist[a]
+            if da is not None and (dist[b] is None or da + c < dist[b]):
+                dist[b] = da + c
+                changed = True
+        if not changed:
+            return [int(d) for d in dist]
+    return None
+
+
+def certificate(problem: FrameProblem) -> Certificate | None:
+    """The proposed certificate of the problem's levels 10 and 5 (module docstring), or None when no
+    pair is assignable (nothing to prune)."""
+    w = assign_weights(problem)
+    if not w:
+        return None
+    tracks = [t.id for t in problem.tracks]
+    dets = [d.id for d in problem.detections]
+    matching = _max_matching(tracks, dets, w)
+    pot = _potentials(tracks, dets, w, matching)
+    if pot is None:
+        return None
+    u, v = pot
+    return Certificate(tuple((t, u[t]) for t in tracks), tuple((d, v[d]) for d in dets), tuple(matching),
+                       _resume_certificate(problem, tracks, dets, v, matching))
+
+
+def _resume_certificate(problem: FrameProblem, tracks: list[str], dets: list[str], v: dict[str, int],
+                        matching: list[tuple[str, str]]) -> Certificate | None:
+    """Level 5's certificate (model/certificate.lp [cert5_pairs]): the same for the resume pairs
+    whose detection has level-10 potential 0 (the others are assigned in every level-10 optimum),
+    with a witness that avoids the detections of the level-10 witness; None if no pair or if no
+    such witness is a maximum."""
+    w = {p: x for p, x in resume_weights(problem).items() if v[p[1]] == 0}
+    if not w:
+        return None
+    taken = {d for _, d in matching}
+    witness = _max_matching(tracks, dets, {p: x for p, x in w.items() if p[1] not in taken})
+    pot = _potentials(tracks, dets, w, witness)
+    if pot is None:
+        return None
+    u5, v5 = pot
+    return Certificate(tuple((t, u5[t]) for t in tracks), tuple((d, v5[d]) for d in dets), tuple(witness))
+
+
+def certificate_facts(cert: Certificate | None) -> str:
+    """cert_trk(T, U), cert_det(D, V), cert_match(T, D) facts, and level 5's as cert5_trk/2,
+    cert5_det/2, cert5_match/2 (empty for None)."""
+    if cert is None:
+        return ""
+    return _facts("cert", cert) + _facts("cert5", cert.resume)
+
+
+def _facts(prefix: str, cert: Certificate | None) -> str:
+    if cert is None:
+        return ""
+    lines = [f"{prefix}_trk({t},{u})." for t, u in cert.trk]
+    lines += [f"{prefix}_det({d},{v})." for d, v in cert.det]
+    lines += [f"{prefix}_match({t},{d})." for t, d in cert.matching]
+    return "\n".join(lines) + "\n"
