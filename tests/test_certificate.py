@@ -13,6 +13,7 @@ import pytest
 
 pytest.importorskip("clingo")
 
+from refimpl.core.facts import parse_facts
 from refimpl.core.spec import FrameProblem  # noqa: E402
 from refimpl.solvers import get_solver  # noqa: E402
 from refimpl.solvers.certificate import Certificate, certificate, certificate_facts  # noqa: E402
@@ -44,7 +45,7 @@ iou(trk_2,det_2,40000).
 
 
 def _problem(text: str = TWO_BY_TWO) -> FrameProblem:
-    return FrameProblem.from_facts(text)
+    return parse_facts(text)
 
 
 def _cert(u1, u2, v1, v2, matching=(("trk_1", "det_1"), ("trk_2", "det_2"))) -> Certificate:

@@ -1,6 +1,7 @@
 """The optimal assignment of a cost matrix (the Hungarian method), for SORT's association
-(refimpl.tracking.baseline) and the scorers' matching of results to ground truth
-(refimpl.evaluation.evaluate).
+(refimpl.tracking.baseline), the scorers' matching of results to ground truth
+(refimpl.evaluation.evaluate) and the witness of clingo's level-10 certificate
+(refimpl.solvers.certificate).
 
 scipy's ``linear_sum_assignment`` does the work; this module is the one place scipy is imported,
 when an assignment is first asked for: ``import scipy.optimize`` took 1.1 s here (``python -X importtime``),

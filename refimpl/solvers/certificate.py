@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.assignment import linear_sum_assignment
 from ..core.constants import resolve_constants
 from ..core.spec import FrameProblem
 from .admissibility import assignment_constraints
@@ -72,8 +73,6 @@ def _max_matching(tracks: list[str], dets: list[str], w: dict[tuple[str, str], i
     """A maximum-weight matching of the pairs ``w`` (weights > 0; a node may stay unmatched)."""
     if not w:
         return []
-    from scipy.optimize import linear_sum_assignment
-
     ti = {t: i for i, t in enumerate(tracks)}
     di = {d: j for j, d in enumerate(dets)}
     gain = np.zeros((len(tracks), len(dets)), dtype=np.int64)
