@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("clingo")
 
-from refimpl.core.facts import parse_facts
+from refimpl.core.facts import parse_facts  # noqa: E402
 from refimpl.core.spec import FrameProblem  # noqa: E402
 from refimpl.solvers import get_solver  # noqa: E402
 from refimpl.solvers.certificate import Certificate, certificate, certificate_facts  # noqa: E402
