@@ -16,7 +16,7 @@ from ..core.loader import load
 from ..core.ranges import check_constant
 from ..experiments.progress import Progress
 from ..experiments.scaleout import run_tasks
-from ..experiments.tasks import AnswerCheck, TrackJob, results_file_name, track_job
+from ..experiments.tasks import SCENE_FROM_RESULT, SCENE_TO_JSON, AnswerCheck, TrackJob, results_file_name, track_job
 from ..io import ResultWriter, results_formatter
 from ..io.outputs import OutputSet, STDOUT, check_outputs
 from ..solvers import BACKENDS, BASELINE, get_solver
@@ -25,12 +25,6 @@ from ..tracking.pipeline import run_sequence
 from ..tracking.presets import preset_named, score_warning
 from .common import CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup
 
-
-SCENE_FROM_RESULT = "refimpl.scene:scene_from_result"
-SCENE_TO_JSON = "refimpl.scene:scene_to_json"
-"""The scene that ``--scene`` writes, named for refimpl.core.loader: the scene package (its eight
-modules, and the standard library's statistics) is ~0.1 s of a start-up that issue 27 bounds at
-0.5 s, and only ``--scene`` needs it."""
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
     """Where each --dets goes: --out for one, or DIR/<sequence>.txt with --out-dir."""

@@ -21,12 +21,18 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from ..core.loader import load
 from ..io import DetectionFrame, DetectionSequence
-from ..scene import scene_from_result
 from ..solvers.asp_model import AspModel
 from ..solvers.check import check_answer
 from ..tracking.pipeline import Setup, run_sequence
 from .diff import diff_sequence
+
+SCENE_FROM_RESULT = "refimpl.scene:scene_from_result"
+SCENE_TO_JSON = "refimpl.scene:scene_to_json"
+"""The scene a job builds when asked (``track --scene``, one input or many), named for
+refimpl.core.loader: the scene package (eight modules and the standard library's statistics) is
+~0.1 s of a start-up that issue 27 bounds at 0.5 s, and only ``--scene`` needs it."""
 
 
 # ---------------------------------------------------------------------------------------
@@ -164,7 +170,7 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
     result = run_sequence(job.seq, job.setup, observer=check, on_frame=on_frame)
     scene = None
     if job.scene and not job.setup.baseline:
-        scene = scene_from_result(job.seq, result)
+        scene = load(SCENE_FROM_RESULT)(job.seq, result)
     return TrackOutput(job.seq.name, result.rows, result.events if job.events else (), result.frames,
                        result.not_optimal_frames,
                        check.checked if check else 0, tuple(check.violations) if check else (), scene)

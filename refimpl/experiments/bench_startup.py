@@ -1,0 +1,93 @@
+"""Start-up of `refimpl track`: process start to the first frame solved (issue 27, item 1).
+
+    python -m refimpl.experiments.bench_startup [--data ../shared/data] [--dets FILE]
+                                                [--format kitti] [--class Car] [--runs 5]
+
+Runs the command a user runs, ``python -m refimpl track --dets FILE ... --out TMP --quiet``, in a
+fresh interpreter ``--runs`` times on the *first frame* of the detections (by default KITTI tracking
+train Car 0011, written to a temporary file), and prints per run and as medians its wall-clock
+seconds (from just before the process starts to its exit) and its CPU seconds (user + system,
+``resource.getrusage(RUSAGE_CHILDREN)``).  A one-frame run is start-up, reading, one frame
+problem and its solve, writing the output and the exit: an upper bound of "process start to the
+first frame solved" that needs no hook in the command.  The first run also writes the
+interpreter's bytecode cache (the later runs read it), as the first `refimpl track` after an
+install does; the median is over the later runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]  # the checkout
+DEFAULT_DETS = "KITTI/tracking/training/det_02_pointrcnn/Car/0011.txt"
+
+
+def first_frame(path: str, out: Path) -> int:
+    """Write the lines of the file's first frame (its first comma-separated field) to ``out``."""
+    lines = [ln for ln in Path(path).read_text().splitlines() if ln.strip()]
+    if not lines:
+        raise SystemExit(f"bench_startup: {path} has no detections")
+    frame = lines[0].split(",")[0]
+    kept = [ln for ln in lines if ln.split(",")[0] == frame]
+    out.write_text("\n".join(kept) + "\n")
+    return len(kept)
+
+
+def run_once(args: list[str]) -> dict[str, float]:
+    """One fresh `python -m refimpl ARGS`: its wall-clock and CPU seconds."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    out = subprocess.run([sys.executable, "-m", "refimpl", *args], cwd=REPO, capture_output=True, text=True)
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if out.returncode != 0:
+        raise SystemExit(f"bench_startup: the command failed ({out.returncode}): {out.stderr.strip()[-500:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"wall": wall, "cpu": cpu}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", default=str(REPO.parent / "shared" / "data"))
+    ap.add_argument("--dets", help=f"detections file (default: DATA/{DEFAULT_DETS})")
+    ap.add_argument("--format", default="kitti")
+    ap.add_argument("--class", dest="cls", default="Car")
+    ap.add_argument("--backend", default="cpsat")
+    ap.add_argument("--runs", type=int, default=5)
+    a = ap.parse_args(argv)
+    if a.runs < 1:
+        ap.error("--runs must be >= 1")
+    dets = a.dets or str(Path(a.data) / DEFAULT_DETS)
+    if not Path(dets).is_file():
+        ap.error(f"no detections file {dets}")
+    with tempfile.TemporaryDirectory() as tmp:
+        one = Path(tmp) / Path(dets).name
+        n = first_frame(dets, one)
+        args = ["track", "--dets", str(one), "--format", a.format, "--backend", a.backend, "--out",
+                str(Path(tmp) / "out.txt"), "--quiet"]
+        if a.format == "kitti":
+            args += ["--class", a.cls]
+        with open("/proc/loadavg") as f:
+            load = f.read().split()[0]
+        runs = [run_once(args) for _ in range(a.runs)]
+    print(f"`refimpl track` on the first frame of {dets} ({n} detections; --format {a.format}"
+          f"{' --class ' + a.cls if a.format == 'kitti' else ''} --backend {a.backend} --quiet), {a.runs} fresh "
+          f"processes, load average {load} before the first\n")
+    print("| run | wall s | CPU s |\n|---:|---:|---:|")
+    for k, r in enumerate(runs, 1):
+        print(f"| {k}{' (writes the bytecode cache where there is none)' if k == 1 else ''} | {r['wall']:.2f} | {r['cpu']:.2f} |")
+    cached = runs[1:] or runs
+    print(f"| median of runs {2 if len(runs) > 1 else 1}-{len(runs)} | {statistics.median(r['wall'] for r in cached):.2f} "
+          f"| {statistics.median(r['cpu'] for r in cached):.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
