@@ -9,12 +9,15 @@ catches its fault, and that a track without a solo action is not left out by the
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 pytest.importorskip("clingo")
 
 from refimpl.core.facts import parse_facts  # noqa: E402
 from refimpl.core.spec import FrameProblem  # noqa: E402
+from refimpl.knowledge.events import EVENT_TABLE  # noqa: E402
 from refimpl.solvers import get_solver  # noqa: E402
 from refimpl.solvers.certificate import Certificate, certificate, certificate_facts  # noqa: E402
 from refimpl.solvers.clingo_backend import ClingoSolver, default_model_files  # noqa: E402
@@ -26,7 +29,7 @@ from refimpl.solvers.clingo_backend import ClingoSolver, default_model_files  # 
 #   w(2,1) = 60001   w(2,2) = 40001
 # The two perfect matchings weigh {11, 22} = 120002 and {12, 21} = 110002; a single pair at most
 # 80001.  So M = {(trk_1,det_1), (trk_2,det_2)} is the unique level-10 optimum.
-TWO_BY_TWO = """#const curr_time=100.
+TWO_CARS = """#const curr_time=100.
 det(det_1, car, 90).
 box2d(det_1, 0, 0, 50, 50).
 det(det_2, car, 90).
@@ -35,7 +38,9 @@ trk(trk_1, car).
 trk_state(trk_1, active).
 box2d(trk_1, 0, 0, 50, 50).
 trk(trk_2, car).
-trk_state(trk_2, active).
+"""
+"""Two detections and two tracks of the 2 x 2 frames below (trk_2's state and the ious follow)."""
+TWO_BY_TWO = TWO_CARS + """trk_state(trk_2, active).
 box2d(trk_2, 500, 0, 50, 50).
 iou(trk_1,det_1,80000).
 iou(trk_1,det_2,50000).
@@ -211,35 +216,28 @@ occurs_at(missing_detections(trk_2),95).
     assert dict(h.cost)[10] == -40001
 
 
-def test_the_halt_explanations_the_certificate_asks_about_are_those_of_explain_halt():
-    # model/events.lp [halt_explainable] must list exactly the events of the [explain_halt] choice:
-    # one more would let the witness leave out a track that cannot halt
-    import re
-
-    from refimpl.knowledge.events import EVENT_TABLE
-
+@pytest.mark.parametrize("action, helper, choice_start, choice_end", [
+    ("halt", "halt_explainable", "% [explain_halt]\n1 {", ":- halt(Trk)."),
+    ("resume", "resume_explainable", "1 { occurs_at(unhides_from_behind(Trk, Trk2)", ":- resumed(Trk)."),
+])
+def test_the_explanations_the_certificate_asks_about_are_those_of_the_explanation_choice(
+        action, helper, choice_start, choice_end):
+    # model/events.lp [halt_explainable] / [resume_explainable] must list exactly the events of the
+    # [explain_halt] / [explain_resume] choice: one more would let the witness leave out a track that
+    # cannot take its solo action (or resume)
     text = (default_model_files()[0].parent / "events.lp").read_text()
-    listed = set(re.findall(r"^halt_explainable\(Trk\) :- poss\((\w+)\(Trk\b", text, flags=re.M))
-    choice = text[text.index("% [explain_halt]\n1 {"):]
-    choice = choice[:choice.index(":- halt(Trk).")]
+    listed = set(re.findall(rf"^{helper}\(Trk\) :- poss\((\w+)\(Trk\b", text, flags=re.M))
+    choice = text[text.index(choice_start):]
+    choice = choice[:choice.index(choice_end)]
     assert listed == set(re.findall(r"occurs_at\((\w+)\(", choice))
-    assert listed == {e.name for e in EVENT_TABLE.values() if e.explains == "halt"}
+    assert listed == {e.name for e in EVENT_TABLE.values() if e.explains == action}
 
 
 # Level 5.  trk_1 active, trk_2 halted (missing at t=95: clipped, so recover explains a resume);
 # iou(1,1) = 80000 is the only assignable pair; trk_2 may resume det_1 (60000) or det_2 (30000).
 # Level 10 must assign (1,1), so the resume with det_1 is not an option of any optimum at level 10:
 # trk_2 resumes det_2.
-RESUME = """#const curr_time=100.
-det(det_1, car, 90).
-box2d(det_1, 0, 0, 50, 50).
-det(det_2, car, 90).
-box2d(det_2, 500, 0, 50, 50).
-trk(trk_1, car).
-trk_state(trk_1, active).
-box2d(trk_1, 0, 0, 50, 50).
-trk(trk_2, car).
-trk_state(trk_2, halted).
+RESUME = TWO_CARS + """trk_state(trk_2, halted).
 box2d(trk_2, 500, 0, 50, 50).
 iou(trk_1,det_1,80000).
 iou(trk_2,det_1,60000).
@@ -294,18 +292,6 @@ def test_the_resume_certificate_is_not_used_without_the_level_10_one():
                          cert.matching, cert.resume)
     assert _derived(problem, certificate_facts(broken), ("cert_ok", "cert5_ok")) == {"cert_ok": set(), "cert5_ok": set()}
 
-
-def test_the_resume_explanations_the_certificate_asks_about_are_those_of_explain_resume():
-    import re
-
-    from refimpl.knowledge.events import EVENT_TABLE
-
-    text = (default_model_files()[0].parent / "events.lp").read_text()
-    listed = set(re.findall(r"^resume_explainable\(Trk\) :- poss\((\w+)\(Trk\b", text, flags=re.M))
-    choice = text[text.index("1 { occurs_at(unhides_from_behind(Trk, Trk2)"):]
-    choice = choice[:choice.index(":- resumed(Trk).")]
-    assert listed == set(re.findall(r"occurs_at\((\w+)\(", choice))
-    assert listed == {e.name for e in EVENT_TABLE.values() if e.explains == "resume"}
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
