@@ -10,9 +10,8 @@ from ..core.constants import resolve_constants
 from ..core.ranges import check_constant, check_ranges
 from ..core.spec import ProblemFormatError, with_constants
 from ..core.facts import read_problem
-from ..experiments.diff import DiffReport
+from ..experiments.diff import DiffJob, DiffReport, diff_job
 from ..experiments.scaleout import run_tasks
-from ..experiments.tasks import DiffJob, diff_job
 from ..io.datasets import load_dataset
 from ..solvers import BACKENDS, CLINGO, get_solver
 from ..solvers.asp_model import AspModelError, load_asp_model

@@ -30,6 +30,7 @@ from ..core.ranges import OutOfClingoRange
 from ..solvers import CLINGO, ORACLE_PAIR, NoAdmissibleHypothesis, Solver, get_solver
 from ..solvers.asp_model import AspModel
 from ..core.spec import FrameProblem
+from ..io import DetectionSequence
 from ..tracking.pipeline import Setup, run_sequence
 
 DEFAULT_BACKENDS = ORACLE_PAIR
@@ -260,3 +261,22 @@ def user_solver(asp_model: AspModel) -> Solver:
     """The clingo backend on a user's encoding: the whole frame, the checker's costs, its own label."""
     return get_solver(CLINGO, model_files=asp_model.files, decompose=False, checked_costs=True,
                       name=asp_model.label)
+
+
+# ---------------------------------------------------------------------------------------
+# diff's job for refimpl.experiments.scaleout (one sequence, picklable: it carries its data)
+
+
+@dataclass(frozen=True)
+class DiffJob:
+    seq: DetectionSequence
+    backends: tuple[str, ...]
+    time_limit: float | None = 20.0
+    """Per-frame limit of every backend (refimpl.experiments.diff)."""
+    asp_model: AspModel | None = None
+    """A user's encoding for the clingo backend (refimpl.solvers.asp_model.AspModel), or None."""
+
+
+def diff_job(job: DiffJob):
+    """diff_sequence of one sequence (a DiffReport)."""
+    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit, asp_model=job.asp_model)

@@ -5,10 +5,10 @@ worker on another machine needs no shared file system.  Each function's result d
 job only; refimpl.experiments.scaleout runs them serially or on a Dask cluster and returns results in input
 order, and the commands write from those results only, so outputs are the same bytes either way.
 
-* ``track_job``: one sequence tracked (``refimpl track`` with several ``--dets``);
-* ``diff_job``: one sequence tracked with one backend and re-solved with the other (``diff``).
+* ``track_job``: one sequence tracked (``refimpl track`` with several ``--dets``).
 
-The scored jobs (``benchmark``, ``table6``, ``sweep``) are in refimpl.experiments.benchmark_tasks:
+``diff``'s job (``DiffJob``, ``diff_job``) is in refimpl.experiments.diff, beside what it runs, and the
+scored jobs (``benchmark``, ``table6``, ``sweep``) are in refimpl.experiments.benchmark_tasks:
 they need the scorer (scipy), which a worker that only tracks never imports.
 """
 
@@ -23,10 +23,8 @@ import numpy as np
 
 from ..core.loader import load
 from ..io import DetectionFrame, DetectionSequence
-from ..solvers.asp_model import AspModel
 from ..solvers.check import check_answer
 from ..tracking.pipeline import Setup, run_sequence
-from .diff import diff_sequence
 
 SCENE_FROM_RESULT = "refimpl.scene:scene_from_result"
 SCENE_TO_JSON = "refimpl.scene:scene_to_json"
@@ -174,25 +172,6 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
     return TrackOutput(job.seq.name, result.rows, result.events if job.events else (), result.frames,
                        result.not_optimal_frames,
                        check.checked if check else 0, tuple(check.violations) if check else (), scene)
-
-
-# ---------------------------------------------------------------------------------------
-# diff
-
-
-@dataclass(frozen=True)
-class DiffJob:
-    seq: DetectionSequence
-    backends: tuple[str, ...]
-    time_limit: float | None = 20.0
-    """Per-frame limit of every backend (refimpl.experiments.diff)."""
-    asp_model: AspModel | None = None
-    """A user's encoding for the clingo backend (refimpl.solvers.asp_model.AspModel), or None."""
-
-
-def diff_job(job: DiffJob):
-    """refimpl.experiments.diff.diff_sequence of one sequence (a DiffReport)."""
-    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit, asp_model=job.asp_model)
 
 
 def constants_tuple(constants: Mapping[str, int] | None) -> tuple[tuple[str, int], ...]:
