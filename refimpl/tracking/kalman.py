@@ -10,7 +10,7 @@ the state: x (dim_x, 1), P, and the model F, H, Q, R.
 Its ``predict`` and ``update`` perform the *same floating-point operations in the same order*
 as filterpy 1.4.5 / 2.0.0 without a control input: the same ``numpy.dot`` calls on operands of
 the same shapes and memory layouts (so the same BLAS routines: gemv for a matrix times the
-(n, 1) state, gemm otherwise, the transposes as views), ``numpy.linalg.inv`` for S^-1, and the
+(n, 1) state, gemm otherwise, the transposes as views), numpy.linalg.inv's kernel for S^-1 (``_inv``), and the
 Joseph form of the covariance update.  So the filtered states are bit for bit filterpy's, and
 refimpl's results files did not change when it replaced filterpy
 (tests/test_kalman.py drives both with the same inputs and compares every bit of x and P).
