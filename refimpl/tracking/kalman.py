@@ -14,6 +14,8 @@ the same shapes and memory layouts (so the same BLAS routines: gemv for a matrix
 Joseph form of the covariance update.  So the filtered states are bit for bit filterpy's, and
 refimpl's results files did not change when it replaced filterpy
 (tests/test_kalman.py drives both with the same inputs and compares every bit of x and P).
+``predict_many`` / ``update_many`` do the same arithmetic for a frame's filters as one batch
+(numpy.matmul on the stacks: per slice the BLAS routine numpy.dot runs, the same bits).
 
     predict:  x = F x
               P = F P F^T + Q          (filterpy: alpha_sq * F P F^T + Q with alpha_sq = 1.0;
