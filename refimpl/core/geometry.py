@@ -25,16 +25,18 @@ def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """IoU of every box in a (n, 4 xywh) with every box in b (m, 4 xywh): an (n, m) array in [0, 1]."""
-    a = xywh_to_xyxy(a)
-    b = xywh_to_xyxy(b)
+    a = np.asarray(a, dtype=float).reshape(-1, 4)
+    b = np.asarray(b, dtype=float).reshape(-1, 4)
     if len(a) == 0 or len(b) == 0:
         return np.zeros((len(a), len(b)))
-    iw = np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
-    ih = np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
-    inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
-    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
-    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
-    union = area_a[:, None] + area_b[None, :] - inter
+    # corners (x1, y1) and (x2, y2) = (x + w, y + h), as xywh_to_xyxy computes them; the x and y
+    # coordinates go through each step together (the last axis), the same operations elementwise
+    a1, b1 = a[:, :2], b[:, :2]
+    a2, b2 = a1 + a[:, 2:], b1 + b[:, 2:]
+    side = np.clip(np.minimum(a2[:, None], b2[None]) - np.maximum(a1[:, None], b1[None]), 0, None)
+    inter = side[..., 0] * side[..., 1]
+    wa, wb = a2 - a1, b2 - b1
+    union = (wa[:, 0] * wa[:, 1])[:, None] + (wb[:, 0] * wb[:, 1])[None, :] - inter
     # inter / union where union > 0, else 0.0 (the divisions of np.where(union > 0, inter / union, 0.0),
     # without computing, or warning about, the ones it throws away)
     return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
