@@ -275,6 +275,10 @@ class BoxKalman:
 
     def _before_predict(self, hold: bool) -> None:
         x = self.kf.x
+        if (hold and self.time_since_update > 0) or x[2, 0] + x[6, 0] <= 0:
+            # changed in place below: a copy first, so the state kept at the last observation
+            # (``_last_obs``, which holds the update's own arrays) stays as it was
+            x = self.kf.x = x.copy()
         if hold and self.time_since_update > 0:
             x[6, 0] = 0.0
             if x[2, 0] > 0:
@@ -310,7 +314,9 @@ class BoxKalman:
             f._observed(b)
 
     def _observed(self, box_xywh) -> None:
-        self._last_obs = (self.kf.x.copy(), self.kf.P.copy(), np.asarray(box_xywh, dtype=float).reshape(4).copy())
+        # the state right after the update, for reupdate: the update's own arrays, which no later
+        # call changes in place (predict and update make new ones; _before_predict copies first)
+        self._last_obs = (self.kf.x, self.kf.P, np.array(box_xywh, dtype=float).reshape(4))
         self.time_since_update = 0
         self.hits += 1
         self.hit_streak += 1
