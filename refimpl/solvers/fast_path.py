@@ -108,6 +108,29 @@ def _lex_sign(a: Sequence[int], b: Sequence[int], c: Sequence[int]) -> int:
     return 0
 
 
+def _matching(nl: int, nr: int, solo_l: list[tuple[int, ...]], solo_r: list[tuple[int, ...]],
+              edges: list[tuple[int, int, tuple[int, ...]]]) -> list[int]:
+    """The matching of least total cost vector (lexicographic) of one component, as mate[l] (-1:
+    unmatched): left node l alone costs solo_l[l], right node r alone solo_r[r], edge (l, r, c)
+    costs c instead of both; FastPathDeclined("tie") when it is not unique.
+
+    One integer per cost vector, in the lexicographic order: base B larger than twice any level's
+    range over this component's options (the matching compares sums within it); an edge's gain
+    is what it saves over its two solos."""
+    bound = sum(sum(map(abs, v)) for v in solo_l) + sum(sum(map(abs, v)) for v in solo_r) + \
+        sum(sum(map(abs, c)) for _, _, c in edges)
+    base = 2 * bound + 1
+
+    def scalar(v: tuple[int, ...]) -> int:
+        out = 0
+        for c in v:
+            out = out * base + c
+        return out
+
+    return _max_weight_matching(nl, nr, [(l, r, scalar(solo_l[l]) + scalar(solo_r[r]) - scalar(c))
+                                         for l, r, c in edges])
+
+
 def _max_weight_matching(nl: int, nr: int, edges: list[tuple[int, int, int]]) -> list[int]:
     """The maximum-weight matching of a bipartite graph (left 0..nl-1, right 0..nr-1, edges
     (l, r, gain), gains any integers, not every node matched) as mate[l] (-1: unmatched).
@@ -339,6 +362,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     # explanation nor its cost can change the answer (see _HIGH).  Whether one exists is known
     # at once (no explanation: the full model answers, as before).
     solo_t: list[_Option | None] = []
+    resumable: set[int] = set()  # halted tracks with an iou/3 pair and a possible resume explanation
     resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
     for i, t in enumerate(tracks):
         if t.state == "active":
@@ -358,11 +382,8 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
                 (c1, c0), event, tie = _cheapest(ends)
                 options.append(_Option(f"end({t.id})", event, _cost("end", event=c1, tiebreak=c0), tie))
             solo_t.append(_best_solo(options))
-            if t.id not in paired:
-                continue  # no iou/3 pair: no resume, no explanation needed
-            expl = priced(_explanations("resume", i, tracks, top_rows, state, constants, by_id))
-            if expl:
-                resume_expl[i] = _cheapest(expl)
+            if t.id in paired and _has_explanation("resume", i, tracks, top_rows, state, constants, by_id):
+                resumable.add(i)  # priced where needed (``resume_of``), as the halts
 
     def halt_of(i: int) -> _Option:
         o = solo_t[i]
@@ -396,19 +417,43 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             o = solo_d[j] = _best_solo(options)
         return o
 
+    def resume_of(i: int) -> tuple[tuple[int, int], str, bool]:
+        """The cheapest resume explanation of halted track i (one of ``resumable``)."""
+        got = resume_expl.get(i)
+        if got is None:
+            got = resume_expl[i] = _cheapest(priced(_explanations("resume", i, tracks, top_rows, state, constants,
+                                                                    by_id)))
+        return got
+
     # -- pair options (edges): assign for active tracks, resume for halted ones ------------------
-    edges: list[tuple[int, int, _Option]] = []
+    # Each edge's cost above the event level is known at once; a resume's explanation (its event,
+    # its cost at the event level and the tie-break) is priced where needed (``edge_of``).
+    edges: list[tuple[int, int, tuple[int, ...]]] = []  # (track, detection, cost above the event level)
+    edge_opt: list[_Option | None] = []
     for i, j in pairs:  # candidate pairs, in iou/3 order
         t, d = tracks[i], dets[j]
         tid, did = t.id, d.id
         if t.state == "active":
-            edges.append((i, j, _Option(f"assign({tid},{did})", None,
-                                        _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))))
-        elif i in resume_expl:
-            (c1, c0), event, tie = resume_expl[i]
-            edges.append((i, j, _Option(f"resume({tid},{did})", event,
-                                        _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0),
-                                        tie)))
+            o = _Option(f"assign({tid},{did})", None, _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))
+            edges.append((i, j, o.cost[:_HIGH]))
+            edge_opt.append(o)
+        elif i in resumable:
+            edges.append((i, j, _cost("resume", iou[(tid, did)])[:_HIGH]))
+            edge_opt.append(None)
+
+    def edge_of(k: int) -> _Option:
+        o = edge_opt[k]
+        if o is None:
+            i, j, _ = edges[k]
+            tid, did = tracks[i].id, dets[j].id
+            (c1, c0), event, tie = resume_of(i)
+            o = edge_opt[k] = _Option(f"resume({tid},{did})", event,
+                                      _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0), tie)
+        return o
+
+    def solo_high_t(i: int) -> tuple[int, ...]:
+        o = solo_t[i]
+        return _HALT_HIGH if o is None else o.cost[:_HIGH]
 
     # -- components (union-find over the edges) and their matchings ------------------------------
     nt = len(tracks)
@@ -416,9 +461,9 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     find = sets.find
     for i, j, _ in edges:
         sets.union(i, nt + j)
-    comp_edges: dict[int, list[tuple[int, int, _Option]]] = {}
-    for e in edges:
-        comp_edges.setdefault(find(e[0]), []).append(e)
+    comp_edges: dict[int, list[int]] = {}  # root -> its edges (indices into ``edges``)
+    for k, e in enumerate(edges):
+        comp_edges.setdefault(find(e[0]), []).append(k)
     sizes: dict[int, int] = {}
     for x in range(nt + len(dets)):
         root = find(x)
@@ -430,43 +475,40 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         if sizes[root] > max_component:
             raise FastPathDeclined("component too large")
         if len(ces) == 1:  # one track, one detection, one pair option: closed form
-            i, j, o = ces[0]
+            i, j, high = edges[ces[0]]
             # the pair wins iff the solos' cost vector minus its own is lexicographically > 0;
             # above the event level the solos' costs are known without their explanations
-            st = solo_t[i]
-            gain = _lex_sign(_HALT_HIGH if st is None else st.cost[:_HIGH], high_d[j], o.cost[:_HIGH])
+            gain = _lex_sign(solo_high_t(i), high_d[j], high)
             if gain == 0:
-                gain = _lex_sign(halt_of(i).cost if st is None else st.cost, det_of(j).cost, o.cost)
+                st = solo_t[i]
+                gain = _lex_sign(halt_of(i).cost if st is None else st.cost, det_of(j).cost, edge_of(ces[0]).cost)
             if gain == 0:
                 raise FastPathDeclined("tie")
             if gain > 0:
-                chosen.append(o)
+                chosen.append(edge_of(ces[0]))
                 matched_t.add(i)
                 matched_d.add(j)
             continue
-        ls = sorted({i for i, _, _ in ces})
-        rs = sorted({j for _, j, _ in ces})
-        solos = [halt_of(i) if solo_t[i] is None else solo_t[i] for i in ls] + [det_of(j) for j in rs]
-        # one integer per cost vector, in the lexicographic order: base B larger than twice any
-        # level's range over this component's options (the matching compares sums within it)
-        bound = sum(sum(map(abs, o.cost)) for o in solos) + sum(sum(map(abs, o.cost)) for _, _, o in ces)
-        base = 2 * bound + 1
-
-        def scalar(v: tuple[int, ...]) -> int:
-            out = 0
-            for c in v:
-                out = out * base + c
-            return out
-
+        ls = sorted({edges[k][0] for k in ces})
+        rs = sorted({edges[k][1] for k in ces})
         lpos = {i: a for a, i in enumerate(ls)}
         rpos = {j: b for b, j in enumerate(rs)}
-        by_pair = {(lpos[i], rpos[j]): o for i, j, o in ces}
-        mate = _max_weight_matching(len(ls), len(rs), [
-            (lpos[i], rpos[j], scalar(solo_t[i].cost) + scalar(solo_d[j].cost) - scalar(o.cost))
-            for i, j, o in ces])
+        by_pair = {(lpos[edges[k][0]], rpos[edges[k][1]]): k for k in ces}
+        # First above the event level, where every cost is known without an explanation: a unique
+        # optimum there is the unique optimum of the whole vector (every other matching is worse
+        # already above the event level).  Otherwise all the costs, every explanation priced.
+        try:
+            mate = _matching(len(ls), len(rs), [solo_high_t(i) for i in ls], [high_d[j] for j in rs],
+                             [(lpos[edges[k][0]], rpos[edges[k][1]], edges[k][2]) for k in ces])
+        except FastPathDeclined as exc:
+            if exc.reason != "tie":
+                raise
+            mate = _matching(len(ls), len(rs), [halt_of(i).cost if solo_t[i] is None else solo_t[i].cost for i in ls],
+                             [det_of(j).cost for j in rs],
+                             [(lpos[edges[k][0]], rpos[edges[k][1]], edge_of(k).cost) for k in ces])
         for a, b in enumerate(mate):
             if b >= 0:
-                chosen.append(by_pair[(a, b)])
+                chosen.append(edge_of(by_pair[(a, b)]))
                 matched_t.add(ls[a])
                 matched_d.add(rs[b])
     chosen += [halt_of(i) if o is None else o for i, o in enumerate(solo_t) if i not in matched_t]
