@@ -650,6 +650,42 @@ def test_empty_frame_reports_all_levels(backend):
     assert h.optimal
 
 
+EQUAL_LIKELIHOOD_FACTS = """\
+#const curr_time=1.
+det(det_0, person, 90).
+box2d(det_0, 100, 100, 50, 100).
+trk(trk_a, person).
+trk_state(trk_a, active).
+box2d(trk_a, 100, 50, 50, 100).
+trk(trk_b, person).
+trk_state(trk_b, active).
+box2d(trk_b, 100, 150, 50, 100).
+trk(trk_c, person).
+trk_state(trk_c, active).
+box2d(trk_c, 60, 60, 50, 100).
+iou(trk_a, det_0, 33333).
+iou(trk_b, det_0, 33333).
+iou(trk_c, det_0, 6383).
+"""
+"""Two tracks equally likely for one detection: trk_a 50 px above it, trk_b 50 px below (each
+overlaps it 50 x 50 = 2500 px^2 of a union of 7500: IoU 33333), touching but not overlapping
+each other.  trk_c (x 60-110, y 60-160) covers 10 x 90 = 900 px^2 of trk_a (18 % > hide_overlap
+10 %) from the front (its bottom 160 >= trk_a's 150), none of trk_b worth counting (100 px^2), and
+its IoU with det_0 (600 / 9400) is below iou_thresh."""
+
+
+def test_equal_likelihoods_go_to_the_track_whose_halt_is_explained_cheaper(backend):
+    # Above the event level both answers cost the same (one assignment of IoU 33333, two halts);
+    # at the event level halting trk_a costs hides_behind(trk_a,trk_c) = 1, halting trk_b only
+    # missing_detections = 2 (nothing covers it).  So trk_b takes the detection; trk_c has no
+    # candidate detection and nothing in front of it: it halts as missing_detections (2).
+    h = solve(backend, parse_facts(EQUAL_LIKELIHOOD_FACTS))
+    assert h.actions == ("assign(trk_b,det_0)", "halt(trk_a)", "halt(trk_c)")
+    assert h.events == ("occurs_at(hides_behind(trk_a,trk_c),1)", "occurs_at(missing_detections(trk_c),1)")
+    assert dict(h.cost)[1] == 1 + 2
+    assert h.optimal
+
+
 # =============================================================================================
 # 5. Constants from the problem
 # =============================================================================================

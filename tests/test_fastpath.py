@@ -46,6 +46,7 @@ from refimpl.solvers.cpsat import (
     solve_fast,
     solve_lexicographic,
 )
+from refimpl.core.facts import parse_facts
 from refimpl.core.spec import FrameProblem, natural_key, with_constants
 from refimpl.experiments.synthetic import synthetic_frame
 
@@ -213,6 +214,17 @@ def test_the_optimum_is_unique_and_the_fast_path_finds_it():
         assert frozenset(fast.actions) | {e[len("occurs_at("):e.rindex(",")] for e in fast.events} == optima[0]
         outcomes["fast"] += 1
     assert outcomes["fast"] >= 150, outcomes
+
+
+def test_fast_path_decides_a_component_tied_above_the_event_level_by_the_explanations():
+    # test_association's frame: two tracks, one detection, equal IoU, so the matchings tie on
+    # every level above the event level (the fast path's first matching declines as a tie) and
+    # the halts' explanations decide: the fast path answers, as the full model does
+    from test_association import EQUAL_LIKELIHOOD_FACTS
+    p = parse_facts(EQUAL_LIKELIHOOD_FACTS)
+    fast = solve_fast(p, EventState.from_problem(p), resolve_constants(p))
+    assert fast.actions == ["assign(trk_b,det_0)", "halt(trk_a)", "halt(trk_c)"]
+    assert _compare([p], min_fast_share=1.0)["fast"] == 1
 
 
 # -- fast path vs full model ---------------------------------------------------------------------
