@@ -47,6 +47,7 @@ from refimpl.solvers.cpsat import (
     solve_lexicographic,
 )
 from refimpl.core.facts import parse_facts
+from refimpl.solvers.fast_path import _matching
 from refimpl.core.spec import FrameProblem, natural_key, with_constants
 from refimpl.experiments.synthetic import synthetic_frame
 
@@ -159,6 +160,42 @@ def test_matching_and_its_uniqueness_test_against_brute_force():
         assert frozenset((l, r) for l, r in enumerate(mate) if r >= 0) == optima[0]
         outcomes["unique"] += 1
     assert outcomes["tie"] > 300 and outcomes["unique"] > 300, outcomes
+
+
+def test_matching_of_cost_vectors_against_brute_force():
+    # fast_path._matching: least total cost vector over matchings (each node alone costs its solo
+    # vector, an edge replaces its two solos), stars (one node on a side) in closed form, the rest
+    # through the integer encoding; checked against every matching's vector sum, by enumeration
+    rng = random.Random(6)
+    outcomes = Counter()
+    for _ in range(3000):
+        nl, nr = rng.choice(((1, rng.randint(1, 5)), (rng.randint(1, 5), 1), (rng.randint(1, 4), rng.randint(1, 4))))
+        lo, hi = rng.choice(((-1, 1), (0, 1), (-3, 3)))
+        vec = lambda: tuple(rng.randint(lo, hi) for _ in range(2))  # noqa: E731
+        solo_l, solo_r = [vec() for _ in range(nl)], [vec() for _ in range(nr)]
+        edges = [(l, r, vec()) for l in range(nl) for r in range(nr) if rng.random() < 0.7]
+        if not edges:
+            continue
+        totals = {}
+        for m in _brute_force_matchings(nl, nr, [(l, r, 0) for l, r, _ in edges]):
+            cost = dict(((l, r), c) for l, r, c in edges)
+            used_l, used_r = {l for l, _ in m}, {r for _, r in m}
+            parts = [cost[e] for e in m] + [solo_l[l] for l in range(nl) if l not in used_l] + \
+                [solo_r[r] for r in range(nr) if r not in used_r]
+            totals[m] = tuple(map(sum, zip(*parts)))
+        least = min(totals.values())
+        optima = [m for m, v in totals.items() if v == least]
+        kind = "star" if nl == 1 or nr == 1 else "general"
+        try:
+            mate = _matching(nl, nr, solo_l, solo_r, edges)
+        except FastPathDeclined as exc:
+            assert exc.reason == "tie" and len(optima) > 1, (nl, nr, solo_l, solo_r, edges)
+            outcomes[kind, "tie"] += 1
+            continue
+        assert len(optima) == 1 and frozenset((l, r) for l, r in enumerate(mate) if r >= 0) == optima[0], \
+            (nl, nr, solo_l, solo_r, edges, optima)
+        outcomes[kind, "unique"] += 1
+    assert min(outcomes.values()) > 50 and len(outcomes) == 4, outcomes
 
 
 def _optimal_answers(problem: FrameProblem, limit: int = 50) -> list[frozenset[str]]:

@@ -116,7 +116,24 @@ def _matching(nl: int, nr: int, solo_l: list[tuple[int, ...]], solo_r: list[tupl
 
     One integer per cost vector, in the lexicographic order: base B larger than twice any level's
     range over this component's options (the matching compares sums within it); an edge's gain
-    is what it saves over its two solos."""
+    is what it saves over its two solos.
+
+    A star (one node on one side, so every edge shares it: most components of a tracker's frame
+    that have more than one pair) has the empty matching and one matching per edge: the optimum
+    is the edge of greatest gain vector if that gain is > 0 and no other edge's equals it, none if
+    every gain is < 0, else a tie; compared as vectors, lexicographically, with no integer encoding."""
+    if nl == 1 or nr == 1:
+        gains = [tuple(a + b - x for a, b, x in zip(solo_l[l], solo_r[r], c)) for l, r, c in edges]
+        best = max(gains)
+        zero = (0,) * len(best)
+        if best < zero:
+            return [-1] * nl
+        if best == zero or gains.count(best) > 1:
+            raise FastPathDeclined("tie")
+        l, r, _ = edges[gains.index(best)]
+        mate = [-1] * nl
+        mate[l] = r
+        return mate
     bound = sum(sum(map(abs, v)) for v in solo_l) + sum(sum(map(abs, v)) for v in solo_r) + \
         sum(sum(map(abs, c)) for _, _, c in edges)
     base = 2 * bound + 1
