@@ -334,3 +334,25 @@ def test_a_batch_predict_is_one_predict_per_filter_bit_for_bit(hold):
         assert (a.age, a.hit_streak, a.time_since_update) == (b.age, b.hit_streak, b.time_since_update)
         assert (got[k] is None) == (want is None) and (want is None or _bits(got[k]) == _bits(want))
     assert got[7] is None and sum(g is None for g in got) == 1
+
+
+def test_a_batch_with_one_invalid_box_changes_no_filter():
+    # the third box has w = 0 (no area, no aspect ratio): ValueError before any filter is corrected
+    rng = np.random.default_rng(11)
+    batch = _box_filters(rng, 4)
+    before = [(f.kf.x.copy(), f.kf.P.copy(), f.hits) for f in batch]
+    boxes = np.array([[10.0, 20.0, 30.0, 40.0], [50.0, 60.0, 20.0, 20.0], [5.0, 5.0, 0.0, 9.0], [1.0, 2.0, 3.0, 4.0]])
+    with pytest.raises(ValueError, match="w > 0 and h > 0"):
+        BoxKalman.update_many(batch, boxes)
+    for f, (x, P, hits) in zip(batch, before):
+        assert np.array_equal(f.kf.x, x) and np.array_equal(f.kf.P, P) and f.hits == hits
+
+
+def test_the_state_kept_for_reupdate_survives_an_in_place_edit():
+    # SORT's code changes kf.x in place (x[6] *= 0); the state kept at the last observation is a
+    # copy, so a later reupdate starts from the state the update left, not the edited one
+    f = BoxKalman(np.array([100.0, 100.0, 40.0, 80.0]))
+    f.update(np.array([102.0, 100.0, 40.0, 80.0]))
+    kept = f.kf.x.copy()
+    f.kf.x[6, 0] = 123.0
+    assert np.array_equal(f._last_obs[0], kept)

@@ -242,11 +242,14 @@ class LazyTiebreak:
     in problem order, which the caller has computed already; their weights are 2^rank in their
     component of the candidate-pair graph, as in ``components``."""
 
-    def __init__(self, problem: FrameProblem, inter: np.ndarray, pairs: Sequence[tuple[int, int]]):
+    def __init__(self, problem: FrameProblem, inter: np.ndarray, pairs: Sequence[tuple[int, int]],
+                 t_index: dict[str, int] | None = None, d_index: dict[str, int] | None = None):
+        """``t_index``, ``d_index``: {id: position} of the problem's tracks and detections, where the
+        caller has them already."""
         tracks, dets = problem.tracks, problem.detections
         self._tracks, self._inter = tracks, inter
-        self._t_index = {t.id: i for i, t in enumerate(tracks)}
-        self._d_ids = {d.id for d in dets}
+        self._t_index = {t.id: i for i, t in enumerate(tracks)} if t_index is None else t_index
+        self._d_ids = {d.id for d in dets} if d_index is None else d_index  # only ``in`` is asked
         ids = self._t_index
         named: dict[str, set[str]] = {}
         for h in problem.history:
@@ -263,12 +266,12 @@ class LazyTiebreak:
         nonzero = inter != 0
         over = (nonzero.sum(axis=1) - nonzero.diagonal()).tolist() if len(tracks) else []
         bound = len(dets) * (nu - 1)
+        rows = inter.tolist() if named else None  # Python ints: the values of inter[i, j]
         for i, t in enumerate(tracks):
             extra = named.get(t.id)
             n_others = over[i]
-            if extra:
-                near = set(np.flatnonzero(inter[i]).tolist())
-                n_others += sum(1 for x in extra if ids[x] not in near)
+            if extra:  # named in the history, not overlapping now
+                n_others += sum(1 for x in extra if not rows[i][ids[x]])
             bound += nu + nb * n_others - 1
         self.shift = max(bound, 0).bit_length()
         nt = len(tracks)

@@ -362,7 +362,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         if (assignment_constraints(problem, constants, iou, t, d) if t.state == "active"
                 else resume_constraints(problem, constants, iou, t, d, state, by_id)):
             pairs.append((i, j))
-    tb = LazyTiebreak(problem, inter, pairs)  # = tiebreak_weights' numbers, computed where asked
+    tb = LazyTiebreak(problem, inter, pairs, t_index, d_index)  # = tiebreak_weights' numbers, computed where asked
     ev = tb.index  # level 0 of an explaining event: its index (common.py)
     w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
     cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}

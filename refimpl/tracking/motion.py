@@ -275,10 +275,6 @@ class BoxKalman:
 
     def _before_predict(self, hold: bool) -> None:
         x = self.kf.x
-        if (hold and self.time_since_update > 0) or x[2, 0] + x[6, 0] <= 0:
-            # changed in place below: a copy first, so the state kept at the last observation
-            # (``_last_obs``, which holds the update's own arrays) stays as it was
-            x = self.kf.x = x.copy()
         if hold and self.time_since_update > 0:
             x[6, 0] = 0.0
             if x[2, 0] > 0:
@@ -306,17 +302,25 @@ class BoxKalman:
         """``f.update(box)`` for every (filter, box) pair, the filters corrected as one batch
         (refimpl.tracking.kalman.update_many: the same bits).  Every box is checked before any
         filter changes."""
-        zs = [xywh_to_z(b).reshape(DIM_Z, 1) for b in boxes]
-        if not zs:
+        b = np.asarray(boxes, dtype=float)
+        if b.ndim != 2 or b.shape[1] != 4:  # not n boxes of four numbers: xywh_to_z says which is wrong
+            zs = [xywh_to_z(v).reshape(DIM_Z, 1) for v in boxes]
+        else:  # xywh_to_z of every row, on Python floats (the same operations, the same bits)
+            rows = b.tolist()
+            for v in rows:
+                if not _valid_box(v):
+                    raise ValueError(f"box {v} must be finite with w > 0 and h > 0")
+            zs = [[[x + w / 2.0], [y + h / 2.0], [w * h], [w / h]] for x, y, w, h in rows]
+        if not len(zs):
             return
-        update_many([f.kf for f in filters], np.array(zs))
-        for f, b in zip(filters, boxes):
-            f._observed(b)
+        update_many([f.kf for f in filters], np.array(zs, dtype=float))
+        for f, v in zip(filters, b if b.ndim == 2 else boxes):
+            f._observed(v)
 
     def _observed(self, box_xywh) -> None:
-        # the state right after the update, for reupdate: the update's own arrays, which no later
-        # call changes in place (predict and update make new ones; _before_predict copies first)
-        self._last_obs = (self.kf.x, self.kf.P, np.array(box_xywh, dtype=float).reshape(4))
+        # the state right after the update, for reupdate: copies (kf.x may be changed in place, as
+        # SORT's own code does)
+        self._last_obs = (self.kf.x.copy(), self.kf.P.copy(), np.array(box_xywh, dtype=float).reshape(4))
         self.time_since_update = 0
         self.hits += 1
         self.hit_streak += 1

@@ -301,9 +301,10 @@ class AbductionTracker:
         scene = self._scene_velocity(frame) if self.scene_velocity else None
         # every assigned track's filter corrected in one batch (the same bits as one by one), then
         # each track's streak and rows in sorted atom order: deterministic
-        observed = [(self.tracks[trk_id], boxes[index[det_id]]) for trk_id, det_id in assignments]
-        BoxKalman.update_many([trk.kalman for trk, _ in observed], [box for _, box in observed])
-        for trk, box in observed:
+        assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
+        detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
+        BoxKalman.update_many([trk.kalman for trk in assigned], detected)
+        for trk, box in zip(assigned, detected):
             self._observed(trk, frame, box)
         unhidden = {args[0] for name, args in event_terms
                     if name in _UNHIDING} if self.fill_hidden and resumes else set()
