@@ -187,3 +187,53 @@ def test_a_degenerate_filter_restarts_motionless_at_the_last_observed_box():
     assert boxes["trk_1"] == tuple(int(np.floor(v + 0.5)) for v in last_box)
     assert np.allclose(first.kalman.velocity, 0.0)
     assert second.kalman is not old_filter and boxes["trk_2"][0] > int(second.observed[2][0])  # moved on
+
+
+
+# -- the frame problem the tracker builds without re-checking it ---------------------------------
+
+def _one_box_tracker():
+    from refimpl.solvers import get_solver
+    from refimpl.tracking.tracker import AbductionTracker
+    return AbductionTracker(get_solver("cpsat"))
+
+
+BOX = np.array([[100.0, 100.0, 40.0, 80.0]])
+
+
+def test_every_frame_problem_of_a_real_sequence_passes_the_constructors_checks(shared_data):
+    # after the first frame the tracker builds its problems with FrameProblem.unchecked: each must
+    # be one the checking constructor accepts, and equal to what that builds
+    from refimpl.core.spec import FrameProblem
+
+    seq = _real_sequence(shared_data, "ETH-Sunnyday")
+    problems = []
+    tracker = _one_box_tracker()
+    for fr in seq.frames:
+        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, lambda p, h: problems.append(p))
+    assert len(problems) == len(seq.frames) == 354
+    assert sum(len(p.history) for p in problems) > 0 and sum(len(p.iou) for p in problems) > 1000
+    for p in problems:
+        assert FrameProblem(p.time, p.detections, p.tracks, p.iou, p.constants, p.history, p.match_types) == p
+
+
+@pytest.mark.parametrize("second, message", [
+    # (confidences, types) of the second frame, and the constructor's one-line error
+    (([150.0], ("person",)), "confidence of det_0 must be 0..100, got 150"),
+    (([90.0], ("Person",)), "type of det_0: name 'Person' is a variable to clingo"),
+])
+def test_a_bad_value_on_a_later_frame_is_the_constructors_error(second, message):
+    from refimpl.core.spec import ProblemFormatError
+    tracker = _one_box_tracker()
+    tracker.step(1, BOX, [90.0], ("person",))
+    with pytest.raises(ProblemFormatError, match=message):
+        tracker.step(2, BOX, *second)
+
+
+def test_a_frame_number_not_after_the_history_is_the_constructors_error():
+    # frame 1 starts trk_0 with enters_fov(det_0) at 1; frame 1 again: that event is not before it
+    from refimpl.core.spec import ProblemFormatError
+    tracker = _one_box_tracker()
+    tracker.step(1, BOX, [90.0], ("person",))
+    with pytest.raises(ProblemFormatError, match="is not before curr_time=1"):
+        tracker.step(1, BOX, [90.0], ("person",))

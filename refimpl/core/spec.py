@@ -188,6 +188,20 @@ class FrameProblem:
     def __post_init__(self) -> None:
         _validate(self)
 
+    @classmethod
+    def unchecked(cls, time: int, detections: tuple[Detection, ...] = (), tracks: tuple[TrackPrediction, ...] = (),
+                  iou: tuple[tuple[str, str, int], ...] = (), constants: tuple[tuple[str, int], ...] = (),
+                  history: tuple[HistoryEvent, ...] = (), match_types: tuple[tuple[str, str], ...] = ()) -> FrameProblem:
+        """The same problem as the constructor builds, without its checks: only for a caller that
+        holds every invariant they test by construction (the tracker, whose ids, integer boxes and
+        IoU facts it makes itself and whose other values it has checked: AbductionTracker.frame_problem);
+        every other caller uses the constructor."""
+        self = object.__new__(cls)
+        for name, value in (("time", time), ("detections", detections), ("tracks", tracks), ("iou", iou),
+                            ("constants", constants), ("history", history), ("match_types", match_types)):
+            object.__setattr__(self, name, value)
+        return self
+
     # -- lookups -------------------------------------------------------------------------
     @property
     def constant_map(self) -> dict[str, int]:
@@ -233,6 +247,11 @@ def _check_symbol(name: str, what: str, of: str = "") -> None:
     """``what`` + ``of`` names the symbol in the message (joined only for one: this runs per object)."""
     if not isinstance(name, str) or not _is_symbol(name):
         raise ProblemFormatError(f"{what}{of}: {symbol_error(str(name))}")
+
+
+def is_symbol(name) -> bool:
+    """Whether ``name`` is a str that SYMBOL matches (what _validate asks of every id and type)."""
+    return isinstance(name, str) and _is_symbol(name)
 
 
 @lru_cache(maxsize=1 << 12)

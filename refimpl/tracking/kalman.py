@@ -54,12 +54,11 @@ def _inv(S: np.ndarray) -> np.ndarray:
     should P hold a non-finite value), the result is not finite and numpy.linalg.inv is called
     after all: it raises LinAlgError for a singular S as before."""
     if _KERNEL_INV is not None and S.dtype == np.float64:
-        out = _KERNEL_INV(S, signature="d->d")
-        try:  # the cheapest test that every entry is finite (fsum raises for +inf + -inf or overflow)
-            if math.isfinite(math.fsum(out.flat)):
-                return out
-        except (ValueError, OverflowError):
-            pass
+        out = _KERNEL_INV(S)  # float64 in: the kernel's d->d loop, which numpy.linalg.inv names
+        # the cheapest test that every entry is finite: a finite sum (a NaN or an infinity makes it
+        # NaN or infinite; so may an overflow of finite entries, which then takes the slow path too)
+        if math.isfinite(out.sum()):
+            return out
     return np.linalg.inv(S)
 
 

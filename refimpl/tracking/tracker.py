@@ -48,7 +48,7 @@ from .motion import BoxKalman
 from .options import TrackerOptions, WrittenBox
 from ..core.ranges import check_ranges
 from ..solvers import DEFAULT_BACKEND, Solver, get_solver
-from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, track_number
+from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, is_symbol, track_number
 
 DEFAULT_MIN_HITS = 3
 DEFAULT_BRIDGE_GAP = 2
@@ -64,6 +64,15 @@ MAX_BOX_AREA = 20_000_000
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
+
+
+def _all_symbols(types) -> bool:
+    """Whether every detection type is a symbol (FrameProblem's test), each distinct one asked once."""
+    try:
+        kinds = set(types)
+    except TypeError:  # unhashable: not a str; the constructor names it
+        return False
+    return all(map(is_symbol, kinds))
 
 
 class ResultSink:
@@ -194,9 +203,8 @@ class AbductionTracker:
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
-        conf = np.asarray(confidences).reshape(-1).tolist()
-        detections = tuple(Detection(det_ids[i], types[i], int(conf[i]), b)
-                           for i, b in enumerate(integer_boxes(boxes)))
+        conf = [int(c) for c in np.asarray(confidences).reshape(-1).tolist()]
+        detections = tuple(Detection(det_ids[i], types[i], conf[i], b) for i, b in enumerate(integer_boxes(boxes)))
         predictions = tuple(TrackPrediction(t.id, t.type, t.state, b)
                             for t, b in zip(tracks, integer_boxes(predicted)))
         iou: tuple[tuple[str, str, int], ...] = ()
@@ -206,8 +214,19 @@ class AbductionTracker:
             iou = tuple((tracks[k].id, det_ids[j], v)
                         for k, j, v in zip(ks.tolist(), js.tolist(), ml[ks, js].tolist()))
         history = tuple(e for t in tracks for e in t.history)
-        return FrameProblem(time=frame, detections=detections, tracks=predictions, iou=iou,
-                            constants=self.constants, history=history)
+        # Built here, the problem holds what FrameProblem checks by construction (ids made here,
+        # unique; integer boxes with w, h >= 1; one IoU fact per pair, 0..100000; track types
+        # and states from earlier frames), except what comes from the caller: the constants (the
+        # first frame checks them), the detections' types and confidences, and the frame number
+        # (after every event of the history).  Where one of those fails, the constructor raises
+        # its one-line error naming the first offender.
+        if (self.frames and _all_symbols(types) and (not conf or 0 <= min(conf) and max(conf) <= 100)
+                and all(e.time < frame for e in history)):
+            make = FrameProblem.unchecked
+        else:
+            make = FrameProblem
+        return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self.constants,
+                    history=history)
 
     def _bounded(self, box: np.ndarray) -> np.ndarray:
         """A prediction clipped to the image extended by one image size on every side, its area
