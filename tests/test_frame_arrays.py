@@ -32,14 +32,14 @@ def _track(shared_data, bench, name, fmt, cls):
     seq = io.load_detections(next(b for b in benchmark_sequences(bench, shared_data) if b.name == name))
     tracker = new_tracker(setup_for(fmt, cls, "cpsat"), seq.image_size, getattr(seq, "fps", None))
     clipped: list[tuple[np.ndarray, np.ndarray]] = []
-    bounded = tracker._bounded
+    bounded = tracker._bounded_values
 
-    def recording(box):  # an attribute of this one tracker instance, nothing global
-        out = bounded(box)
-        clipped.append((np.array(box), out))
+    def recording(*box):  # an attribute of this one tracker instance, nothing global
+        out = bounded(*box)
+        clipped.append((np.array(box), np.array(out)))
         return out
 
-    tracker._bounded = recording
+    tracker._bounded_values = recording
     problems = []
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, lambda p, h: problems.append(p))

@@ -99,6 +99,12 @@ def xywh_to_z(box_xywh) -> np.ndarray:
 def _state_box(x: np.ndarray) -> np.ndarray | None:
     """x_to_xywh of a (7, 1) state if every component of the state and of the box is finite and the
     box has w, h > 0 (BoxKalman.box's test), else None."""
+    box = _state_box_values(x)
+    return None if box is None else np.array(box)
+
+
+def _state_box_values(x: np.ndarray) -> tuple[float, float, float, float] | None:
+    """_state_box as a tuple of four Python floats (or None)."""
     v = x[:, 0].tolist()
     if not all(map(math.isfinite, v)):
         return None
@@ -109,7 +115,7 @@ def _state_box(x: np.ndarray) -> np.ndarray | None:
     w = math.sqrt(sr)
     h = s / w
     box = (u - w / 2.0, c - h / 2.0, w, h)
-    return np.array(box) if _valid_box(box) else None
+    return box if _valid_box(box) else None
 
 
 def x_to_xywh(x) -> np.ndarray:
@@ -264,13 +270,19 @@ class BoxKalman:
         """``f.predict(hold)`` for every filter, the filters advanced as one batch
         (refimpl.tracking.kalman.predict_many: the same bits): each one's predicted box, or None
         where ``predict`` would raise InvalidPrediction (that filter is advanced all the same)."""
+        return [None if b is None else np.array(b) for b in BoxKalman.predict_box_values(filters, hold)]
+
+    @staticmethod
+    def predict_box_values(filters: "list[BoxKalman]", hold: bool = False) -> "list[tuple[float, ...] | None]":
+        """predict_many, each box as a tuple of four Python floats (the tracker's frame problem
+        takes them on without an array per box)."""
         for f in filters:
             f._before_predict(hold)
         predict_many([f.kf for f in filters])
         out = []
         for f in filters:
             f._after_predict()
-            out.append(_state_box(f.kf.x))
+            out.append(_state_box_values(f.kf.x))
         return out
 
     def _before_predict(self, hold: bool) -> None:

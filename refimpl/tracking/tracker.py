@@ -197,9 +197,10 @@ class AbductionTracker:
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        boxes_now = BoxKalman.predict_many([t.kalman for t in tracks], self.hold_hidden)  # one batch
-        predicted = np.array([self._bounded(self._restarted(t) if b is None else b)
-                              for t, b in zip(tracks, boxes_now)]).reshape(-1, 4)
+        boxes_now = BoxKalman.predict_box_values([t.kalman for t in tracks], self.hold_hidden)  # one batch
+        bounded = self._bounded_values
+        predicted = np.array([bounded(*(self._restarted(t).tolist() if b is None else b))
+                              for t, b in zip(tracks, boxes_now)], dtype=float).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
@@ -235,9 +236,12 @@ class AbductionTracker:
 
         On Python floats: min(max(v, lo), hi) is np.clip of a finite value (a prediction is finite,
         BoxKalman.predict checks it), and +, -, *, / and sqrt round as numpy's float64 ones do."""
+        return np.array(self._bounded_values(*box.tolist()))
+
+    def _bounded_values(self, bx: float, by: float, bw0: float, bh0: float) -> tuple[float, float, float, float]:
+        """_bounded on the box's four Python floats, as a tuple."""
         w = float(self.constant_map.get("img_width", 0) or 1500)
         h = float(self.constant_map.get("img_height", 0) or 1500)
-        bx, by, bw0, bh0 = box.tolist()
         x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
         x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
         bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
@@ -246,7 +250,7 @@ class AbductionTracker:
             cx, cy = x1 + bw / 2, y1 + bh / 2
             bw, bh = bw * shrink, bh * shrink
             x1, y1 = cx - bw / 2, cy - bh / 2
-        return np.array([x1, y1, bw, bh])
+        return (x1, y1, bw, bh)
 
     @staticmethod
     def _restarted(trk: _Track) -> np.ndarray:
