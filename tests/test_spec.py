@@ -118,3 +118,20 @@ def test_parse_atom_reads_a_solvers_atoms_as_terms():
     for bad in ("", "a(", "a(b", "a)b", "(a)", "a(b,)", "a()", "a b", "a(b c)", "a(b))", "a(b(c)"):
         with pytest.raises(ValueError, match="not an atom"):
             parse_atom(bad)
+
+
+def test_resolved_constants_are_a_fresh_dict_and_an_unknown_name_fails_every_time():
+    # resolve_constants memoises the merge of a problem's #const values: a caller changing the
+    # dict it got must not change the next one, and an unknown name is an error on every call
+    from refimpl.core.constants import default_constants, resolve_constants
+    p = FrameProblem(7, constants=(("iou_thresh", 20000),))
+    first = resolve_constants(p)
+    assert (first["iou_thresh"], first["curr_time"]) == (20000, 7)
+    first["iou_thresh"] = 1
+    again = resolve_constants(FrameProblem(8, constants=(("iou_thresh", 20000),)))
+    assert (again["iou_thresh"], again["curr_time"]) == (20000, 8)
+    assert resolve_constants(FrameProblem(8))["iou_thresh"] == default_constants()["iou_thresh"] == 30000
+    bad = FrameProblem(1, constants=(("nosuch", 3),))
+    for _ in range(2):
+        with pytest.raises(ProblemFormatError, match="unknown constant 'nosuch'"):
+            resolve_constants(bad)

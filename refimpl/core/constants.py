@@ -45,13 +45,36 @@ def default_constants() -> Mapping[str, int]:
 
 
 def resolve_constants(problem: FrameProblem, overrides: Mapping[str, int] | None = None) -> dict[str, int]:
-    """Defaults, then the problem's #const values, then explicit overrides; unknown names are an error."""
-    merged = dict(default_constants())
-    for source in (dict(problem.constants), dict(overrides or {})):
-        for name, value in source.items():
+    """Defaults, then the problem's #const values, then explicit overrides; unknown names are an error.
+    A fresh dict on every call (the callers may change it)."""
+    if overrides:
+        merged = dict(_base(problem.constants))
+        for name, value in overrides.items():
             if name not in merged:
                 known = ", ".join(sorted(merged))
                 raise ProblemFormatError(f"unknown constant {name!r} (known: {known})")
             merged[name] = int(value)
+    else:
+        merged = dict(_base(problem.constants))  # a tracker's constants: the same every frame
     merged["curr_time"] = problem.time
+    return merged
+
+
+def _base(constants) -> Mapping[str, int]:
+    try:
+        hash(constants)
+    except TypeError:  # not a tuple of pairs (a list, say): merged without the memo
+        return _merged.__wrapped__(constants)
+    return _merged(constants)
+
+
+@lru_cache(maxsize=256)
+def _merged(constants: tuple[tuple[str, int], ...]) -> Mapping[str, int]:
+    """The defaults with these #const values (memoised; callers copy it)."""
+    merged = dict(default_constants())
+    for name, value in dict(constants).items():
+        if name not in merged:
+            known = ", ".join(sorted(merged))
+            raise ProblemFormatError(f"unknown constant {name!r} (known: {known})")
+        merged[name] = int(value)
     return merged
