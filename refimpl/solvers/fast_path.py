@@ -376,16 +376,17 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
     # An active track's halt is priced only where it is needed (``halt_of``): most tracks are
     # assigned in a one-pair component decided above the event level, where neither the
-    # explanation nor its cost can change the answer (see _HIGH).  Whether one exists is known
-    # at once (no explanation: the full model answers, as before).
+    # explanation nor its cost can change the answer (see _HIGH).  Until then every active track
+    # is taken to have a halt: a relaxation of the model.  A unique optimum of the relaxation that
+    # halts only tracks with an explanation is admissible in the model, so it is the model's
+    # unique optimum; where it would halt a track without one, halt_of declines (the full model
+    # answers: assign it, or no admissible hypothesis).
     solo_t: list[_Option | None] = []
     resumable: set[int] = set()  # halted tracks with an iou/3 pair and a possible resume explanation
     resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
     for i, t in enumerate(tracks):
         if t.state == "active":
-            if not _has_explanation("halt", i, tracks, top_rows, state, constants, by_id):
-                raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
-            solo_t.append(None)
+            solo_t.append(None)  # its halt, priced where needed (halt_of)
         else:
             again = (priced(_explanations("ignore_trk", i, tracks, top_rows, state, constants, by_id))
                      if reexplained(state, t.id) else [])
@@ -406,8 +407,10 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         o = solo_t[i]
         if o is None:
             t = tracks[i]
-            (c1, c0), event, tie = _cheapest(priced(_explanations("halt", i, tracks, top_rows, state, constants,
-                                                                  by_id)))
+            found = priced(_explanations("halt", i, tracks, top_rows, state, constants, by_id))
+            if not found:
+                raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
+            (c1, c0), event, tie = _cheapest(found)
             o = solo_t[i] = _Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie)
         return o
 
