@@ -33,7 +33,7 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     # coordinates go through each step together (the last axis), the same operations elementwise
     a1, b1 = a[:, :2], b[:, :2]
     a2, b2 = a1 + a[:, 2:], b1 + b[:, 2:]
-    side = np.clip(np.minimum(a2[:, None], b2[None]) - np.maximum(a1[:, None], b1[None]), 0, None)
+    side = (np.minimum(a2[:, None], b2[None]) - np.maximum(a1[:, None], b1[None])).clip(0, None)  # np.clip's
     inter = side[..., 0] * side[..., 1]
     wa, wb = a2 - a1, b2 - b1
     union = (wa[:, 0] * wa[:, 1])[:, None] + (wb[:, 0] * wb[:, 1])[None, :] - inter
@@ -63,11 +63,11 @@ def integer_boxes(boxes: np.ndarray) -> list[Box]:
     Where a value is not finite or too large to round exactly in int64 (|v| >= 2^52), every box
     goes through integer_box, so such values fail (or convert) exactly as they do there."""
     b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    if not np.all(np.abs(b) < _EXACT_INT):  # also False for NaN
+    if not (np.abs(b) < _EXACT_INT).all():  # also False for NaN
         return [integer_box(v) for v in b]
     r = np.floor(b + 0.5).astype(np.int64)
     np.maximum(r[:, 2:], 1, out=r[:, 2:])
-    return [tuple(v) for v in r.tolist()]  # type: ignore[misc]
+    return list(map(tuple, r.tolist()))  # type: ignore[arg-type]
 
 
 def intersection_area(a: Box, b: Box) -> int:
