@@ -54,18 +54,17 @@ WORKERS_PER_CPU = 4
 single-threaded, so workers beyond one per CPU only share the CPUs (and each costs a process with
 the solvers imported, about 150 MB); 4x leaves room to oversubscribe on purpose."""
 
-LOCAL_MIN_FRAMES_PER_WORKER = 1000
+LOCAL_MIN_FRAMES_PER_WORKER = 1500
 """The scale-out rule: a local cluster of N workers is started only for a run of at least N times
 this many frames (tasks whose size is counted in frames: track, benchmark); a smaller run is
 tracked serially in this process, which writes the same bytes.  A local cluster costs a fixed
-~1.2 CPU-seconds and ~1-1.5 s of wall time (Dask's import in this process, the scheduler, forked
-workers, OR-Tools imported by each; measured on 2 KITTI Car sequences of 296 frames: 2.4-3.0 CPU-s
-with 2 workers against 1.2-1.6 serially), and the workers of a longer run spend ~1 CPU-s more
-than one process would (12 sequences: each imports OR-Tools, and writes to pages it shares with
-this process); 1,000 frames are ~1.7-2 s of abduction per worker, so below that the fixed cost
-is more than a worker's share of the work saves, even on idle CPUs (docs/scale-out.md: on 6
-sequences, 1,589 frames, 2 workers took 1.21-2.63x the serial time in 6 pairs on the shared
-machine).  An existing cluster (``scheduler``) is always used: its start-up is paid already.
+~0.7-0.8 s of wall time on an idle 2-core machine (Dask's import in this process, 0.35 s; the
+scheduler and the forked workers; OR-Tools imported by each), and the abduction loop now tracks
+KITTI Car at ~2,000 frames per wall second end to end, so the cluster pays only for runs of more
+than about 2,500 frames on 2 workers (docs/scale-out.md, measured with
+refimpl.experiments.bench_scaleout --serial-below 0: 1,589 frames 1.11x the serial wall time,
+4,519 frames 0.80-0.93x, 8,008 frames 0.78-0.79x).  It was 1,000 while 1,000 frames were ~1.7-2 s
+of abduction.  An existing cluster (``scheduler``) is always used: its start-up is paid already.
 ``Plan(serial_below=...)`` (``--serial-below``) sets the threshold, 0 always uses the cluster."""
 
 SCHEMES = ("tcp", "tls", "ws", "wss")
