@@ -416,8 +416,9 @@ class AbductionTracker:
 
     def _written(self, kalman: BoxKalman, box: np.ndarray) -> np.ndarray:
         """The box an observed frame writes: the filter's state after the update, or the detection."""
-        chosen = box if self.written_box is WrittenBox.DETECTION else kalman.box
-        return np.array(chosen, dtype=float).reshape(4)
+        if self.written_box is WrittenBox.DETECTION:
+            return np.array(box, dtype=float).reshape(4)  # a copy: the frame's array is the caller's
+        return kalman.box  # a new (4,) float array already
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
