@@ -110,3 +110,22 @@ def test_benchmark_command_reproduces_sorts_published_mota(shared_data, capsys, 
     assert row.split("|")[5].strip() == "34.0"  # MOTA, after HOTA, DetA, AssA
     overall = json.loads(out.read_text())["benchmarks"]["mot15-sort6"]["overall"]
     assert (overall["fp"], overall["fn"]) == (3311, 11660)
+
+
+def test_demo_scores_both_trackers_and_times_a_second_run(capsys):
+    # TUD-Campus with the MOT preset: the scores docs/peers.md lists for it (baseline HOTA 45.3,
+    # IDF1 60.6; abduction 57.2, 79.3), and one speed line per tracker, from a second run
+    assert main(["demo"]) == 0
+    out = capsys.readouterr().out
+    assert "| TUD-Campus | 45.3 |" in out and "| TUD-Campus | 57.2 |" in out
+    lines = [ln for ln in out.splitlines() if ln.startswith("### ")]
+    assert [ln.split(":")[0] for ln in lines] == ["### baseline", "### cpsat"]
+    assert all("frames/s (CPU of a second run" in ln for ln in lines)
+    assert lines[1].endswith(", 40 events")
+
+
+def test_demo_speed_line_is_frames_over_cpu_seconds():
+    from refimpl.cli.demo import speed_line
+    # 5 frames of 2 ms: 5 / 0.010 s = 500 frames/s
+    assert speed_line("cpsat", [0.002] * 5, 3).startswith("### cpsat: 500 frames/s (CPU of a second run")
+    assert speed_line("baseline", [], 0).startswith("### baseline: - frames/s")
