@@ -105,7 +105,7 @@ def test_the_scale_out_rule_runs_small_work_serially():
     assert Plan().serial_for(10 ** 9)  # no cluster asked for
     with pytest.raises(ValueError, match="serial_below"):
         Plan(workers=2, serial_below=-1)
-    # three tasks of 900 frames each with two workers: 2,700 < 2 x 1,500 frames, so they run in
+    # three tasks of 1,200 frames each with two workers: 3,600 < 2 x 2,000 frames, so they run in
     # this process (a cluster could not even pickle the lambda), one tick per frame reaching the bar
     ticks = []
 
@@ -115,9 +115,9 @@ def test_the_scale_out_rule_runs_small_work_serially():
         ticks.append(item)
         return os.getpid()
 
-    assert LOCAL_MIN_FRAMES_PER_WORKER == 1500  # the numbers of this test
-    pids = run_tasks(task, [900, 900, 900], two, quiet=True, steps=lambda item: item)
-    assert pids == [os.getpid()] * 3 and ticks == [900, 900, 900]
+    assert LOCAL_MIN_FRAMES_PER_WORKER == 2000  # the numbers of this test
+    pids = run_tasks(task, [1200, 1200, 1200], two, quiet=True, steps=lambda item: item)
+    assert pids == [os.getpid()] * 3 and ticks == [1200, 1200, 1200]
 
 
 def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, serial, tmp_path):

@@ -54,17 +54,16 @@ WORKERS_PER_CPU = 4
 single-threaded, so workers beyond one per CPU only share the CPUs (and each costs a process with
 the solvers imported, about 150 MB); 4x leaves room to oversubscribe on purpose."""
 
-LOCAL_MIN_FRAMES_PER_WORKER = 1500
+LOCAL_MIN_FRAMES_PER_WORKER = 2000
 """The scale-out rule: a local cluster of N workers is started only for a run of at least N times
 this many frames (tasks whose size is counted in frames: track, benchmark); a smaller run is
 tracked serially in this process, which writes the same bytes.  A local cluster costs a fixed
 ~0.7-0.8 s of wall time on an idle 2-core machine (Dask's import in this process, 0.35 s; the
 scheduler and the forked workers; OR-Tools imported by each), and the abduction loop now tracks
 KITTI Car at ~2,000 frames per wall second end to end, so the cluster pays only for runs of more
-than about 2,500 frames on 2 workers (docs/scale-out.md, measured with
-refimpl.experiments.bench_scaleout --serial-below 0: 1,589 frames 1.11x the serial wall time,
-4,519 frames 0.80-0.93x, 8,008 frames 0.78-0.79x).  It was 1,000 while 1,000 frames were ~1.7-2 s
-of abduction.  An existing cluster (``scheduler``) is always used: its start-up is paid already.
+than about 3,500 frames on 2 workers (docs/scale-out.md, measured with --serial-below 0: 1,589
+frames 1.11x the serial wall time, 2,659 frames 0.92-1.21x, 4,519 frames 0.73-1.01x, median
+0.84-0.88, 8,008 frames 0.78-0.79x).  It was 1,000 while 1,000 frames were ~1.7-2 s of abduction.  An existing cluster (``scheduler``) is always used: its start-up is paid already.
 ``Plan(serial_below=...)`` (``--serial-below``) sets the threshold, 0 always uses the cluster."""
 
 SCHEMES = ("tcp", "tls", "ws", "wss")
