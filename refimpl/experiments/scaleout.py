@@ -69,7 +69,7 @@ frames 1.11x the serial wall time, 2,659 frames 0.92-1.21x, 4,519 frames 0.73-1.
 SCHEMES = ("tcp", "tls", "ws", "wss")
 """Dask address schemes a separate process can connect to (``inproc://`` lives inside one process)."""
 
-_POLL = 0.1  # seconds between looks at the futures while none has finished
+_POLL = 0.1  # seconds the wait for the next finished future lasts before the watchdog looks again
 _CHECK_EVERY = 1.0  # seconds between asking the scheduler how many workers it has
 
 
@@ -260,8 +260,22 @@ def _run_on_cluster(fn, items, plan: Plan, progress: Progress, describe, sizes, 
                     progress.step(what if describe else "", n=sizes[i])
             if pending and not finished:
                 watchdog.check()
-                time.sleep(_POLL)
+                _wait_any(list(pending.values()), _POLL)
         return results
+
+
+def _wait_any(futures: list, seconds: float) -> None:
+    """Return as soon as one of the futures is done, or after ``seconds`` (then the caller's
+    watchdog looks at the cluster again): the last result is taken when it arrives, not up to a
+    poll interval later."""
+    from distributed import wait
+    from distributed.client import FutureCancelledError, FuturesCancelledError
+    try:
+        wait(futures, timeout=seconds, return_when="FIRST_COMPLETED")
+    except TimeoutError:
+        pass
+    except (FutureCancelledError, FuturesCancelledError):
+        pass  # those futures are done (cancelled): the caller's _fetch names what was lost
 
 
 def _fetch(fut, what: str, plan: Plan) -> tuple[bool, Any]:
