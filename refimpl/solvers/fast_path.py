@@ -374,19 +374,19 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         return [((cost[spec.name], ev(spec.name, args)), f"{spec.name}({','.join(args)})") for spec, args in found]
 
     # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
-    # An active track's halt is priced only where it is needed (``halt_of``): most tracks are
+    # An active track's halt is priced only where it is needed (``track_solo``): most tracks are
     # assigned in a one-pair component decided above the event level, where neither the
     # explanation nor its cost can change the answer (see _HIGH).  Until then every active track
     # is taken to have a halt: a relaxation of the model.  A unique optimum of the relaxation that
     # halts only tracks with an explanation is admissible in the model, so it is the model's
-    # unique optimum; where it would halt a track without one, halt_of declines (the full model
+    # unique optimum; where it would halt a track without one, track_solo declines (the full model
     # answers: assign it, or no admissible hypothesis).
     solo_t: list[_Option | None] = []
     resumable: set[int] = set()  # halted tracks with an iou/3 pair and a possible resume explanation
     resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
     for i, t in enumerate(tracks):
         if t.state == "active":
-            solo_t.append(None)  # its halt, priced where needed (halt_of)
+            solo_t.append(None)  # its halt, priced where needed (track_solo)
         else:
             again = (priced(_explanations("ignore_trk", i, tracks, top_rows, state, constants, by_id))
                      if reexplained(state, t.id) else [])
@@ -403,7 +403,8 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             if t.id in paired and _has_explanation("resume", i, tracks, top_rows, state, constants, by_id):
                 resumable.add(i)  # priced where needed (``resume_of``), as the halts
 
-    def halt_of(i: int) -> _Option:
+    def track_solo(i: int) -> _Option:
+        """Track i's solo option: a halted track's, or an active track's halt, priced now."""
         o = solo_t[i]
         if o is None:
             t = tracks[i]
@@ -500,8 +501,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             # above the event level the solos' costs are known without their explanations
             gain = _lex_sign(solo_high_t(i), high_d[j], high)
             if gain == 0:
-                st = solo_t[i]
-                gain = _lex_sign(halt_of(i).cost if st is None else st.cost, det_of(j).cost, edge_of(ces[0]).cost)
+                gain = _lex_sign(track_solo(i).cost, det_of(j).cost, edge_of(ces[0]).cost)
             if gain == 0:
                 raise FastPathDeclined("tie")
             if gain > 0:
@@ -523,7 +523,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         except FastPathDeclined as exc:
             if exc.reason != "tie":
                 raise
-            mate = _matching(len(ls), len(rs), [halt_of(i).cost if solo_t[i] is None else solo_t[i].cost for i in ls],
+            mate = _matching(len(ls), len(rs), [track_solo(i).cost for i in ls],
                              [det_of(j).cost for j in rs],
                              [(lpos[edges[k][0]], rpos[edges[k][1]], edge_of(k).cost) for k in ces])
         for a, b in enumerate(mate):
@@ -531,7 +531,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
                 chosen.append(edge_of(by_pair[(a, b)]))
                 matched_t.add(ls[a])
                 matched_d.add(rs[b])
-    chosen += [halt_of(i) if o is None else o for i, o in enumerate(solo_t) if i not in matched_t]
+    chosen += [track_solo(i) for i in range(len(tracks)) if i not in matched_t]
     chosen += [det_of(j) for j in range(len(dets)) if j not in matched_d]
     if any(o.tie for o in chosen):
         raise FastPathDeclined("tie")
