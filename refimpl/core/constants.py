@@ -47,17 +47,19 @@ def default_constants() -> Mapping[str, int]:
 def resolve_constants(problem: FrameProblem, overrides: Mapping[str, int] | None = None) -> dict[str, int]:
     """Defaults, then the problem's #const values, then explicit overrides; unknown names are an error.
     A fresh dict on every call (the callers may change it)."""
-    if overrides:
-        merged = dict(_base(problem.constants))
-        for name, value in overrides.items():
-            if name not in merged:
-                known = ", ".join(sorted(merged))
-                raise ProblemFormatError(f"unknown constant {name!r} (known: {known})")
-            merged[name] = int(value)
-    else:
-        merged = dict(_base(problem.constants))  # a tracker's constants: the same every frame
+    merged = dict(_base(problem.constants))  # a tracker's constants: the same every frame, merged once
+    _override(merged, (overrides or {}).items())
     merged["curr_time"] = problem.time
     return merged
+
+
+def _override(merged: dict[str, int], items) -> None:
+    """Set each (name, value) in turn; a name that is not a model constant is an error."""
+    for name, value in items:
+        if name not in merged:
+            known = ", ".join(sorted(merged))
+            raise ProblemFormatError(f"unknown constant {name!r} (known: {known})")
+        merged[name] = int(value)
 
 
 def _base(constants) -> Mapping[str, int]:
@@ -72,9 +74,5 @@ def _base(constants) -> Mapping[str, int]:
 def _merged(constants: tuple[tuple[str, int], ...]) -> Mapping[str, int]:
     """The defaults with these #const values (memoised; callers copy it)."""
     merged = dict(default_constants())
-    for name, value in dict(constants).items():
-        if name not in merged:
-            known = ", ".join(sorted(merged))
-            raise ProblemFormatError(f"unknown constant {name!r} (known: {known})")
-        merged[name] = int(value)
+    _override(merged, constants)
     return merged

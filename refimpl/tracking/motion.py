@@ -89,11 +89,15 @@ def xywh_to_z(box_xywh) -> np.ndarray:
     b = np.asarray(box_xywh, dtype=float).reshape(-1)
     if b.shape != (4,):
         raise ValueError(f"expected one (x, y, w, h) box, got shape {np.shape(box_xywh)}")
-    values = b.tolist()
-    if not _valid_box(values):
-        raise ValueError(f"box {values} must be finite with w > 0 and h > 0")
-    x, y, w, h = values
-    return np.array([x + w / 2.0, y + h / 2.0, w * h, w / h])
+    return np.array(_z_values(b.tolist()))
+
+
+def _z_values(box: list[float]) -> tuple[float, float, float, float]:
+    """xywh_to_z on the four Python floats of a box (the same IEEE operations as on float64)."""
+    if not _valid_box(box):
+        raise ValueError(f"box {box} must be finite with w > 0 and h > 0")
+    x, y, w, h = box
+    return (x + w / 2.0, y + h / 2.0, w * h, w / h)
 
 
 def _state_box(x: np.ndarray) -> np.ndarray | None:
@@ -317,15 +321,11 @@ class BoxKalman:
         b = np.asarray(boxes, dtype=float)
         if b.ndim != 2 or b.shape[1] != 4:  # not n boxes of four numbers: xywh_to_z says which is wrong
             zs = [xywh_to_z(v).reshape(DIM_Z, 1) for v in boxes]
-        else:  # xywh_to_z of every row, on Python floats (the same operations, the same bits)
-            rows = b.tolist()
-            for v in rows:
-                if not _valid_box(v):
-                    raise ValueError(f"box {v} must be finite with w > 0 and h > 0")
-            zs = [[[x + w / 2.0], [y + h / 2.0], [w * h], [w / h]] for x, y, w, h in rows]
+        else:  # xywh_to_z of every row, each checked before any filter changes
+            zs = [_z_values(v) for v in b.tolist()]
         if not len(zs):
             return
-        update_many([f.kf for f in filters], np.array(zs, dtype=float))
+        update_many([f.kf for f in filters], np.array(zs, dtype=float).reshape(-1, DIM_Z, 1))
         for f, v in zip(filters, b if b.ndim == 2 else boxes):
             f._observed(v)
 
