@@ -4,10 +4,12 @@ the `dask scheduler` / `dask worker` commands write the same bytes."""
 from __future__ import annotations
 
 import contextlib
+import gc
 import io as stdio
 import json
 import os
 import shutil
+import signal
 import subprocess
 import time
 from pathlib import Path
@@ -118,6 +120,23 @@ def test_the_scale_out_rule_runs_small_work_serially():
     assert LOCAL_MIN_FRAMES_PER_WORKER == 2000  # the numbers of this test
     pids = run_tasks(task, [1200, 1200, 1200], two, quiet=True, steps=lambda item: item)
     assert pids == [os.getpid()] * 3 and ticks == [1200, 1200, 1200]
+
+
+def _worker_state(item):
+    return item, os.getpid(), gc.get_freeze_count() > 0, signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+
+
+def test_embedded_workers_freeze_what_they_inherit_and_leave_ctrl_c_to_the_command():
+    # refimpl.experiments.worker_start runs in each forked worker: gc.freeze() (the inherited heap
+    # is not visited, so not copied, by the worker's collections) and SIGINT ignored; the command's
+    # own process is left as it was (nothing frozen, its Ctrl-C handler kept).  Each item travels
+    # pickled (scaleout.call_pickled) and comes back as it went.
+    from refimpl.experiments.scaleout import Plan, run_tasks
+    before = gc.get_freeze_count(), signal.getsignal(signal.SIGINT)
+    out = run_tasks(_worker_state, [("a", 1), ("b", 2)], Plan(workers=2), quiet=True)
+    assert [item for item, *_ in out] == [("a", 1), ("b", 2)]
+    assert all(pid != os.getpid() and frozen and ignored for _, pid, frozen, ignored in out)
+    assert (gc.get_freeze_count(), signal.getsignal(signal.SIGINT)) == before
 
 
 def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, serial, tmp_path):
