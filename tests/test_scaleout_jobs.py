@@ -69,11 +69,13 @@ def test_a_sequence_whose_frames_do_not_stack_pickles_as_it_is():
 
 
 def test_a_track_job_pickles_packed_and_unpickles_equal():
-    job = TrackJob(_sequence(), Setup("cpsat", (("iou_thresh", 30000),)), check=True, events=True)
+    job = TrackJob(_sequence(), Setup("cpsat", (("iou_thresh", 30000),)), check=True, events=True,
+                   out_format="kitti", object_class="Car")
     data = pickle.dumps(job)
     assert b"PackedSequence" in data and b"DetectionFrame" not in data  # no frame object on the wire
     back = pickle.loads(data)
-    assert (back.setup, back.check, back.scene, back.events) == (job.setup, True, False, True)
+    assert (back.setup, back.check, back.scene, back.events, back.out_format, back.object_class) == \
+        (job.setup, True, False, True, "kitti", "Car")
     _assert_same_sequence(job.seq, back.seq)
 
 
@@ -85,6 +87,11 @@ def test_a_kitti_file_packs_and_its_unpickled_job_tracks_to_the_same_rows():
     back = pickle.loads(pickle.dumps(job))
     _assert_same_sequence(seq, back.seq)
     assert track_job(back).rows.tobytes() == track_job(job).rows.tobytes()
+    assert track_job(job).text is None  # no out_format: rows only
+    # with an out_format the task formats its rows: the text a one-sequence `track` would write
+    out = track_job(TrackJob(seq, Setup("cpsat"), out_format="kitti", object_class="Car"))
+    lines = out.text.splitlines()
+    assert len(lines) == len(out.rows) and lines[0].split()[2] == "Car"  # frame id Car ...
 
 
 def test_track_job_hands_events_back_only_when_asked():
@@ -110,15 +117,16 @@ class _Future:
 
 
 class _FakeClient:
-    """Records what is submitted (the item and its priority), in order; every future is done."""
+    """Records what is submitted (the item and its priority), in order; every future is done.
+    A task reaches Dask as ``call_pickled(fn, pickled item, ...)``: the scheduler sees bytes."""
 
     def __init__(self):
         self.submitted = []
 
-    def submit(self, fn, item, *rest, pure=True, priority=0):
-        assert pure is False
-        self.submitted.append((item, priority))
-        return _Future(fn(item, *rest))
+    def submit(self, call, fn, blob, *rest, pure=True, priority=0):
+        assert pure is False and call is scaleout.call_pickled and isinstance(blob, bytes)
+        self.submitted.append((pickle.loads(blob), priority))
+        return _Future(call(fn, blob, *rest))
 
 
 def _fake_cluster(monkeypatch) -> _FakeClient:

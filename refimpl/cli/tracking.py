@@ -100,7 +100,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     if len(seqs) == 1 and not plan.distributed:
         _track_streaming(seqs[0], args, outs[0], setup, summary)
         return EXIT_OK
-    jobs = [TrackJob(seq, setup, args.check) for seq in seqs]
+    jobs = [TrackJob(seq, setup, args.check, out_format=args.out_format, object_class=args.cls) for seq in seqs]
     results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name,
                         steps=lambda job: len(job.seq.frames))
     failed = 0
@@ -117,7 +117,7 @@ def cmd_track(args: argparse.Namespace) -> int:
                 if out.violations:
                     failed += len(out.violations)
                     continue  # a backend that broke the model writes no results
-            files.write(path, io.results_formatter(args.out_format, seq.first_frame, args.cls)(out.rows))
+            files.write(path, out.text)  # formatted by the task (on a cluster: by its worker)
             tracks = len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0
             print(f"{seq.name}: {len(seq.frames)} frames, {tracks} tracks -> {path}", file=summary)
             _warn_if_empty(seq, tracks, setup, args)
