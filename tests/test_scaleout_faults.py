@@ -337,9 +337,10 @@ def test_a_cluster_run_advances_its_bar_by_each_tasks_frames(monkeypatch):
 
 @pytest.fixture(scope="module")
 def long_inputs(tmp_path_factory) -> list[str]:
-    """Two sequence folders LongK with TUD-Campus's 71 frames repeated 15 times (1,065 frames, frame
-    f of copy k numbered f + 71 k): two tasks of a few seconds each with CP-SAT, long enough to be
-    interrupted while the workers run them."""
+    """Two sequence folders LongK with TUD-Campus's 71 frames repeated 60 times (4,260 frames, frame
+    f of copy k numbered f + 71 k): two tasks of 2-4 s each with CP-SAT (at ~1,500-2,000 frames per
+    second), long enough to be interrupted while the workers run them (15 copies were 0.5-0.7 s,
+    which the interrupt, half a second after the workers appear, sometimes missed)."""
     root = tmp_path_factory.mktemp("long")
     lines = (DEMO / "det" / "det.txt").read_text().splitlines()
     paths = []
@@ -347,13 +348,13 @@ def long_inputs(tmp_path_factory) -> list[str]:
         det = root / f"Long{k}" / "det" / "det.txt"
         det.parent.mkdir(parents=True)
         rows = []
-        for copy in range(15):
+        for copy in range(60):
             for line in lines:
                 frame, rest = line.split(",", 1)
                 rows.append(f"{int(frame) + 71 * copy},{rest}\n")
         det.write_text("".join(rows))
         info = (DEMO / "seqinfo.ini").read_text()
-        info = info.replace("name=TUD-Campus\n", f"name=Long{k}\n").replace("seqLength=71\n", "seqLength=1065\n")
+        info = info.replace("name=TUD-Campus\n", f"name=Long{k}\n").replace("seqLength=71\n", "seqLength=4260\n")
         (det.parent.parent / "seqinfo.ini").write_text(info)
         paths.append(str(det))
     return paths
