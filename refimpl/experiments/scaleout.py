@@ -64,7 +64,10 @@ scheduler and the forked workers; OR-Tools imported by each), and the abduction 
 KITTI Car at ~2,000 frames per wall second end to end, so the cluster pays only for runs of more
 than about 3,500 frames on 2 workers (docs/scale-out.md, measured with --serial-below 0: 1,589
 frames 1.11x the serial wall time, 2,659 frames 0.92-1.21x, 4,519 frames 0.73-1.01x, median
-0.84-0.88, 8,008 frames 0.78-0.79x).  It was 1,000 while 1,000 frames were ~1.7-2 s of abduction.  An existing cluster (``scheduler``) is always used: its start-up is paid already.
+0.84-0.88, 8,008 frames 0.78-0.79x; after the fifth pass, which took ~0.3 CPU-s off a cluster run,
+1,589 frames 1.09-1.24x and 4,519 frames 0.74-0.79x, so the threshold stayed).  It was 1,000
+while 1,000 frames were ~1.7-2 s of abduction.  An existing cluster (``scheduler``) is always
+used: its start-up is paid already.
 ``Plan(serial_below=...)`` (``--serial-below``) sets the threshold, 0 always uses the cluster."""
 
 SCHEMES = ("tcp", "tls", "ws", "wss")
