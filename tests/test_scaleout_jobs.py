@@ -164,6 +164,20 @@ def test_tasks_not_counted_in_frames_are_submitted_in_input_order(monkeypatch):
     assert client.submitted == [(-3, 0), (8, 0), (-1, 0)]
 
 
+def _call(item):
+    return item()
+
+
+def test_an_item_pickle_cannot_take_travels_by_cloudpickle(monkeypatch):
+    # a lambda is not picklable by reference: the item goes as cloudpickle's bytes (Dask's own
+    # fallback), which pickle.loads reads on the worker
+    client = _fake_cluster(monkeypatch)
+    with pytest.raises((pickle.PicklingError, AttributeError, TypeError)):
+        pickle.dumps(lambda: 3)
+    assert run_tasks(_call, [lambda: 3, lambda: 4], Plan(workers=2), quiet=True) == [3, 4]
+    assert [item() for item, _ in client.submitted] == [3, 4]
+
+
 def _imported(name):
     return name in sys.modules
 

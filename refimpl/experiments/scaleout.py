@@ -196,6 +196,16 @@ def call_pickled(fn: Callable[..., R], item: bytes, *args: Any) -> R:
     return fn(pickle.loads(item), *args)
 
 
+def _pickled(item: Any) -> bytes:
+    """The item as pickle bytes; as Dask does, cloudpickle for what pickle cannot take by reference
+    (a function defined in a test, a lambda), which ``pickle.loads`` reads back all the same."""
+    try:
+        return pickle.dumps(item, protocol=pickle.HIGHEST_PROTOCOL)
+    except (pickle.PicklingError, AttributeError, TypeError):
+        import cloudpickle  # a dependency of Dask's, there whenever a cluster is
+        return cloudpickle.dumps(item, protocol=pickle.HIGHEST_PROTOCOL)
+
+
 def run_tasks(fn: Callable[..., R], items: Sequence[T], plan: Plan = Plan(), label: str = "tasks",
               quiet: bool = False, describe: Callable[[T], str] | None = None,
               steps: Callable[[T], int] | None = None) -> list[R]:
@@ -257,7 +267,7 @@ def _run_on_cluster(fn, items, plan: Plan, progress: Progress, describe, sizes, 
         order = sorted(range(len(items)), key=lambda i: -sizes[i]) if with_tick else range(len(items))
         futures: list = [None] * len(items)
         for i in order:
-            futures[i] = client.submit(call_pickled, fn, pickle.dumps(items[i], protocol=pickle.HIGHEST_PROTOCOL),
+            futures[i] = client.submit(call_pickled, fn, _pickled(items[i]),
                                        *((no_tick,) if with_tick else ()), pure=False,
                                        priority=sizes[i] if with_tick else 0)
         watchdog = _Watchdog(client, plan)
