@@ -55,15 +55,15 @@ class TrackJob:
     object_class: str | None = None
 
     def __reduce__(self):
-        # pickled with its sequence packed (pack_sequence): a job travels pickled to a worker (and
-        # on older Dask was unpickled and pickled again by the scheduler), and 12 KITTI sequences
-        # as 4,500 frames of small arrays cost the command's process 1.7 CPU-s unpacked
+        # pickled with its sequence packed (pack_sequence): a job travels pickled to a worker
+        # (scaleout.call_pickled; before it, the scheduler unpickled and pickled it again too), and
+        # 12 KITTI sequences as 4,500 frames of small arrays cost the command's process 1.7 CPU-s unpacked
         return _unpack_track_job, (pack_sequence(self.seq), self.setup, self.check, self.scene, self.events,
                                    self.out_format, self.object_class)
 
 
-def _unpack_track_job(seq, setup: Setup, check: bool, scene: bool, events: bool, out_format: str | None = None,
-                      object_class: str | None = None) -> TrackJob:
+def _unpack_track_job(seq, setup: Setup, check: bool, scene: bool, events: bool, out_format: str | None,
+                      object_class: str | None) -> TrackJob:
     return TrackJob(unpack_sequence(seq), setup, check, scene, events, out_format, object_class)
 
 
