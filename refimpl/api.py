@@ -10,10 +10,10 @@ confirmation writes and the filled frames of an occlusion episode;
 ``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has them after
 the fact.
 
-Scores map to the model's integer confidences 0..100 as the file readers map them: by default on
-the format's own scale (MOTChallenge probabilities: ``floor(100 * score + 0.5)``; KITTI logits
-through a sigmoid), or with ``scores="rank"`` by their place among the scores seen so far
-(refimpl.core.confidence), for a detector of any scale.  The preset is chosen as ``refimpl track``
+Scores map to the model's integer confidences 0..100 as the file readers map them: by default by
+the evidence rule (refimpl.core.confidence: calibrated, without labels, on how persistent the
+detections of each score have been so far; any detector, any scale), or on a fixed scale
+(``scores="probability"``, ``"sigmoid"``, ``"raw"``), or by rank.  The preset is chosen as ``refimpl track``
 chooses it (refimpl.tracking.pipeline.setup_for): ``Tracker(format="kitti", object_type="car")`` runs the
 KITTI Car preset, ``preset="none"`` none.
 """
@@ -25,18 +25,19 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .core.confidence import RANK, OnlineRank
+from .core.confidence import online_rule
 from .core.constants import default_constants
 from .core.spec import HistoryEvent, track_number
 from .io import (DetectionFrame, DetectionSequence, FORMAT_NAMES, KITTI, KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD,
-                 MIN_DET_SIZE, OBJECT_TYPES, get_format)
+                 MIN_DET_SIZE, OBJECT_TYPES, SCORE_RULES, InputFormatError, get_format)
+from .io.detections import resolve_rule, scale_confidences
 from .scene import Scene, scene_from_result
 from .solvers import BACKENDS, DEFAULT_BACKEND
 from .tracking.options import TrackerOptions
 from .tracking.pipeline import AUTO, new_tracker, setup_for
 from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
 
-API_SCORE_RULES = ("auto", RANK, "probability", "sigmoid")
+API_SCORE_RULES = SCORE_RULES  # the readers' rules: the same on every format
 DEFAULT_CLASS_TYPES = {0: "pedestrian", 1: "cyclist", 2: "car"}
 """COCO's class ids (what YOLO-family detectors and supervision use): person, bicycle, car."""
 
@@ -73,10 +74,9 @@ class Tracker:
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracking.tracker.track_sequence``.
     **options: tracker option overrides by name (refimpl.tracking.options.TRACKER_OPTIONS), e.g.
         ``written_box="detection"``, on top of the preset.
-    scores: how a score becomes the model's confidence, as the file readers do it: "auto" (default:
-        the format's own scale, "probability" for MOTChallenge, "sigmoid" for KITTI's logits),
-        "probability" (scores in 0..1, times 100), "sigmoid", or "rank" (refimpl.core.confidence: its
-        place among the scores seen so far, for a detector of any scale).
+    scores: how a score becomes the model's confidence, as the file readers do it (refimpl.io.SCORE_RULES,
+        the same on every format): "auto" (default) is "evidence" (refimpl.core.confidence), or
+        "rank", "probability" (scores in 0..1, times 100), "sigmoid" (logits), "raw" (0..100).
     object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
     class_types: integer class id -> object type, for (N, 6) arrays and ``supervision.Detections``
         (default DEFAULT_CLASS_TYPES: COCO's 0 person, 1 bicycle, 2 car).  Detections whose types
@@ -97,8 +97,7 @@ class Tracker:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         if format not in FORMAT_NAMES:
             raise ValueError(f"format must be one of {', '.join(FORMAT_NAMES)}, got {format!r}")
-        if scores not in API_SCORE_RULES:
-            raise ValueError(f"scores must be one of {', '.join(API_SCORE_RULES)}, got {scores!r}")
+        resolve_rule(scores)  # ValueError naming the rules
         self.object_type = self._type(object_type, "object_type")
         self.class_types = {int(k): self._type(v, f"class_types[{k}]")
                             for k, v in (DEFAULT_CLASS_TYPES if class_types is None else class_types).items()}
@@ -124,8 +123,8 @@ class Tracker:
         self.backend = backend
         self.name, self.fps, self.image_size = name, fps, img_size
         self.first_frame = int(first_frame)
-        self.scores = scores if scores != "auto" else ("sigmoid" if format == KITTI else "probability")
-        """The score rule in use: ``auto`` is the format's own scale, as the file readers read it."""
+        self.scores = resolve_rule(scores)
+        """The score rule in use, as the file readers resolve it (``auto`` is ``evidence``)."""
         self._params = (int(min_hits), int(bridge_gap), int(bridge_conf))
         self.reset()
 
@@ -133,7 +132,7 @@ class Tracker:
         """Start a new sequence: forget every track, event and score seen (the same results as a
         fresh Tracker with the same arguments)."""
         self._tracker = new_tracker(self.setup, self.image_size, self.fps, *self._params)
-        self._rank = OnlineRank()
+        self._rule = online_rule(self.scores)
         self._frames: list[DetectionFrame] = []
         self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
 
@@ -255,7 +254,7 @@ class Tracker:
     def _step(self, dets, classes) -> tuple[np.ndarray, dict[int, str]]:
         boxes, scores, types = self._check(dets, classes)
         frame = self.frame
-        conf = self._confidences(scores)
+        conf = self._confidences(boxes, scores, types)
         self._tracker.step(frame, boxes, conf, types)
         self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
         rows = []
@@ -267,12 +266,14 @@ class Tracker:
         self._reported.update((frame, int(n)) for n in out[:, 4])
         return out[np.argsort(out[:, 4], kind="stable")], dict(self._tracker.owners)
 
-    def _confidences(self, scores: np.ndarray) -> np.ndarray:
-        if self.scores == RANK:
-            return self._rank.confidences(scores)
-        if self.scores == "sigmoid":
-            return np.floor(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)) + 0.5).astype(np.int64)  # as the KITTI reader
-        return confidences_from_scores(scores)
+    def _confidences(self, boxes: np.ndarray, scores: np.ndarray, types: tuple[str, ...]) -> np.ndarray:
+        """The frame's confidences by the score rule, exactly as the file readers compute them."""
+        if self._rule is not None:
+            return self._rule.confidences(boxes, scores, types)
+        try:
+            return scale_confidences("update", range(len(scores)), scores, self.scores)
+        except InputFormatError as err:
+            raise ValueError(f"scores: {err.reason}") from None
 
     def _everyone(self):
         return list(self._tracker.tracks.values()) + self._tracker.finished

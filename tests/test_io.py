@@ -45,7 +45,7 @@ def raises_at(path: Path, line: int | None, reason_part: str):
 
 @needs_data
 def test_tud_campus_sort_frcnn_detections_cover_all_71_frames():
-    seq = io.read_mot_detections(MOT15 / "TUD-Campus" / "det" / "det_sort_frcnn.txt")
+    seq = io.read_mot_detections(MOT15 / "TUD-Campus" / "det" / "det_sort_frcnn.txt", scores_rule="probability")
     # PROVENANCE: det_sort_frcnn.txt has 321 rows; seqinfo seqLength=71, 640x480, 25 fps
     assert seq.num_detections == 321
     assert seq.num_frames == 71
@@ -84,7 +84,7 @@ def test_empty_frames_are_present_in_kitti13_detections():
 @needs_data
 def test_kitti_0000_car_detections_keep_1054_rows_minus_one_recorded_zero_width_box():
     with pytest.warns(InputFormatWarning, match="line\\(s\\) 614"):
-        seq = io.read_kitti_detections(KITTI / "det_02_pointrcnn" / "Car" / "0000.txt", "car")
+        seq = io.read_kitti_detections(KITTI / "det_02_pointrcnn" / "Car" / "0000.txt", "car", scores_rule="sigmoid")
     # PROVENANCE: 1,054 rows; line 614 is "115,2,1241.0000,...,1241.0000,..." (x1 == x2)
     assert seq.num_detections + len(seq.dropped) == 1054
     assert [line for line, _ in seq.dropped] == [614]
@@ -245,7 +245,7 @@ def test_demo_sequence_is_bundled_and_readable():
 def test_unit_interval_scores_map_to_round_100_times_score(tmp_path):
     p = write(tmp_path / "det.txt", "1,-1,0,0,10,10,0.997784,-1,-1,-1\n1,-1,0,0,10,10,0.5,-1,-1,-1\n"
               "3,-1,0,0,10,10,0.004,-1,-1,-1\n")
-    seq = io.read_mot_detections(p)
+    seq = io.read_mot_detections(p, scores_rule="probability")
     # 100*0.997784 = 99.78 -> 100; 100*0.5 = 50; 100*0.004 = 0.4 -> 0
     assert seq.frames[0].confidences.tolist() == [100, 50]
     assert seq.frames[2].confidences.tolist() == [0]
@@ -261,22 +261,39 @@ def test_raw_scores_map_to_clipped_rounded_score(tmp_path):
     assert io.read_mot_detections(p, scores_rule="raw").frames[0].confidences.tolist() == [43, 0, 100, 1]
 
 
-def test_scores_that_are_not_probabilities_are_ranked_by_default(tmp_path):
+def test_scores_of_any_scale_are_read_by_default_without_a_warning(tmp_path, recwarn):
     p = write(tmp_path / "det.txt", "1,-1,0,0,10,10,42.5,-1\n1,-1,0,0,10,10,-0.8\n1,-1,0,0,10,10,139\n"
               "1,-1,0,0,10,10,0.5,-1,-1\n2,-1,0,0,10,10,40\n")
-    # three of five scores outside [0,1]: auto ranks them (the file's scale says nothing), with a
-    # warning.  Frame 1 (n = 4, sorted -0.8 0.5 42.5 139): 42.5 has 3 <= it -> 75, -0.8 1 -> 25,
-    # 139 4 -> 100, 0.5 2 -> 50; frame 2 (n = 5): 40 has 3 <= it -> 60
-    with pytest.warns(io.InputFormatWarning, match="not probabilities"):
-        seq = io.read_mot_detections(p)
+    # three of five scores outside [0,1]: the default rule (evidence) reads any scale.  Before 20
+    # detections are labelled its confidences are its prior, the rank rule: frame 1 (n = 4, sorted
+    # -0.8 0.5 42.5 139): 42.5 has 3 <= it -> 75, -0.8 1 -> 25, 139 4 -> 100, 0.5 2 -> 50; frame 2
+    # (n = 5): 40 has 3 <= it -> 60
+    seq = io.read_mot_detections(p)
     assert [f.confidences.tolist() for f in seq.frames] == [[75, 25, 100, 50], [60]]
+    assert io.read_mot_detections(p, scores_rule="rank").frames[1].confidences.tolist() == [60]
+    assert not [w for w in recwarn if issubclass(w.category, io.InputFormatWarning)]
+
+
+def test_every_score_rule_reads_every_format(tmp_path):
+    row = "0,2,10,20,110,70,{s},1.5,1.6,4.0,1.0,1.0,10.0,0.1,0.2\n"
+    kitti = write(tmp_path / "Car" / "0000.txt", row.format(s="0.25") + row.format(s="0.5"))
+    mot = write(tmp_path / "det.txt", "1,-1,10,20,100,50,0.25\n1,-1,10,20,100,50,0.5\n")
+    # the same two scores give the same confidences in either layout, by every rule: probability
+    # 25, 50; sigmoid(0.25) = 0.5622 -> 56, sigmoid(0.5) = 0.6225 -> 62; raw 0.25 -> 0, 0.5 -> 1
+    # (half up); rank and evidence (its rank prior): 1 of 2 <= 0.25 -> 50, 2 of 2 -> 100
+    expected = {"probability": [25, 50], "sigmoid": [56, 62], "raw": [0, 1], "rank": [50, 100],
+                "evidence": [50, 100], "auto": [50, 100]}
+    assert set(expected) == set(io.SCORE_RULES)
+    for rule, conf in expected.items():
+        assert io.read_kitti_detections(kitti, "car", scores_rule=rule).frames[0].confidences.tolist() == conf
+        assert io.read_mot_detections(mot, scores_rule=rule).frames[0].confidences.tolist() == conf
 
 
 def test_kitti_scores_map_to_round_100_sigmoid(tmp_path):
     row = "0,2,10,20,110,70,{s},1.5,1.6,4.0,1.0,1.0,10.0,0.1,0.2\n"
     p = write(tmp_path / "Car" / "0000.txt",
               row.format(s="0.0") + row.format(s="-0.4501") + row.format(s="15.5") + row.format(s="-40"))
-    seq = io.read_kitti_detections(p, "car")
+    seq = io.read_kitti_detections(p, "car", scores_rule="sigmoid")
     # sigmoid(0) = 0.5 -> 50; 100/(1+e^0.4501) = 38.93 -> 39; sigmoid(15.5) ~ 1 -> 100; sigmoid(-40) ~ 0 -> 0
     assert seq.frames[0].confidences.tolist() == [50, 39, 100, 0]
     # x1,y1,x2,y2 = 10,20,110,70 -> xywh 10,20,100,50

@@ -39,21 +39,21 @@ def seq(tmp_path) -> Path:
     return tmp_path / "TUD-Campus" / "det" / "det.txt"
 
 
-def test_one_score_above_one_among_probabilities_is_an_error_naming_its_line(seq, capsys):
-    # the demo det.txt holds SORT's Faster R-CNN probabilities (0.5..1.0); line 3 becomes 1.01
+def test_one_score_above_one_is_an_error_naming_its_line_under_the_probability_rule(seq, capsys):
+    # the demo det.txt holds SORT's Faster R-CNN probabilities (0.5..1.0); line 3 becomes 1.01:
+    # the default rule reads any scale, the probability rule refuses it
     lines = seq.read_text().splitlines(keepends=True)
     fields = lines[2].split(",")
     fields[6] = "1.01"
     lines[2] = ",".join(fields)
     seq.write_text("".join(lines))
-    with pytest.raises(InputFormatError, match=r"det\.txt:3: score 1\.01 is outside 0\.\.1 although"):
-        read_mot_detections(seq)
+    assert read_mot_detections(seq).num_detections == len(lines)
     with pytest.raises(InputFormatError, match=r":3: score 1\.01 is not a probability"):
         read_mot_detections(seq, scores_rule="probability")
     # chosen explicitly, the raw rule applies to every row: 0.997784 -> round(0.997784) = 1
     raw = read_mot_detections(seq, scores_rule="raw")
     assert raw.frames[0].confidences[0] == 1
-    assert cli.main(["track", "--dets", str(seq), "--out", str(seq.parent / "r.txt")]) == 2
+    assert cli.main(["track", "--dets", str(seq), "--scores", "probability", "--out", str(seq.parent / "r.txt")]) == 2
     assert ":3: score 1.01" in _err(capsys)
 
 
@@ -65,9 +65,8 @@ def test_a_raw_score_file_keeps_one_rule_whatever_one_score_is(tmp_path):
     conf = [int(fr.confidences[0]) for fr in read_mot_detections(f, scores_rule="raw").frames]
     # --scores raw: clip(round(s), 0, 100) with round half up
     assert conf == [12, 41, 1, 99, 3, 7, 55, 100, 0, 20]
-    with pytest.warns(InputFormatWarning, match="not probabilities"):
-        ranked = [int(fr.confidences[0]) for fr in read_mot_detections(f).frames]
-    # auto ranks them, the 0.5 too, one detection a frame: frame i's score among the first i, e.g.
+    ranked = [int(fr.confidences[0]) for fr in read_mot_detections(f, scores_rule="rank").frames]
+    # rank ranks them, the 0.5 too, one detection a frame: frame i's score among the first i, e.g.
     # frame 3: 0.5 lowest of 3 -> floor(100/3 + 1/2) = 33; frame 7: 55 sixth of 7 -> 86; frame 10:
     # 20 sixth of 10 -> 60
     assert ranked == [100, 100, 33, 100, 40, 50, 86, 100, 11, 60]

@@ -74,22 +74,26 @@ def test_help_shows_the_defaults(capsys):
 
 
 def test_scores_far_from_the_presets_tuning_set_get_one_warning(shared_data, tmp_path, capsys):
-    # KITTI Car 0020 (a tuning sequence) with every logit divided by 10: the largest logit of the
-    # file is below 21.97, so sigmoid(s / 10) < sigmoid(2.197) = 0.9 and no detection passes the
-    # Car preset's conf_thresh_new_track 90, against 63.9 % on kitti-car-train (presets.json)
+    # KITTI Car 0020 (a tuning sequence) with every logit s as s / 10 - 2 (strictly increasing): the
+    # largest logit of the file is below 15.94, so s / 10 - 2 < -0.406 and sigmoid < 0.40: read on the
+    # fixed sigmoid scale no detection passes the Car preset's conf_thresh_new_track 70, against
+    # 60.6 % on kitti-car-train (presets.json)
     src = _kitti_car(shared_data, "0020")
-    assert max(float(line.split(",")[6]) for line in src.read_text().splitlines()) < 21.97
+    assert max(float(line.split(",")[6]) for line in src.read_text().splitlines()) < 15.94
     folder = tmp_path / "training" / "det_02_pointrcnn" / "Car"
     folder.mkdir(parents=True)
     (folder / "0020.txt").write_text("".join(
-        ",".join(c[:6] + [repr(float(c[6]) / 10)] + c[7:]) + "\n"
+        ",".join(c[:6] + [repr(float(c[6]) / 10 - 2)] + c[7:]) + "\n"
         for c in (line.split(",") for line in src.read_text().splitlines())))
     assert main(["track", "--dets", str(folder / "0020.txt"), "--format", "kitti", "--class", "Car",
-                 "--out", str(tmp_path / "x.txt")]) == 0
+                 "--scores", "sigmoid", "--out", str(tmp_path / "x.txt")]) == 0
     err = capsys.readouterr().err
     assert err.count("may be on another scale") == 1
-    assert "0.0 % of its detections pass conf_thresh_new_track 90, against 63.9 % on kitti-car-train" in err
-    # the file's own scale: no warning
-    assert main(["track", "--dets", str(src), "--format", "kitti", "--class", "Car", "--out",
-                 str(tmp_path / "y.txt")]) == 0
-    assert "another scale" not in capsys.readouterr().err
+    assert "0.0 % of its detections pass conf_thresh_new_track 70, against 60.6 % on kitti-car-train" in err
+    # the default rule (evidence) reads the order of the scores only: the rescaled file gives the
+    # original's rows, and neither gets a warning
+    for name, path in (("y", src), ("z", folder / "0020.txt")):
+        assert main(["track", "--dets", str(path), "--format", "kitti", "--class", "Car", "--out",
+                     str(tmp_path / f"{name}.txt")]) == 0
+        assert "another scale" not in capsys.readouterr().err
+    assert (tmp_path / "y.txt").read_bytes() == (tmp_path / "z.txt").read_bytes()

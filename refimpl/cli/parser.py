@@ -185,10 +185,12 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
     t.add_argument("--out", help="results file of one --dets (MOTChallenge format unless --out-format kitti; "
                                  "- for standard output)")
     t.add_argument("--scores", choices=SCORE_RULES, default=DEFAULT_SCORE_RULE,
-                   help="how detection scores become the model's confidences 0..100: rank (their place among "
-                        "the scores seen so far: any detector's scale, refimpl/core/confidence.py), or read as "
-                        "numbers: probability (0..1), raw (0..100), sigmoid (KITTI logits), auto (the file "
-                        "decides, refimpl/io/detections.py)")
+                   help="how detection scores become the model's confidences 0..100, the same rules for every "
+                        "format: auto (the default, on every format) is evidence: calibrated, without labels, on how "
+                        "persistent the detections of each score are in the sequence so far (any detector, any "
+                        "scale: only the scores' order matters; docs/model.md 3.19); rank (their place among the "
+                        "scores seen so far); or read as numbers: probability (0..1), sigmoid (logits, such as "
+                        "KITTI's PointRCNN scores), raw (0..100)")
     t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
                    "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
     t.add_argument("--out-format", choices=RESULT_FORMATS, default=MOT,

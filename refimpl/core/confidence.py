@@ -3,9 +3,21 @@
 The paper gives every detection of VO_t an integer confidence (``det(det_0, car, 99)``), and the
 model's thresholds (``conf_thresh_new_track``, ``conf_thresh_assign``, ``conf_thresh_resume``,
 ``bridge_conf``) compare against it.  A detector's raw score says nothing by its scale: PointRCNN
-writes logits, SORT's Faster R-CNN probabilities, MOT15's ACF values of 0..139.  So refimpl's
-default rule (``rank``, a refimpl decision, docs/model.md "The confidence of a detection") maps
-each score to its place among every score the sequence has shown so far, this frame included:
+writes logits, SORT's Faster R-CNN probabilities, MOT15's ACF values of 0..139.
+
+refimpl's default rule, ``evidence`` (a refimpl decision, docs/model.md 3.19), calibrates the
+scores on what the sequence itself shows, without labels: a detection is *persistent* when a
+detection of the same type overlaps it (IoU >= PERSIST_IOU) in the frame before it and in the
+frame after it.  A false detection flickers; an object persists.  The confidence of a score is
+how persistent the detections of that score have been so far, relative to the most persistent
+ones (:class:`PersistenceEvidence`): it depends on the order of the scores alone, so any strictly
+increasing rescale of a detector's scores (x 0.6, a power, logits for probabilities) gives the
+same confidences and the same tracks, and a threshold of 50 means "half as persistent as this
+detector's best" whatever the detector.  Its prior, before the sequence has shown enough, is the
+rank rule below.
+
+The rank rule (``rank``) maps each score to its place among every score the sequence has shown
+so far, this frame included:
 
     confidence(s) = floor(100 * #{scores seen so far <= s} / #{scores seen so far} + 1/2)
 
@@ -22,7 +34,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from .geometry import iou_matrix
+
 RANK = "rank"
+EVIDENCE = "evidence"
+PERSIST_IOU = 0.3
+"""A detection persists into a neighbouring frame where a detection of its type overlaps it by
+IoU >= 0.3 (SORT's association threshold)."""
+EVIDENCE_BINS = 20
+"""The persistence curve is estimated on this many equal-count bins of the scores seen so far."""
+EVIDENCE_PRIOR = 50
+"""The rank prior counts as this many detections: with n labelled detections the confidence is
+(n * learned + EVIDENCE_PRIOR * rank) / (n + EVIDENCE_PRIOR)."""
 
 
 class OnlineRank:
@@ -47,7 +70,122 @@ class OnlineRank:
         self._seen = np.zeros(0, dtype=float)
 
 
+class RankFrames:
+    """The rank rule with the evidence rule's call: ``confidences(boxes, scores, types)``."""
+
+    def __init__(self) -> None:
+        self._rank = OnlineRank()
+
+    def confidences(self, boxes, scores, types=None) -> np.ndarray:
+        return self._rank.confidences(scores)
+
+    def reset(self) -> None:
+        self._rank.reset()
+
+
+def online_rule(rule: str) -> "PersistenceEvidence | RankFrames | None":
+    """A fresh state of an online rule (``evidence``, ``rank``), or None for a fixed scale."""
+    return PersistenceEvidence() if rule == EVIDENCE else RankFrames() if rule == RANK else None
+
+
 def rank_confidences(frames_scores) -> list[np.ndarray]:
     """The rank rule over a whole sequence, frame by frame in order (what an online tracker sees)."""
     ranker = OnlineRank()
     return [ranker.confidences(s) for s in frames_scores]
+
+
+def _increasing(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The weighted least-squares non-decreasing fit of ``values`` (pool adjacent violators)."""
+    level: list[float] = []
+    weight: list[float] = []
+    size: list[int] = []
+    for v, w in zip(values.tolist(), weights.tolist()):
+        level.append(v)
+        weight.append(w)
+        size.append(1)
+        while len(level) > 1 and level[-2] > level[-1]:
+            v2, w2, n2 = level.pop(), weight.pop(), size.pop()
+            v1, w1, n1 = level.pop(), weight.pop(), size.pop()
+            level.append((v1 * w1 + v2 * w2) / (w1 + w2))
+            weight.append(w1 + w2)
+            size.append(n1 + n2)
+    return np.repeat(np.array(level), size)
+
+
+class PersistenceEvidence:
+    """The evidence rule's state (module doc), online: ``confidences(boxes, scores, types)`` takes
+    one frame (xywh boxes) in order and returns its 0..100 confidences from frames <= it.
+
+    At frame t the detections of frame t-1 are labelled (persistent: overlapped in t-2 and in t);
+    the labelled scores, sorted, fall into EVIDENCE_BINS equal-count bins; the share of persistent
+    detections per bin, made non-decreasing in the score (isotonic) and divided by the highest
+    bin's share, is the learned curve; a score's confidence is the curve at its bin, blended with
+    the rank prior (EVIDENCE_PRIOR), times 100, rounded half up."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self._rank = OnlineRank()
+        self._scores = np.zeros(0, dtype=float)  # labelled scores, sorted
+        self._flags = np.zeros(0, dtype=float)  # 1.0 persistent, aligned with _scores
+        self._recent: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []  # the last two frames
+
+    @staticmethod
+    def _overlapped(a: np.ndarray, ta: tuple[str, ...], b: np.ndarray, tb: tuple[str, ...]) -> np.ndarray:
+        """For every box of b, whether a box of a of its type overlaps it by IoU >= PERSIST_IOU."""
+        if not len(a) or not len(b):
+            return np.zeros(len(b), dtype=bool)
+        near = iou_matrix(a, b) >= PERSIST_IOU
+        if len(set(ta) | set(tb)) > 1:
+            near &= np.array(ta, dtype=object)[:, None] == np.array(tb, dtype=object)[None, :]
+        return near.any(axis=0)
+
+    def _label(self, boxes: np.ndarray, types: tuple[str, ...]) -> None:
+        """Label the previous frame's detections now that the frame after it is here."""
+        if len(self._recent) == 2:
+            (b0, _, t0), (b1, s1, t1) = self._recent
+            if len(b1):
+                flags = self._overlapped(b0, t0, b1, t1) & self._overlapped(boxes, types, b1, t1)
+                order = np.argsort(s1, kind="stable")
+                at = np.searchsorted(self._scores, s1[order], side="right")
+                self._scores = np.insert(self._scores, at, s1[order])
+                self._flags = np.insert(self._flags, at, flags[order].astype(float))
+            self._recent.pop(0)
+
+    def _learned(self, scores: np.ndarray) -> np.ndarray | None:
+        """The learned curve at each score, or None while too little is labelled (or nothing persisted)."""
+        n = len(self._scores)
+        if n < EVIDENCE_BINS:
+            return None
+        edges = (np.arange(EVIDENCE_BINS + 1) * n) // EVIDENCE_BINS
+        persistent = np.concatenate([[0.0], np.cumsum(self._flags)])
+        sizes = np.diff(edges).astype(float)
+        curve = _increasing((persistent[edges[1:]] - persistent[edges[:-1]]) / sizes, sizes)
+        if curve[-1] <= 0.0:
+            return None
+        at_most = np.searchsorted(self._scores, scores, side="right")  # labelled scores <= s
+        bin_of = np.clip(np.searchsorted(edges[1:], at_most, side="left"), 0, EVIDENCE_BINS - 1)
+        return curve[bin_of] / curve[-1]
+
+    def confidences(self, boxes, scores, types: tuple[str, ...] | None = None) -> np.ndarray:
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        kinds = tuple(types) if types is not None else ("",) * len(s)
+        prior = self._rank.confidences(s)  # checks the scores are finite
+        self._label(b, kinds)
+        self._recent.append((b, s, kinds))
+        if not len(s):
+            return np.zeros(0, dtype=np.int64)
+        learned = self._learned(s)
+        if learned is None:
+            return prior
+        n = len(self._scores)
+        blended = (n * 100.0 * learned + EVIDENCE_PRIOR * prior) / (n + EVIDENCE_PRIOR)
+        return np.floor(blended + 0.5).astype(np.int64)
+
+
+def evidence_confidences(frames) -> list[np.ndarray]:
+    """The evidence rule over a whole sequence's frames (each with boxes, scores, types), in order."""
+    rule = PersistenceEvidence()
+    return [rule.confidences(f.boxes, f.scores, f.types) for f in frames]

@@ -17,9 +17,10 @@ Inputs, exactly the detections refimpl's trackers read (``refimpl.io``), for eve
 
 * boxes: the ``DetectionFrame.boxes`` (xywh) as xyxy, every frame in order, empty ones included
   (each package is called once per frame, without timestamps: fixed-rate mode);
-* scores in 0..1: ``confidence / 100``, the integer confidence refimpl's model sees (so a
-  threshold means the same for a peer and for the model; it quantises scores to 0.01); one
-  class (0) for BoxMOT;
+* scores in 0..1, as a caller of these libraries gives them (refimpl.io.detections.probability_scale):
+  a detector's probabilities as they are, logits (KITTI's PointRCNN) through a sigmoid, another
+  scale (ACF) by its rank, quantised to 0.01 as refimpl's integer confidences are; one class (0)
+  for BoxMOT.  (refimpl's own model reads the evidence rule's confidences: docs/model.md 3.19);
 * ``frame_rate``: the sequence's (MOTChallenge ``seqinfo.ini`` frameRate, 10 for KITTI), or the
   packages' 30 when a sequence has none.  ``trackers`` scales its ``lost_track_buffer`` (given
   in frames at 30 fps) by ``frame_rate / 30``, BoxMOT's ByteTrack and BoT-SORT their
@@ -48,6 +49,7 @@ from ..core.errors import UserFacingError
 from ..core.loader import load
 from ..evaluation.evaluate import evaluate_many
 from ..io.datasets import TITLES, load_dataset
+from ..io.detections import probability_scale
 from ..solvers import BASELINE, DEFAULT_BACKEND
 from ..tracking.options import TrackerOptions
 from .latency import summarise
@@ -217,6 +219,7 @@ def _track_boxmot(seq, tracker) -> tuple[list[np.ndarray], list[float]]:
 
 def run_peer(seq, name: str, **overrides) -> PeerRun:
     """Track a DetectionSequence with a peer; see the module docstring for inputs and outputs."""
+    seq = probability_scale(seq)  # the scores as a caller of these libraries gives them (0..1)
     entry = peer(name)
     overrides = dict(overrides)
     params = peer_parameters(name, overrides.pop("frame_rate", getattr(seq, "fps", None)), **overrides)

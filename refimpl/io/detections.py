@@ -11,7 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..core.confidence import RANK, OnlineRank
+from ..core.confidence import EVIDENCE, RANK, online_rule
 from .errors import InputFormatError, InputFormatWarning
 from .ground_truth import _kitti_label_num_frames
 from .lines import (MAX_DET_AREA, MIN_DET_SIZE, _check_coordinates, _check_integral, _check_max_frame,
@@ -116,13 +116,22 @@ def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, con
     return tuple(out)
 
 
-SCORE_RULES = ("auto", RANK, "probability", "raw", "sigmoid")
-"""How a file's scores become confidences (refimpl.core.confidence; the package doc): ``auto`` (the
-default: the format's own scale where the scores are on it, MOTChallenge probabilities in 0..1 and
-KITTI's logits through a sigmoid; a MOTChallenge file whose scores are not probabilities is ranked),
-``rank`` (any detector's scale: a score's place among those seen so far), ``probability``, ``raw``
-(0..100 as they are), ``sigmoid``."""
+SCORE_RULES = ("auto", EVIDENCE, RANK, "probability", "sigmoid", "raw")
+"""How a file's scores become confidences, the same rules for every format (refimpl.core.confidence;
+docs/model.md 3.19): ``auto`` (the default) is ``evidence``, the scores calibrated on how persistent
+the detections of each score are in the sequence itself (any detector, any scale: only the order of
+the scores matters); ``rank`` (a score's place among those seen so far); and the fixed scales
+``probability`` (scores in 0..1, times 100), ``sigmoid`` (logits, such as KITTI's PointRCNN
+scores, through a sigmoid, times 100) and ``raw`` (0..100 as they are, clipped)."""
 DEFAULT_SCORE_RULE = "auto"
+ONLINE_RULES = (EVIDENCE, RANK)
+"""The rules that read a frame's confidences from the frames up to it (refimpl.core.confidence)."""
+
+
+def resolve_rule(rule: str) -> str:
+    """The rule ``rule`` names (``auto`` is ``evidence``); ValueError naming the rules otherwise."""
+    _check_rule(rule, SCORE_RULES)
+    return EVIDENCE if rule == "auto" else rule
 
 
 def _check_rule(rule: str, allowed: Sequence[str]) -> None:
@@ -130,50 +139,54 @@ def _check_rule(rule: str, allowed: Sequence[str]) -> None:
         raise ValueError(f"scores must be one of {', '.join(allowed)}, got {rule!r}")
 
 
-def _ranked(seq: DetectionSequence) -> DetectionSequence:
-    """The rank rule (refimpl.core.confidence): each frame's confidences from the scores of frames <= it."""
+def calibrated(seq: DetectionSequence, rule: str) -> DetectionSequence:
+    """An online rule (``evidence`` or ``rank``) applied to the sequence's frames in order: each
+    frame's confidences from the frames <= it, as a stream and the library compute them."""
     from dataclasses import replace
-    ranker = OnlineRank()
-    return replace(seq, frames=tuple(replace(f, confidences=ranker.confidences(f.scores)) for f in seq.frames))
+    state = online_rule(rule)
+    if state is None:
+        return seq
+    frames = tuple(replace(f, confidences=state.confidences(f.boxes, f.scores, f.types)) for f in seq.frames)
+    return replace(seq, frames=frames)
 
 
-def _mot_rule(path, linenos: Sequence[int], scores: np.ndarray, rule: str, basis: str = "") -> str:
-    """The confidence rule of MOTChallenge scores (module doc), one rule for every row: ``rule``
-    itself, or for ``auto`` the rule these scores call for (RANK, with a warning, for scores that
-    are not probabilities).  ``basis`` says which scores decided (a stream: its first frame's)."""
-    _check_rule(rule, (RANK, "auto", "probability", "raw"))
-    if rule != "auto":
-        return rule
-    inside = (scores >= 0.0) & (scores <= 1.0)
-    share = float(inside.mean())
-    if share == 1.0:
-        return "probability"
-    if share <= 0.5:  # not probabilities (ACF's 0..139, a logit, ...): their scale says nothing
-        warnings.warn(f"{path}: scores {scores.min():g}..{scores.max():g}{basis} are not probabilities in 0..1: "
-                      "each detection's confidence is its score's rank among those seen so far "
-                      "(--scores rank; refimpl/core/confidence.py); --scores raw reads them as 0..100",
-                      InputFormatWarning, stacklevel=3)
-        return RANK
-    bad = _first_bad(~inside)
-    raise InputFormatError(
-        f"score {scores[bad]:g} is outside 0..1 although {int(inside.sum())} of {len(scores)} scores{basis} "
-        "are probabilities in 0..1: fix the line, or choose the rule (--scores probability|raw)",
-        path, linenos[bad])
+def probability_scale(seq: DetectionSequence) -> DetectionSequence:
+    """The sequence with its scores as a caller of a probability-scale tracker (SORT, ByteTrack,
+    OC-SORT: refimpl.experiments.peers) puts them, times 100: probabilities as they are (every score
+    in 0..1), logits (some score negative: KITTI's PointRCNN) through a sigmoid, any other scale
+    (ACF's 0..139) by its rank."""
+    scores = np.concatenate([f.scores for f in seq.frames]) if seq.frames else np.zeros(0)
+    if len(scores) and ((scores >= 0.0) & (scores <= 1.0)).all():
+        rule = "probability"
+    elif len(scores) and (scores < 0.0).any():
+        rule = "sigmoid"
+    else:
+        rule = RANK
+    from dataclasses import replace
+    seq = replace(seq, frames=tuple(replace(f, confidences=scale_confidences(seq.name, (), f.scores, rule))
+                                    for f in seq.frames))
+    return calibrated(seq, rule)
 
 
-def _mot_scale(path, linenos: Sequence[int], scores: np.ndarray, rule: str, hint: str = "") -> np.ndarray:
-    """The 0..100 confidences of MOTChallenge scores read as numbers (``probability`` or ``raw``);
-    ``hint`` ends the message of a score that is not a probability."""
+def scale_confidences(path, linenos: Sequence[int], scores: np.ndarray, rule: str, hint: str = "") -> np.ndarray:
+    """The 0..100 confidences of scores on a fixed scale (``probability``, ``sigmoid``, ``raw``);
+    zeros for an online rule (filled in frame by frame).  ``hint`` ends the message of a score that
+    is not a probability."""
+    if rule in ONLINE_RULES:
+        return np.zeros(len(scores), dtype=np.int64)
     if rule == "probability":
         bad = _first_bad(~((scores >= 0.0) & (scores <= 1.0)))
         if bad is not None:
-            raise InputFormatError(f"score {scores[bad]:g} is not a probability in 0..1{hint}", path, linenos[bad])
+            raise InputFormatError(f"score {scores[bad]:g} is not a probability in 0..1{hint} "
+                                   "(--scores auto reads any scale)", path, linenos[bad])
         return _round_half_up(100.0 * scores)
-    return _round_half_up(np.clip(scores, 0.0, 100.0))  # clip first: huge scores overflow int64
+    if rule == "sigmoid":
+        return _sigmoid(scores)
+    return _round_half_up(np.clip(scores, 0.0, 100.0))  # raw; clip first: huge scores overflow int64
 
 
-def _kitti_sigmoid(scores: np.ndarray) -> np.ndarray:
-    """KITTI's logits as 0..100 confidences: round(100 * sigmoid(score)), overflow-free."""
+def _sigmoid(scores: np.ndarray) -> np.ndarray:
+    """Logits as 0..100 confidences: round(100 * sigmoid(score)), overflow-free."""
     return _round_half_up(100.0 * 0.5 * (1.0 + np.tanh(0.5 * scores)))
 
 
@@ -206,9 +219,8 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     a, linenos = _read_table(path, *MOT_DET_TABLE)
     info = _resolve_seqinfo(seqinfo, path)
     rows = _mot_rows(path, linenos, a, info)
-    rule = _mot_rule(path, linenos, rows.scores, scores_rule)
-    ranked = rule == RANK
-    conf = np.zeros(len(rows.scores), dtype=np.int64) if ranked else _mot_scale(path, linenos, rows.scores, rule)
+    rule = resolve_rule(scores_rule)
+    conf = scale_confidences(path, linenos, rows.scores, rule)
     count = int(info["seqLength"]) if info is not None else int(rows.frames.max())
     seq = DetectionSequence(
         name=_mot_sequence_name(path, info),
@@ -217,7 +229,7 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
         image_size=(int(info["imWidth"]), int(info["imHeight"])) if info is not None else None,
         fps=float(info["frameRate"]) if info is not None else None,
     )
-    return _ranked(seq) if ranked else seq
+    return calibrated(seq, rule)
 
 
 def _kitti_rows(path, linenos: Sequence[int], a: np.ndarray, otype: str, num_frames: int | None,
@@ -281,7 +293,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     otype = _object_type(object_class, path)
     if on_degenerate not in ("drop", "error"):
         raise ValueError("on_degenerate must be 'drop' or 'error'")
-    _check_rule(scores_rule, (RANK, "auto", "sigmoid"))
+    rule = resolve_rule(scores_rule)
     a, linenos = _read_table(path, *KITTI_DET_TABLE)
     if num_frames is None:
         label = path.parent.parent.parent / "label_02" / path.name
@@ -296,11 +308,12 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
         num_frames = int(a[:, 0].max()) + 1  # every row's frame (any class), integral and checked
     seq = DetectionSequence(
         name=path.stem,
-        frames=_build_frames(rows.frames, rows.boxes, rows.scores, _kitti_sigmoid(rows.scores),
+        frames=_build_frames(rows.frames, rows.boxes, rows.scores,
+                             scale_confidences(path, rows.linenos, rows.scores, rule),
                              [otype] * len(rows.scores), 0, num_frames),
         first_frame=0,
         image_size=KITTI_IMAGE_SIZE,
         fps=KITTI_FPS,
         dropped=rows.dropped,
     )
-    return _ranked(seq) if scores_rule == RANK else seq
+    return calibrated(seq, rule)

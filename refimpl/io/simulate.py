@@ -51,6 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .detections import DEFAULT_SCORE_RULE, calibrated, resolve_rule
 from . import DetectionFrame, DetectionSequence, GroundTruth, InputFormatError, read_mot_ground_truth, read_seqinfo
 
 MOT17_TRAIN = ("MOT17-02", "MOT17-04", "MOT17-05", "MOT17-09", "MOT17-10", "MOT17-11", "MOT17-13")
@@ -278,7 +279,8 @@ def simulated_benchmark_sequences(benchmark: SimulatedBenchmark, data_root: str 
 
     Names are the plain sequence names ('MOT17-02'); the detections are named
     'MOT17-02 (simulated dets, seed 0)'.  Every sequence uses default_rng(seed), so one sequence
-    is reproduced by simulate_detections(gt, seed) with the seqinfo's image size.  A missing
+    is reproduced by simulate_detections(gt, seed) with the seqinfo's image size, its confidences
+    then computed by the default score rule, as a file of these rows would be read.  A missing
     file raises io.InputFormatError naming it; ``name`` (the dataset's) is what a message calls it.
     """
     root = Path(data_root)
@@ -294,5 +296,6 @@ def simulated_benchmark_sequences(benchmark: SimulatedBenchmark, data_root: str 
         dets = simulate_detections(gt, seed=seed, params=params,
                                    image_size=(int(info["imWidth"]), int(info["imHeight"])),
                                    fps=float(info["frameRate"]), name=seq_name)
-        out.append((seq_name, dets, gt))
+        # confidences as a file of these rows gets them by default (--scores auto: refimpl.core.confidence)
+        out.append((seq_name, calibrated(dets, resolve_rule(DEFAULT_SCORE_RULE)), gt))
     return out

@@ -5,7 +5,7 @@ A :class:`DetectionStream` yields the same DetectionFrames as the file readers o
 :mod:`.detections` give for the same text (each line goes through the same row checks,
 ``_mot_rows`` / ``_kitti_rows``, and each frame through the same confidence rule), one frame at a
 time: a frame is complete when a line of a later frame arrives, or at the end of the stream.  Its
-memory is one frame's rows, plus one float per detection under the rank rule (its state is every
+memory is one frame's rows, plus two floats per detection under an online rule (evidence, rank: their state is every
 score seen so far) and the line numbers of dropped KITTI boxes (a handful per sequence).
 
 What differs from a file, because a stream cannot be read twice:
@@ -16,9 +16,6 @@ What differs from a file, because a stream cannot be read twice:
   before the first row or between two rows are empty frames; the stream ends at its last row's
   frame (MOTChallenge: at seqLength of a given seqinfo.ini).  There is no side file: the image
   size and frame rate come from ``seqinfo`` (MOTChallenge) or the format (KITTI), or ``image_size``;
-* ``auto`` for MOTChallenge scores is decided from the first frame's scores (a file decides from
-  all of them): all in 0..1 reads probabilities, and a later score outside 0..1 is an error
-  suggesting ``--scores rank``; mostly outside 0..1 ranks them (with the file's warning);
 * KITTI's dropped degenerate boxes are warned about once, at the end, as the file reader does.
 """
 
@@ -29,9 +26,9 @@ from typing import IO, Callable, Iterator, Sequence
 
 import numpy as np
 
-from ..core.confidence import RANK, OnlineRank
+from ..core.confidence import online_rule
 from .detections import (DEFAULT_SCORE_RULE, KITTI_DET_TABLE, KITTI_FPS, KITTI_IMAGE_SIZE, MOT_DET_TABLE,
-                         DetectionFrame, _check_rule, _kitti_rows, _kitti_sigmoid, _mot_rows, _mot_rule, _mot_scale,
+                         DetectionFrame, _kitti_rows, _mot_rows, resolve_rule, scale_confidences,
                          _Rows, _warn_dropped)
 from .errors import InputFormatError
 from .lines import _data_lines, _line_numbers, _object_type
@@ -42,25 +39,22 @@ STDIN_NAME = "<stdin>"
 
 
 class _Scores:
-    """A confidence rule applied frame by frame, in order (the rank rule keeps its state here)."""
+    """A confidence rule applied frame by frame, in order (an online rule keeps its state here;
+    empty frames go through it too, as in a file)."""
 
-    def __init__(self, path: str, rule: str, mot: bool):
-        self.path, self.rule, self.mot = path, rule, mot
-        self.decided = False  # auto decided from the first frame (MOTChallenge)
-        self.ranker = OnlineRank() if rule == RANK else None
+    def __init__(self, path: str, rule: str):
+        self.path, self.rule = path, resolve_rule(rule)
+        self.state = online_rule(self.rule)
 
-    def __call__(self, linenos: Sequence[int], scores: np.ndarray) -> np.ndarray:
-        if self.mot and self.rule == "auto":
-            self.rule = _mot_rule(self.path, linenos, scores, "auto", basis=" (the first frame's)")
-            self.decided = True
-            self.ranker = OnlineRank() if self.rule == RANK else None
-        if self.ranker is not None:
-            return self.ranker.confidences(scores)
-        if not self.mot:
-            return _kitti_sigmoid(scores)
-        hint = (": a stream decides --scores auto from its first frame, whose scores all were; give "
-                "--scores rank (any detector's scale) or --scores raw (0..100)") if self.decided else ""
-        return _mot_scale(self.path, linenos, scores, self.rule, hint)
+    def __call__(self, linenos: Sequence[int], boxes: np.ndarray, scores: np.ndarray,
+                 types: tuple[str, ...]) -> np.ndarray:
+        if self.state is not None:
+            return self.state.confidences(boxes, scores, types)
+        return scale_confidences(self.path, linenos, scores, self.rule)
+
+    def empty(self) -> None:
+        if self.state is not None:
+            self.state.confidences(np.zeros((0, 4)), np.zeros(0), ())
 
 
 class DetectionStream:
@@ -115,6 +109,7 @@ class DetectionStream:
 
     def _blank(self, number: int) -> DetectionFrame:
         self.num_frames += 1
+        self._scores.empty()
         return DetectionFrame(number, np.zeros((0, 4)), np.zeros(0), np.zeros(0, dtype=np.int64), ())
 
     def _frame(self, number: int, block: list[tuple[int, np.ndarray]]) -> DetectionFrame:
@@ -124,7 +119,7 @@ class DetectionStream:
         self.dropped.extend(kept.dropped)
         if not len(kept.scores):  # KITTI: every row of another class, or dropped
             return self._blank(number)
-        conf = self._scores(kept.linenos, kept.scores)
+        conf = self._scores(kept.linenos, np.array(kept.boxes), kept.scores, (self._type,) * len(kept.scores))
         self.num_frames += 1
         self.num_detections += len(conf)
         lo, hi = int(conf.min()), int(conf.max())
@@ -141,11 +136,10 @@ def stream_mot_detections(fh: IO[str], seqinfo=None, object_type: str = "pedestr
     path or dict (the sequence's name, frame rate, image size and length), else none is known;
     ``image_size`` overrides its size."""
     otype = _object_type(object_type, path)
-    _check_rule(scores_rule, (RANK, "auto", "probability", "raw"))
     info = _resolve_seqinfo(seqinfo, Path(path)) if seqinfo is not None else None
     size = (int(info["imWidth"]), int(info["imHeight"])) if info is not None else None
     return DetectionStream(fh, path, MOT_DET_TABLE, lambda linenos, a: _mot_rows(path, linenos, a, info),
-                           _Scores(path, scores_rule, mot=True), otype, 1,
+                           _Scores(path, scores_rule), otype, 1,
                            int(info["seqLength"]) if info is not None else None,
                            str(info["name"]) if info is not None else path, image_size or size,
                            float(info["frameRate"]) if info is not None else None)
@@ -158,8 +152,7 @@ def stream_kitti_detections(fh: IO[str], object_class: str, scores_rule: str = D
     otype = _object_type(object_class, path)
     if on_degenerate not in ("drop", "error"):
         raise ValueError("on_degenerate must be 'drop' or 'error'")
-    _check_rule(scores_rule, (RANK, "auto", "sigmoid"))
     return DetectionStream(fh, path, KITTI_DET_TABLE,
                            lambda linenos, a: _kitti_rows(path, linenos, a, otype, None, on_degenerate),
-                           _Scores(path, scores_rule, mot=False), otype, 0, None, path,
+                           _Scores(path, scores_rule), otype, 0, None, path,
                            image_size or KITTI_IMAGE_SIZE, KITTI_FPS)

@@ -181,5 +181,6 @@ def score_warning(preset: Preset | None, seq, constants: Mapping[str, int]) -> s
     need = dict(default_constants(), **dict(constants))["conf_thresh_new_track"]
     return (f"{seq.name}: {100 * share:.1f} % of its detections pass conf_thresh_new_track {need}, against "
             f"{100 * preset.startable:.1f} % on {preset.tuned_on}, where preset {preset.name} was fitted: its scores "
-            f"may be on another scale (--scores rank ranks them; --scores says how they were read)")
+            f"may be on another scale (--scores auto, the default, reads any scale by the evidence rule; "
+            f"--scores says how they were read)")
 
