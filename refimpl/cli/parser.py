@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from .. import __version__
 from ..evaluation import DEVKITS
 from ..experiments.peer_table import PEERS
 from ..experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
@@ -12,7 +13,7 @@ from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RU
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
-                     TRACKERS, _parse_const, _parse_img_size, _time_limit)
+                     TRACKERS, _parse_const, _parse_fps, _parse_img_size, _time_limit)
 
 
 _SEEN = "_refimpl_options_seen"
@@ -200,6 +201,10 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
     t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
                    help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
                         "1242,375 for KITTI, unknown otherwise)")
+    t.add_argument("--fps", type=_parse_fps, metavar="FPS",
+                   help="frames per second of the video, a number above 0: bounds a halt at 10 s of frames "
+                        "(lost_after_hidden_max; default: seqinfo.ini's frameRate, 10 for KITTI, unknown "
+                        "otherwise: the model's bound in frames)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
@@ -497,6 +502,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
                     "and an equivalent CP-SAT model.")
+    p.add_argument("--version", action="version", version=f"refimpl {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for add in _COMMANDS:
