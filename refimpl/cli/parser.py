@@ -9,7 +9,7 @@ from .. import __version__
 from ..evaluation import DEVKITS
 from ..experiments.peer_table import PEERS
 from ..experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
-from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
+from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES, shipped_examples
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
@@ -161,7 +161,11 @@ def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
 
 def _add_solve(sub: "argparse._SubParsersAction") -> None:
     s = sub.add_parser("solve", help="abduce the best hypothesis for one frame problem (fact file)")
-    s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
+    s.add_argument("file", nargs="?", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, "
+                                           "iou/3, ...)")
+    s.add_argument("--example", choices=sorted(shipped_examples()), metavar="NAME",
+                   help="instead of FILE, a frame the package ships (data/examples/NAME.lp, the paper's fully listed "
+                        f"frames; found in the checkout or the installed package): {', '.join(sorted(shipped_examples()))}")
     s.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")

@@ -21,6 +21,10 @@ from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
+    if (args.file is None) == (args.example is None):
+        raise UserError(f"give either a fact FILE or --example NAME ({', '.join(sorted(io.shipped_examples()))})")
+    if args.example is not None:
+        args.file = str(io.shipped_examples()[args.example])
     problem = read_problem(args.file)
     if args.const:
         for name, value in args.const:

@@ -116,8 +116,8 @@ from .formats import (FORMAT_NAMES, FORMATS, KITTI, MOT, RESULT_FORMATS, DataFor
                       results_formatter, write_results)
 from .classes import COCO_CLASS_TYPES, COCO_NAMES, class_id_type, class_type
 from .catalogue import (KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_ACF, MOT15_SORT6, MOT15_TRAIN, Benchmark,
-                        BenchmarkSequence, benchmark_files, demo_sequence_paths, kitti_val_sequences, load_detections,
-                        load_ground_truth)
+                        BenchmarkSequence, benchmark_files, bundled_data_dirs, demo_sequence_paths, kitti_val_sequences,
+                        load_detections, load_ground_truth, shipped_examples)
 
 __all__ = [
     "InputFormatError", "InputFormatWarning",
@@ -134,5 +134,6 @@ __all__ = [
     "write_results", "write_text_atomic",
     "FORMAT_NAMES", "FORMATS", "KITTI", "MOT", "DataFormat", "get_format",
     "KITTI_TRAIN", "KITTI_VAL_SEQMAP", "MOT15_ACF", "MOT15_SORT6", "MOT15_TRAIN", "Benchmark", "BenchmarkSequence",
-    "benchmark_files", "demo_sequence_paths", "kitti_val_sequences", "load_detections", "load_ground_truth",
+    "benchmark_files", "bundled_data_dirs", "demo_sequence_paths", "kitti_val_sequences", "load_detections",
+    "load_ground_truth", "shipped_examples",
 ]

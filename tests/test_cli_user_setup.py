@@ -1,8 +1,11 @@
-"""`refimpl --version` and `track --fps` (issue 36): the frame rate of a video whose file does not
-say it, for every format and for a pipe; a rate that is no frame rate ends in one error line, exit 2."""
+"""What a user setting refimpl up meets on the command line (issue 36): `refimpl --version`;
+`track --fps`, the frame rate of a video whose file does not say it, for every format and for a
+pipe (a rate that is no frame rate ends in one error line, exit 2); `solve --example NAME`, a
+frame the package ships, from any folder."""
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
@@ -78,3 +81,22 @@ def test_baseline_refuses_fps(capsys):
     assert main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--backend", "baseline", "--fps", "25",
                  "--out", "unused.txt"]) == 2
     assert "--fps" in capsys.readouterr().err
+
+
+def test_solve_example_names_a_shipped_frame_from_any_folder(tmp_path, monkeypatch, capsys):
+    assert main(["solve", str(REPO / "data" / "examples" / "bus_t235.lp"), "--json"]) == 0
+    by_path = json.loads(capsys.readouterr().out)
+    monkeypatch.chdir(tmp_path)  # an empty folder: data/examples/ is not here
+    assert main(["solve", "--example", "bus_t235", "--json"]) == 0
+    by_name = json.loads(capsys.readouterr().out)
+    by_path.pop("solve_ms"), by_name.pop("solve_ms")
+    assert by_name == by_path and "halt(trk_13)" in by_name["actions"]
+
+
+@pytest.mark.parametrize("argv", [[], ["x.lp", "--example", "bus_t235"]])
+def test_solve_takes_a_file_or_an_example(argv, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["solve", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == ("refimpl solve: error: give either a fact FILE or --example NAME "
+                   "(bus_t235, bus_t268, kitti_0020_t79, resume_t20)")
