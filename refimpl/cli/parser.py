@@ -454,6 +454,17 @@ def _add_report(sub: "argparse._SubParsersAction") -> None:
     rp.add_argument("--frame", type=int, help="the frame shown first (default: the one with the most hidden tracks)")
 
 
+def _add_render(sub: "argparse._SubParsersAction") -> None:
+    r = sub.add_parser("render", help="draw a scene on your frames: every track's box, id and state and the "
+                                      "frame's abduced events, as images and a video (supervision's annotators)")
+    r.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    r.add_argument("--images", required=True, metavar="DIR",
+                   help="the sequence's frames, image files in name order, the first being the scene's first frame")
+    r.add_argument("--out", required=True, metavar="DIR", help="a new (or empty) folder for one NNNNNN.png per frame")
+    r.add_argument("--video", metavar="FILE.mp4|FILE.gif", help="also the frames as a video (PyAV)")
+    r.add_argument("--fps", type=_parse_fps, metavar="FPS", help="the video's frame rate (default: the scene's, else 10)")
+
+
 _COMMANDS = (
     _add_solve,
     _add_track,
@@ -472,6 +483,7 @@ _COMMANDS = (
     _add_explain,
     _add_plot,
     _add_report,
+    _add_render,
 )
 """One function per command, each adding its subparser with its options (the function that runs
 it is named in COMMANDS); the order of ``refimpl --help``."""
@@ -494,6 +506,7 @@ COMMANDS: dict[str, str] = {
     "explain": "refimpl.cli.scenes:cmd_explain",
     "plot": "refimpl.cli.scenes:cmd_plot",
     "report": "refimpl.cli.scenes:cmd_report",
+    "render": "refimpl.cli.scenes:cmd_render",
 }
 """The command table: command name -> the function that runs it, as ``"module:function"`` (it takes
 the parsed arguments and returns the exit code).  ``main`` loads the function of the command given,
