@@ -1,25 +1,47 @@
 """The library interface in the shape trackers are used in: ``Tracker(...).update(dets) -> tracks``.
 
-One call per frame: detections in as an (N, 5) array ``x1, y1, x2, y2, score``, tracks out as an (M, 5) array ``x1, y1, x2, y2, track_id``.  Behind it is the paper's
-Algorithm 1 (refimpl.tracking.tracker.AbductionTracker), so the rows returned for a frame are exactly
-the rows ``refimpl track`` writes for that frame, with one documented exception: the boxes
-``refimpl track`` interpolates inside a *bridged* gap (a confirmed track resumed after at most
-``bridge_gap`` hidden frames) are only known once the track resumes, so an online caller never
-gets them, nor (with the tracker options ``backfill`` and ``fill_hidden``) the earlier frames a
-confirmation writes and the filled frames of an occlusion episode;
-``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has them after
-the fact.
+One call per frame, in the shapes of the ecosystem:
+
+* an (N, 5) array ``x1, y1, x2, y2, score`` -> (M, 5) rows ``x1, y1, x2, y2, track_id`` (SORT,
+  ByteTrack);
+* an (N, 6) array ``x1, y1, x2, y2, score, class_id`` and optionally the frame's image,
+  ``update(dets, img)`` (BoxMOT's call) -> (M, 6) rows ``x1, y1, x2, y2, track_id, class_id``, the
+  class id each track's detection came with;
+* a ``supervision.Detections`` (roboflow ``trackers``' ``update(detections)``) -> the same
+  detections with ``tracker_id`` set (-1: no reported track) and their own ``class_id``.
+
+Behind it is the paper's Algorithm 1 (refimpl.tracking.tracker.AbductionTracker), so the rows
+returned for a frame are exactly the rows ``refimpl track`` writes for that frame, with one
+documented exception: the boxes ``refimpl track`` interpolates inside a *bridged* gap (a confirmed
+track resumed after at most ``bridge_gap`` hidden frames) are only known once the track resumes,
+so an online caller never gets them, nor (with the tracker options ``backfill`` and
+``fill_hidden``) the earlier frames a confirmation writes and the filled frames of an occlusion
+episode; ``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has
+them after the fact.
+
+Class ids are object types by ``class_types`` (default COCO's 80 classes, refimpl.io.classes):
+0 person and 1 bicycle are the model's pedestrian and cyclist, 2 car, and every other class is a
+type of its own (a bus is tracked as ``bus``, never in one track with a car); an id the map does
+not name is the type ``class_<id>``.
 
 Scores map to the model's integer confidences 0..100 as the file readers map them: by default by
 the evidence rule (refimpl.core.confidence: calibrated, without labels, on how persistent the
 detections of each score have been so far; any detector, any scale), or on a fixed scale
 (``scores="probability"``, ``"sigmoid"``, ``"raw"``), or by rank.  The preset is chosen as ``refimpl track``
 chooses it (refimpl.tracking.pipeline.setup_for): ``Tracker(format="kitti", object_type="car")`` runs the
-KITTI Car preset, ``preset="none"`` none.
+KITTI Car preset, ``preset="none"`` none; KITTI's presets are per class, so ``format="kitti"``
+without ``object_type`` is refused (as ``track --format kitti`` without ``--class``).
+
+A box of zero width or height (below MIN_DET_SIZE, 0.01 px: a detector's box clipped at the image
+border) is dropped with a warning, as the KITTI reader drops it; a negative width or height
+(x2 < x1: boxes in another layout) is an error, as in both readers.
 """
 
 from __future__ import annotations
 
+import logging
+import math
+import warnings
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -28,8 +50,9 @@ from numpy.typing import ArrayLike
 from .core.confidence import online_rule
 from .core.constants import default_constants
 from .core.spec import HistoryEvent, track_number
-from .io import (DetectionFrame, DetectionSequence, FORMAT_NAMES, KITTI, KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD,
-                 MIN_DET_SIZE, OBJECT_TYPES, SCORE_RULES, InputFormatError, get_format)
+from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMAT_NAMES, InputFormatWarning, KITTI,
+                 KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type,
+                 SCORE_RULES, get_format)
 from .io.detections import resolve_rule, scale_confidences
 from .scene import Scene, scene_from_result
 from .solvers import BACKENDS, DEFAULT_BACKEND
@@ -38,8 +61,10 @@ from .tracking.pipeline import AUTO, new_tracker, setup_for
 from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
 
 API_SCORE_RULES = SCORE_RULES  # the readers' rules: the same on every format
-DEFAULT_CLASS_TYPES = {0: "pedestrian", 1: "cyclist", 2: "car"}
-"""COCO's class ids (what YOLO-family detectors and supervision use): person, bicycle, car."""
+DEFAULT_CLASS_TYPES = COCO_CLASS_TYPES
+"""COCO's class ids (what YOLO-family detectors, supervision and BoxMOT use): 0 person (pedestrian),
+1 bicycle (cyclist), 2 car, and the other 77 classes each as a type of its own (refimpl.io.classes)."""
+LOG = logging.getLogger("refimpl")
 
 __all__ = ["Tracker", "confidences_from_scores"]
 
@@ -63,34 +88,42 @@ class Tracker:
         KITTI's image size and frame rate when ``img_size`` / ``fps`` are not given) and, with
         ``object_type``, which preset applies.
     preset: "auto" (default: the preset of (format, object_type) by the same rule as
-        ``refimpl track``, refimpl.tracking.pipeline.setup_for), "none" (model/constants.lp and the default
-        tracker options, as ``--no-preset``), or a preset's name ("kitti/car", "default").
-        ``tracker.setup`` says what was chosen.
+        ``refimpl track``, refimpl.tracking.pipeline.setup_for: its own, else the robust
+        "default"), "none" (model/constants.lp and the default tracker options, as
+        ``--no-preset``), or a preset's name ("kitti/car", "default").  ``tracker.setup`` says
+        what was chosen (``tracker.setup.describe()``, also logged at INFO on the "refimpl" logger).
     constants: model constant overrides (names of model/constants.lp), e.g. {"iou_thresh": 20000},
         on top of the preset.
     img_size: (width, height) of the images in pixels; sets img_width / img_height (the
-        field-of-view border).  Without it the border is not tested (KITTI: 1242 x 375), as for a
-        det.txt without seqinfo.ini.
+        field-of-view border).  Without it the first frame's image (``update(dets, img)``) gives
+        it; without either the border is not tested, as for a det.txt without seqinfo.ini
+        (format "kitti": 1242 x 375 until an image says otherwise).
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracking.tracker.track_sequence``.
     **options: tracker option overrides by name (refimpl.tracking.options.TRACKER_OPTIONS), e.g.
         ``written_box="detection"``, on top of the preset.
     scores: how a score becomes the model's confidence, as the file readers do it (refimpl.io.SCORE_RULES,
         the same on every format): "auto" (default) is "evidence" (refimpl.core.confidence), or
         "rank", "probability" (scores in 0..1, times 100), "sigmoid" (logits), "raw" (0..100).
-    object_type: the type of detections when ``update`` gets no ``classes`` (refimpl.io.OBJECT_TYPES).
-    class_types: integer class id -> object type, for (N, 6) arrays and ``supervision.Detections``
-        (default DEFAULT_CLASS_TYPES: COCO's 0 person, 1 bicycle, 2 car).  Detections whose types
-        differ never share a track (the model's type match, refimpl/model.md 3.2).
+    object_type: the class of the detections when ``update`` gets no classes (any class name:
+        "car", "Pedestrian", "person", "bus"; refimpl.io.class_type), and with ``format`` the
+        preset.  Default: "pedestrian" for format "mot" (MOTChallenge's class, as ``refimpl
+        track`` reads a det.txt); format "kitti" needs it (its presets are per class).
+    class_types: integer class id -> class name, for (N, 6) arrays and ``supervision.Detections``
+        (default DEFAULT_CLASS_TYPES: COCO's 80).  Detections whose types differ never share a
+        track (the model's type match, docs/model.md 3.2); an id without an entry is a type of
+        its own, ``class_<id>``.
     first_frame: the number of the first frame (default: 1 for MOTChallenge, 0 for KITTI).
-    name, fps: carried into ``scene()``; fps also sets the safety bound on halts (as for a file
-        whose seqinfo.ini gives its frame rate; KITTI: 10).
+    name: carried into ``scene()``.
+    fps: the frame rate, a finite number > 0 (default: none for "mot", as a det.txt without
+        seqinfo.ini; 10 for "kitti"): the safety bound on halts (lost_after_hidden_max, 10 s of
+        frames), as a seqinfo.ini's frameRate or ``refimpl track --fps``.
     """
 
     def __init__(self, backend: str = DEFAULT_BACKEND, *, format: str = "mot", preset: str | None = AUTO,
                  constants: Mapping[str, int] | None = None, img_size: tuple[int, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, bridge_gap: int = DEFAULT_BRIDGE_GAP,
                  bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
-                 object_type: str = "pedestrian", first_frame: int | None = None, name: str = "sequence",
+                 object_type: str | None = None, first_frame: int | None = None, name: str = "sequence",
                  fps: float | None = None, scores: str = "auto",
                  class_types: Mapping[int, str] | None = None, **options: object) -> None:
         if backend not in BACKENDS:
@@ -98,19 +131,23 @@ class Tracker:
         if format not in FORMAT_NAMES:
             raise ValueError(f"format must be one of {', '.join(FORMAT_NAMES)}, got {format!r}")
         resolve_rule(scores)  # ValueError naming the rules
-        self.object_type = self._type(object_type, "object_type")
-        self.class_types = {int(k): self._type(v, f"class_types[{k}]")
-                            for k, v in (DEFAULT_CLASS_TYPES if class_types is None else class_types).items()}
+        fmt = get_format(format)
+        if object_type is None and fmt.needs_class:
+            raise ValueError(f"format={format!r} needs object_type= ({', '.join(map(repr, OBJECT_TYPES))} or any "
+                             f"class name): its presets are per class, as `refimpl track --format {format}` needs "
+                             "--class")
+        self.object_type = self._type("pedestrian" if object_type is None else object_type, "object_type")
+        self.class_types = self._class_types(class_types)
         """Integer class id (column 6 of an (N, 6) array, ``Detections.class_id``) -> object type."""
         overrides = self._constants(constants)
-        if img_size is not None:
-            img_size = self._img_size(img_size)
-        elif format == KITTI:
-            img_size = KITTI_IMAGE_SIZE
+        self._given_size = None if img_size is None else self._img_size(img_size)
+        self._format_size = KITTI_IMAGE_SIZE if format == KITTI else None
         if fps is None and format == KITTI:
             fps = KITTI_FPS
+        if fps is not None:
+            fps = self._fps(fps)
         if first_frame is None:
-            first_frame = get_format(format).first_frame
+            first_frame = fmt.first_frame
         for label, value in (("min_hits", min_hits), ("bridge_gap", bridge_gap), ("bridge_conf", bridge_conf),
                              ("first_frame", first_frame)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
@@ -120,21 +157,29 @@ class Tracker:
         TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
         self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit)
         """What this tracker runs with (refimpl.tracking.pipeline.Setup): backend, constants, options, preset."""
+        LOG.info("refimpl.Tracker: %s", self.setup.describe())
         self.backend = backend
-        self.name, self.fps, self.image_size = name, fps, img_size
+        self.name, self.fps = name, fps
         self.first_frame = int(first_frame)
         self.scores = resolve_rule(scores)
-        """The score rule in use, as the file readers resolve it (``auto`` is ``evidence``)."""
+        """The score rule in use: ``auto`` is the format's own scale, as the file readers read it."""
         self._params = (int(min_hits), int(bridge_gap), int(bridge_conf))
         self.reset()
 
     def reset(self) -> None:
-        """Start a new sequence: forget every track, event and score seen (the same results as a
-        fresh Tracker with the same arguments)."""
+        """Start a new sequence: forget every track, event and score seen, and an image size learnt
+        from the last video's images (the same results as a fresh Tracker with the same arguments)."""
+        self.image_size = self._given_size or self._format_size
+        """(width, height) the field-of-view border is tested with (None: not tested)."""
         self._tracker = new_tracker(self.setup, self.image_size, self.fps, *self._params)
         self._rule = online_rule(self.scores)
         self._frames: list[DetectionFrame] = []
         self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
+        self._class_of: dict[int, int] = {}  # track number -> the class id of its latest detection
+        self._size_warned = False
+
+    def __repr__(self) -> str:
+        return f"refimpl.Tracker({self.setup.describe()}, image size {self.image_size}, fps {self.fps})"
 
     # -- validation --------------------------------------------------------------------------
     @staticmethod
@@ -160,14 +205,34 @@ class Tracker:
         return int(w), int(h)
 
     @staticmethod
-    def _type(name: object, what: str) -> str:
-        key = str(name).strip().lower()
-        if key not in OBJECT_TYPES:
-            raise ValueError(f"{what}: unknown object class {name!r} (known: {', '.join(OBJECT_TYPES)})")
-        return key
+    def _fps(fps: object) -> float:
+        ok = not isinstance(fps, bool) and isinstance(fps, (int, float, np.integer, np.floating))
+        if not ok or not math.isfinite(fps) or not fps > 0:
+            raise ValueError(f"fps must be a finite number of frames per second above 0, got {fps!r}")
+        return float(fps)
 
-    def _check(self, dets: ArrayLike,
-               classes: Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    @staticmethod
+    def _type(name: object, what: str) -> str:
+        try:
+            return class_type(name)
+        except ValueError as exc:
+            raise ValueError(f"{what}: {exc}") from None
+
+    def _class_types(self, class_types: Mapping[int, str] | None) -> dict[int, str]:
+        if class_types is None:
+            return dict(DEFAULT_CLASS_TYPES)
+        if not isinstance(class_types, Mapping):
+            raise ValueError(f"class_types must map integer class ids to class names, got {class_types!r}")
+        out = {}
+        for k, v in class_types.items():
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
+                raise ValueError(f"class_types: class id {k!r} is not a non-negative integer")
+            out[int(k)] = self._type(v, f"class_types[{k}]")
+        return out
+
+    def _check(self, dets: ArrayLike, classes: Sequence[str] | None):
+        """The detections to track: (boxes xywh, scores, types, class ids or None, rows kept), the
+        rows of degenerate boxes left out (``dropped``, their row numbers)."""
         try:
             a = np.asarray(dets, dtype=float)
         except (TypeError, ValueError):
@@ -177,10 +242,12 @@ class Tracker:
         if a.ndim != 2 or a.shape[1] not in (5, 6):
             raise ValueError(f"dets must be an (N, 5) array x1,y1,x2,y2,score or (N, 6) "
                              f"x1,y1,x2,y2,score,class_id; got shape {a.shape}")
+        ids = None
         if a.shape[1] == 6:
             if classes is not None:
                 raise ValueError("an (N, 6) array carries its classes in column 6: give no classes= too")
-            classes = self._class_names(a[:, 5])
+            ids = self._class_ids(a[:, 5])
+            classes = [class_id_type(c, self.class_types) for c in ids]
             a = a[:, :5]
         bad = ~np.isfinite(a).all(axis=1)
         if bad.any():
@@ -192,14 +259,14 @@ class Tracker:
         bad = ((scores < 0.0) | (scores > 1.0)) if self.scores == "probability" else np.zeros(len(a), bool)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"dets row {k}: score {scores[k]:g} is outside 0..1 (scores=\"rank\" takes a "
-                             "detector's scores of any scale)")
+            raise ValueError(f"dets row {k}: score {scores[k]:g} is outside 0..1 (scores=\"auto\", the "
+                             "default, takes a detector's scores of any scale)")
         boxes = np.column_stack([a[:, 0], a[:, 1], a[:, 2] - a[:, 0], a[:, 3] - a[:, 1]])
-        bad = (boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE)
+        bad = (boxes[:, 2] < 0) | (boxes[:, 3] < 0)
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"dets row {k}: width {boxes[k, 2]:g} and height {boxes[k, 3]:g} must be >= "
-                             f"{MIN_DET_SIZE:g} px (x2 > x1, y2 > y1)")
+            raise ValueError(f"dets row {k}: x2 < x1 or y2 < y1 (width {boxes[k, 2]:g}, height {boxes[k, 3]:g}): "
+                             "boxes go in as x1, y1, x2, y2 with x2 > x1, y2 > y1")
         if classes is None:
             types = (self.object_type,) * len(a)
         else:
@@ -208,19 +275,43 @@ class Tracker:
                 raise ValueError(f"classes must be a sequence of one class per detection: {len(a)} detections, "
                                  f"got {n}")
             types = tuple(self._type(c, f"classes[{i}]") for i, c in enumerate(classes))
-        return boxes, scores, types
+        # zero width or height (a box clipped at the border): dropped, as the KITTI reader drops it
+        keep = np.flatnonzero((boxes[:, 2] >= MIN_DET_SIZE) & (boxes[:, 3] >= MIN_DET_SIZE))
+        dropped = sorted(set(range(len(a))) - set(keep.tolist()))
+        return (boxes[keep], scores[keep], tuple(types[i] for i in keep),
+                None if ids is None else [ids[i] for i in keep], keep, dropped)
 
-    def _class_names(self, ids) -> list[str]:
-        """Object types of integer class ids by ``class_types``; ValueError naming an unknown id."""
+    @staticmethod
+    def _class_ids(values) -> list[int]:
+        """The integer class ids of column 6; ValueError naming a row that holds none."""
         out = []
-        for k, v in enumerate(np.asarray(ids, dtype=float)):
-            if not np.isfinite(v) or v != int(v):
-                raise ValueError(f"dets row {k}: class id {v:g} is not an integer")
-            if int(v) not in self.class_types:
-                raise ValueError(f"dets row {k}: class id {int(v)} has no object type (class_types maps "
-                                 f"{', '.join(f'{c}: {t}' for c, t in sorted(self.class_types.items()))})")
-            out.append(self.class_types[int(v)])
+        for k, v in enumerate(np.asarray(values, dtype=float)):
+            if not np.isfinite(v) or v != int(v) or v < 0:
+                raise ValueError(f"dets row {k}: class id {v:g} is not a non-negative integer")
+            out.append(int(v))
         return out
+
+    def _image(self, img) -> None:
+        """The frame's image (BoxMOT's ``update(dets, img)``): on a video's first frame its size is
+        the image size unless ``img_size`` was given."""
+        shape = getattr(img, "shape", None)
+        if shape is None or len(shape) not in (2, 3) or shape[0] < 1 or shape[1] < 1:
+            raise ValueError("img must be the frame's image as an H x W x 3 array (BoxMOT's update(dets, img)); "
+                             "give classes by name as update(dets, classes=[...])")
+        size = (int(shape[1]), int(shape[0]))
+        if size == self.image_size:
+            return
+        if not self._frames and self._given_size is None:
+            self.image_size = size
+            self._tracker = new_tracker(self.setup, size, self.fps, *self._params)
+        elif not self._size_warned:
+            self._size_warned = True
+            if self.image_size is None:
+                had = "no image came with the first frame, so the field-of-view border is not tested"
+            else:
+                why = "img_size" if self._given_size is not None else "the first frame's image"
+                had = f"{why} gave {self.image_size[0]} x {self.image_size[1]}, which the border keeps"
+            warnings.warn(f"frame {self.frame}: the image is {size[0]} x {size[1]} but {had}", stacklevel=3)
 
     # -- tracking ----------------------------------------------------------------------------
     @property
@@ -228,35 +319,53 @@ class Tracker:
         """The number of the next frame ``update`` will process."""
         return self.first_frame + len(self._frames)
 
-    def update(self, dets, classes: Sequence[str] | None = None):
+    def update(self, dets, img=None, *, classes: Sequence[str] | None = None):
         """Track one frame.
 
         * an (N, 5) array x1, y1, x2, y2, score: the (M, 5) rows x1, y1, x2, y2, track_id reported
           for this frame, by track id;
         * an (N, 6) array x1, y1, x2, y2, score, class_id (BoxMOT's layout): (M, 6) rows with the
-          track's class id as column 6;
+          class id of each track's detection as column 6;
         * a ``supervision.Detections`` (extra ``supervision``): the same Detections with
           ``tracker_id`` set, as roboflow ``trackers`` returns them: the id of the track each
           detection was assigned to, resumed or started, where that track's row is reported this
-          frame; -1 otherwise.  ``class_id`` (if any) gives each detection's type by ``class_types``.
+          frame; -1 otherwise.  ``class_id`` (if any) gives each detection's type by
+          ``class_types`` and comes back as it came.
+
+        ``img``: the frame's image (H x W x 3 array; BoxMOT's ``update(dets, img)``), optional: the
+        first frame's gives the image size when ``img_size`` was not.  ``classes``: each
+        detection's class by name (with an (N, 5) array).  A box of zero width or height is left
+        out with a warning (the module doc).
         """
+        if img is not None:
+            self._image(img)
         if _is_detections(dets):
+            if classes is not None:
+                raise ValueError("Detections carry their classes in class_id: give no classes= too")
             return self._update_detections(dets)
         with_class = np.ndim(dets) == 2 and np.shape(dets)[1] == 6
         rows, _ = self._step(dets, classes)
         if not with_class:
             return rows
-        numbers = {t: c for c, t in self.class_types.items()}  # type -> its (first) class id
-        kinds = {track_number(trk.id): trk.type for trk in self._everyone()}
-        cls = np.array([numbers.get(kinds[int(n)], -1) for n in rows[:, 4]], dtype=float)
+        cls = np.array([self._class_of.get(int(n), -1) for n in rows[:, 4]], dtype=float)
         return np.column_stack([rows, cls]).reshape(-1, 6)
 
     def _step(self, dets, classes) -> tuple[np.ndarray, dict[int, str]]:
-        boxes, scores, types = self._check(dets, classes)
+        """Track one frame: its reported rows by track id, and {row of dets: track id} of the
+        detections assigned."""
+        boxes, scores, types, ids, kept, dropped = self._check(dets, classes)
         frame = self.frame
+        if dropped:
+            warnings.warn(f"frame {frame}: dropped {len(dropped)} detection(s) of zero width or height (below "
+                          f"{MIN_DET_SIZE:g} px), dets row(s) {', '.join(map(str, dropped))}", InputFormatWarning,
+                          stacklevel=3)
         conf = self._confidences(boxes, scores, types)
         self._tracker.step(frame, boxes, conf, types)
         self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
+        owners = {int(kept[j]): trk for j, trk in self._tracker.owners.items()}
+        if ids is not None:
+            for j, trk in self._tracker.owners.items():
+                self._class_of[track_number(trk)] = ids[j]
         rows = []
         for trk in self._everyone():
             if frame in trk.confirmed:
@@ -264,16 +373,13 @@ class Tracker:
                 rows.append((x, y, x + w, y + h, float(track_number(trk.id))))
         out = np.array(rows, dtype=float).reshape(-1, 5)
         self._reported.update((frame, int(n)) for n in out[:, 4])
-        return out[np.argsort(out[:, 4], kind="stable")], dict(self._tracker.owners)
+        return out[np.argsort(out[:, 4], kind="stable")], owners
 
     def _confidences(self, boxes: np.ndarray, scores: np.ndarray, types: tuple[str, ...]) -> np.ndarray:
         """The frame's confidences by the score rule, exactly as the file readers compute them."""
         if self._rule is not None:
             return self._rule.confidences(boxes, scores, types)
-        try:
-            return scale_confidences("update", range(len(scores)), scores, self.scores)
-        except InputFormatError as err:
-            raise ValueError(f"scores: {err.reason}") from None
+        return scale_confidences("update", range(len(scores)), scores, self.scores)  # scores checked above
 
     def _everyone(self):
         return list(self._tracker.tracks.values()) + self._tracker.finished
@@ -294,7 +400,7 @@ class Tracker:
             number = track_number(trk_id)
             if number in reported:
                 ids[j] = number
-        out = detections[np.arange(len(xyxy))] if len(xyxy) else detections
+        out = detections[np.arange(len(xyxy))]  # a copy, never the caller's object
         out.tracker_id = ids
         return out
 

@@ -125,17 +125,17 @@ def test_classes_name_the_type_in_any_case():
     ([[0, 0, 10, 10, 1.5]], None, "outside 0..1"),  # with scores="probability" (below)
     ([[0, 0, 10, 10, -0.1]], None, "outside 0..1"),
     ([[0, 0, 10, 10, 50]], None, "outside 0..1"),  # a 0..100 confidence, not a score
-    ([[10, 0, 10, 10, 0.5]], None, "x2 > x1"),
-    ([[0, 20, 10, 10, 0.5]], None, "x2 > x1"),
+    ([[12, 0, 10, 10, 0.5]], None, "x2 < x1 or y2 < y1"),  # a negative size: refused, as by both readers
+    ([[0, 20, 10, 10, 0.5]], None, "x2 < x1 or y2 < y1"),
     ([[0, 0, 10, 10, 0.5]], ["car", "car"], "1 detections, got 2 entries"),
     ([[0, 0, 10, 10, 0.5]], "car", "got a string"),
-    ([[0, 0, 10, 10, 0.5]], ["truck"], "unknown object class 'truck'"),
+    ([[0, 0, 10, 10, 0.5]], [" ? "], "has no letter or digit"),
     ("boxes", None, "numeric"),
 ])
 def test_bad_input_is_a_clear_error(dets, classes, message):
     t = refimpl.Tracker(scores="probability") if "0..1" in message else refimpl.Tracker()
     with pytest.raises(ValueError) as err:
-        t.update(dets, classes)
+        t.update(dets, classes=classes)
     assert message in str(err.value)
     assert t.frame == 1  # nothing consumed
 
@@ -147,7 +147,13 @@ def test_bad_input_is_a_clear_error(dets, classes, message):
     ({"img_size": (640,)}, "(width, height)"),
     ({"img_size": (640, 0)}, "positive integers"),
     ({"min_hits": -1}, "non-negative integer"),
-    ({"object_type": "Truck"}, "unknown object class"),
+    ({"object_type": "-"}, "object_type: class name '-' has no letter or digit"),
+    ({"format": "kitti"}, "format='kitti' needs object_type="),
+    ({"fps": -1}, "fps must be a finite number of frames per second above 0, got -1"),
+    ({"fps": float("inf")}, "fps must be a finite number"),
+    ({"fps": 0}, "fps must be a finite number"),
+    ({"fps": "25"}, "fps must be a finite number"),
+    ({"class_types": {-1: "car"}}, "class id -1 is not a non-negative integer"),
     ({"preset": "kitti/truck"}, "unknown preset 'kitti/truck'"),
     ({"format": "coco"}, "format must be one of"),
     ({"scores": "logit"}, "scores must be one of"),

@@ -85,8 +85,8 @@ def test_classes_in_one_stream_never_share_a_track(shared_data):
 
 
 @pytest.mark.parametrize("dets, message", [
-    (np.array([[0, 0, 10, 10, 0.5, 7]]), "class id 7 has no object type"),
-    (np.array([[0, 0, 10, 10, 0.5, 0.5]]), "not an integer"),
+    (np.array([[0, 0, 10, 10, 0.5, -1]]), "class id -1 is not a non-negative integer"),
+    (np.array([[0, 0, 10, 10, 0.5, 0.5]]), "class id 0.5 is not a non-negative integer"),
 ])
 def test_bad_class_ids_are_a_clear_error(dets, message):
     with pytest.raises(ValueError, match=message):

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io as io_text
+import re
 
 import pytest
 from pathlib import Path
@@ -223,3 +226,27 @@ def test_an_encoding_without_any_answer_is_a_disagreement_not_a_crash(tmp_path):
     assert report.frames == 5 and report.disagreements == 5 and report.proven == 0 and not report.ok
     assert report.disagreement_frames == [f.frame for f in seq.frames]
     assert report.first_divergence.explanation == "clingo[none] finds no admissible answer, cpsat-full does"
+
+
+class _Terminal(io_text.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_diff_shows_its_progress_frame_by_frame_on_a_terminal_only(tmp_path):
+    # TUD-Campus (seqinfo.ini: 71 frames): the bar counts frames as both backends answer them, as
+    # track's does (it used to count the one sequence: 0/1 until the end)
+    argv = ["diff", "--dets", str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--backends", "cpsat,cpsat-full"]
+
+    def run(extra, stderr):
+        out = io_text.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(stderr):
+            assert main(argv + extra) == 0
+        return out.getvalue(), stderr.getvalue()
+
+    out, err = run([], _Terminal())
+    assert out.startswith("TUD-Campus: cpsat vs cpsat-full: 71 frames") and "71/71" in err and "frame" in err
+    counts = {int(k) for k in re.findall(r"\b(\d+)/71\b", err)}
+    assert counts - {0, 71}, f"no count between 0 and 71 frames: {sorted(counts)}"  # it moved during the run
+    assert run(["--quiet"], _Terminal())[1] == ""           # --quiet: no bar
+    assert run([], io_text.StringIO())[1] == ""              # not a terminal: no bar

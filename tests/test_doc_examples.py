@@ -3,8 +3,8 @@ prints is compared with what they show.
 
 * A ```text block holds a session: lines starting with ``$ `` are commands (a trailing ``\\``
   continues one), the lines after a command up to the next are what it prints (stdout and stderr
-  together, as on a terminal without progress bars).  A command annotated ``(... an excerpt)``
-  shows some of its lines: they must appear, in order, among what it prints (``...`` stands for
+  together, as on a terminal without progress bars).  A command whose shown output has a line
+  ``...`` shows some of its lines: they must appear, in order, among what it prints (``...`` stands for
   the rest); any other command must print exactly the lines shown.
 * A ```sh block of ``refimpl ...`` lines (no ``[...]`` placeholders) is run, its output not shown.
 * Timings (``30.9 ms``, ``"solve_ms": 8.967``) are the only thing not compared.
@@ -31,6 +31,11 @@ def test_the_parser_finds_the_examples():
     # a continued command is one command
     track = next(e for e in found if e.command.startswith("refimpl track"))
     assert "--scene 0011.scene.json" in track.command and "\\" not in track.command
+    # every $ line can be pasted: no prose after a command (an excerpt is marked by a "..." line)
+    solve = next(e for e in found if e.command.startswith("refimpl solve"))
+    assert solve.excerpt and solve.command == "refimpl solve data/examples/bus_t235.lp --backend clingo"
+    for doc in ("README.md", "docs/reasoning.md"):
+        assert not [e.command for e in examples(REPO / doc) if "excerpt" in e.command]
 
 
 @pytest.mark.parametrize("doc", ["README.md", "docs/reasoning.md"])
@@ -43,7 +48,7 @@ def test_every_example_prints_what_the_document_shows(doc, shared_data, tmp_path
             continue
         shown = [_normal(line) for line in ex.shown]
         if ex.excerpt:
-            wanted = [line for line in shown if line != "..."]
+            wanted = [line for line in shown if line.strip() != "..."]
             it = iter(printed)
             if not all(any(line == got for got in it) for line in wanted):
                 wrong.append(f"{doc}:{ex.line}: $ {ex.command}\n  shows (excerpt) {wanted}\n  prints {printed}")

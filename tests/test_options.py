@@ -207,7 +207,7 @@ def test_cli_option_flags_are_refused_for_the_baseline_and_checked(tmp_path, cap
     out = str(tmp_path / "o.txt")
     assert main(["track", "--dets", str(DEMO), "--backend", "baseline", "--out", out, "--scene-velocity", "yes"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"{option_flags('--img-size')} need an abduction" in err
+    assert err.count("\n") == 1 and f"{option_flags('--img-size', '--fps')} need an abduction" in err
     with pytest.raises(SystemExit) as exc:
         main(["track", "--dets", str(DEMO), "--out", out, "--backfill", "maybe"])
     assert exc.value.code == 2 and "invalid choice: 'maybe'" in capsys.readouterr().err

@@ -43,6 +43,17 @@ def _time_limit(text: str) -> float:
     return value
 
 
+def _parse_fps(text: str) -> float:
+    """A frame rate: a finite number of frames per second above 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of frames per second, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number of frames per second above 0, got {text!r}")
+    return value
+
+
 def _parse_img_size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.split(","))

@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import argparse
 
+from .. import __version__
 from ..evaluation import DEVKITS
 from ..experiments.peer_table import PEERS
 from ..experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
-from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES
+from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES, shipped_examples
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
-                     TRACKERS, _parse_const, _parse_img_size, _time_limit)
+                     TRACKERS, _parse_const, _parse_fps, _parse_img_size, _time_limit)
 
 
 _SEEN = "_refimpl_options_seen"
@@ -160,7 +161,11 @@ def _parse_grid(text: str) -> tuple[str, tuple[int, ...]]:
 
 def _add_solve(sub: "argparse._SubParsersAction") -> None:
     s = sub.add_parser("solve", help="abduce the best hypothesis for one frame problem (fact file)")
-    s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
+    s.add_argument("file", nargs="?", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, "
+                                           "iou/3, ...)")
+    s.add_argument("--example", choices=sorted(shipped_examples()), metavar="NAME",
+                   help="instead of FILE, a frame the package ships (data/examples/NAME.lp, the paper's fully listed "
+                        f"frames; found in the checkout or the installed package): {', '.join(sorted(shipped_examples()))}")
     s.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
@@ -202,6 +207,10 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
     t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
                    help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
                         "1242,375 for KITTI, unknown otherwise)")
+    t.add_argument("--fps", type=_parse_fps, metavar="FPS",
+                   help="frames per second of the video, a number above 0: bounds a halt at 10 s of frames "
+                        "(lost_after_hidden_max; default: seqinfo.ini's frameRate, 10 for KITTI, unknown "
+                        "otherwise: the model's bound in frames)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
@@ -447,6 +456,17 @@ def _add_report(sub: "argparse._SubParsersAction") -> None:
     rp.add_argument("--frame", type=int, help="the frame shown first (default: the one with the most hidden tracks)")
 
 
+def _add_render(sub: "argparse._SubParsersAction") -> None:
+    r = sub.add_parser("render", help="draw a scene on your frames: every track's box, id and state and the "
+                                      "frame's abduced events, as images and a video (supervision's annotators)")
+    r.add_argument("scene", help="scene file written by 'refimpl track --scene'")
+    r.add_argument("--images", required=True, metavar="DIR",
+                   help="the sequence's frames, image files in name order, the first being the scene's first frame")
+    r.add_argument("--out", required=True, metavar="DIR", help="a new (or empty) folder for one NNNNNN.png per frame")
+    r.add_argument("--video", metavar="FILE.mp4|FILE.gif", help="also the frames as a video (PyAV)")
+    r.add_argument("--fps", type=_parse_fps, metavar="FPS", help="the video's frame rate (default: the scene's, else 10)")
+
+
 _COMMANDS = (
     _add_solve,
     _add_track,
@@ -465,6 +485,7 @@ _COMMANDS = (
     _add_explain,
     _add_plot,
     _add_report,
+    _add_render,
 )
 """One function per command, each adding its subparser with its options (the function that runs
 it is named in COMMANDS); the order of ``refimpl --help``."""
@@ -487,6 +508,7 @@ COMMANDS: dict[str, str] = {
     "explain": "refimpl.cli.scenes:cmd_explain",
     "plot": "refimpl.cli.scenes:cmd_plot",
     "report": "refimpl.cli.scenes:cmd_report",
+    "render": "refimpl.cli.scenes:cmd_render",
 }
 """The command table: command name -> the function that runs it, as ``"module:function"`` (it takes
 the parsed arguments and returns the exit code).  ``main`` loads the function of the command given,
@@ -499,6 +521,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="refimpl",
         description="Online visual abduction for multi-object tracking: the paper's ASP model "
                     "and an equivalent CP-SAT model.")
+    p.add_argument("--version", action="version", version=f"refimpl {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for add in _COMMANDS:

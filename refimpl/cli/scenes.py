@@ -1,15 +1,17 @@
-"""The commands on a scene file: `query`, `explain`, `plot` and `report`."""
+"""The commands on a scene file: `query`, `explain`, `plot`, `report` and `render`."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from ..io.outputs import STDOUT
 from ..scene import explain, load_scene, query, reasoning_config
 from ..scene.plots import plot_scene_file
+from ..scene.render import render_scene
 from ..scene.report_html import write_report
-from .common import EXIT_OK
+from .common import EXIT_OK, UserError
 
 
 def cmd_query(args: argparse.Namespace) -> int:
@@ -32,4 +34,16 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_report(args: argparse.Namespace) -> int:
     summary = write_report(args.scene, args.out, frame=args.frame)
     print(summary, file=sys.stderr if args.out == STDOUT else sys.stdout)  # the page itself may be stdout
+    return EXIT_OK
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise UserError(f"--out {args.out}: give a new or empty folder (the frames are written into it)")
+    if args.video is not None and Path(args.video).resolve().parent == out.resolve():
+        raise UserError("--video: write the video beside the --out folder, not into it")
+    scene = load_scene(args.scene)
+    written, video = render_scene(scene, args.images, out, args.video, args.fps)
+    print(f"{scene.name}: {len(written)} frames drawn -> {out}" + (f", {video}" if video else ""))
     return EXIT_OK

@@ -21,6 +21,10 @@ from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
+    if (args.file is None) == (args.example is None):
+        raise UserError(f"give either a fact FILE or --example NAME ({', '.join(sorted(io.shipped_examples()))})")
+    if args.example is not None:
+        args.file = str(io.shipped_examples()[args.example])
     problem = read_problem(args.file)
     if args.const:
         for name, value in args.const:
@@ -81,7 +85,8 @@ def cmd_diff(args: argparse.Namespace) -> int:
     else:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
     reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit, asp_model) for seq in seqs], plan,
-                        label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name)
+                        label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name,
+                        steps=lambda j: len(j.seq.frames), frames_rule=False)  # a bar frame by frame, as track's
     total = DiffReport(reports[0].backends, levels=reports[0].levels) if reports else DiffReport(backends)
     for seq, report in zip(seqs, reports):
         total.add(report)

@@ -77,8 +77,8 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
                         f"frames, a class): it needs --format {out_fmt.name}")
     if args.backend == BASELINE and (args.check or args.time_limit is not None or args.scene or args.const
-                                       or args.img_size or _option_flags_given(args)):
-        raise UserError(f"{option_flags('--check', '--time-limit', '--scene', '--const', '--img-size')} "
+                                       or args.img_size or args.fps or _option_flags_given(args)):
+        raise UserError(f"{option_flags('--check', '--time-limit', '--scene', '--const', '--img-size', '--fps')} "
                         f"need an abduction backend ({', '.join(BACKENDS)}); the baseline abduces no events")
     if STDIN in args.dets:
         return _track_pipe(args)
@@ -93,6 +93,8 @@ def cmd_track(args: argparse.Namespace) -> int:
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
+    if args.fps is not None:
+        seqs = [replace(seq, fps=args.fps) for seq in seqs]
     for seq, path in zip(seqs, args.dets):
         _warn_unknown_image_size(seq, setup, f"{path}: no seqinfo.ini beside it (../seqinfo.ini) and no --img-size")
     _say_setup(setup, seqs, args)
@@ -252,6 +254,8 @@ def _track_pipe(args: argparse.Namespace) -> int:
                                            seqinfo=args.seqinfo, scores_rule=args.scores, image_size=args.img_size)
         except ValueError as exc:
             raise UserError(str(exc)) from None
+        if args.fps is not None:
+            stream.fps = args.fps
         def starting() -> None:  # once the first frame has arrived (an empty input is one error line)
             _warn_unknown_image_size(stream, setup, f"{stream.path}: no --seqinfo and no --img-size")
             _say_setup(setup, [stream], args)

@@ -21,7 +21,7 @@ equal-cost choice the tie-break would decide), counted, not a disagreement.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 from ..solvers.check import check_answer
 from ..solvers.check_optimum import FrameOptimum
@@ -171,9 +171,11 @@ def _explain(answers: Sequence[Hypothesis], levels: Sequence[int] = PRIORITIES) 
 
 def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=None,
                   solvers: Sequence[Solver] | None = None,
-                  time_limit: float | None = DEFAULT_TIME_LIMIT, asp_model: AspModel | None = None) -> DiffReport:
+                  time_limit: float | None = DEFAULT_TIME_LIMIT, asp_model: AspModel | None = None,
+                  on_frame: Callable[[], None] | None = None) -> DiffReport:
     """Track seq with backends[0], re-solving each frame with the other backends; with
-    ``asp_model`` the clingo backend runs that encoding (module docstring)."""
+    ``asp_model`` the clingo backend runs that encoding (module docstring); ``on_frame()`` once
+    per frame, when every backend has answered it (progress)."""
     backends = tuple(backends)
     levels = PRIORITIES
     if asp_model is not None:
@@ -253,7 +255,7 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
                 report.first_divergence = Divergence(problem.time, problem, answers, explanation)
 
     setup = Setup(backends[0], tuple((constants or {}).items()), time_limit=time_limit)
-    run_sequence(seq, setup, observer=observe, solver=solvers[0])
+    run_sequence(seq, setup, observer=observe, solver=solvers[0], on_frame=on_frame)
     return report
 
 
@@ -277,6 +279,7 @@ class DiffJob:
     """A user's encoding for the clingo backend (refimpl.solvers.asp_model.AspModel), or None."""
 
 
-def diff_job(job: DiffJob):
-    """diff_sequence of one sequence (a DiffReport)."""
-    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit, asp_model=job.asp_model)
+def diff_job(job: DiffJob, on_frame: Callable[[], None] | None = None):
+    """diff_sequence of one sequence (a DiffReport); ``on_frame()`` once per frame (progress)."""
+    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit, asp_model=job.asp_model,
+                         on_frame=on_frame)

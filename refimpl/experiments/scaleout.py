@@ -208,7 +208,7 @@ def _pickled(item: Any) -> bytes:
 
 def run_tasks(fn: Callable[..., R], items: Sequence[T], plan: Plan = Plan(), label: str = "tasks",
               quiet: bool = False, describe: Callable[[T], str] | None = None,
-              steps: Callable[[T], int] | None = None) -> list[R]:
+              steps: Callable[[T], int] | None = None, frames_rule: bool = True) -> list[R]:
     """``[fn(item) for item in items]``, in input order, on the plan's workers; a progress bar on
     stderr unless quiet.
 
@@ -217,12 +217,15 @@ def run_tasks(fn: Callable[..., R], items: Sequence[T], plan: Plan = Plan(), lab
     once per step: in a serial run every tick advances the bar (a long single sequence moves frame
     by frame); on a cluster ``tick`` is :func:`no_tick` and the bar advances by ``steps(item)``
     when the task finishes.  With ``steps`` a local cluster runs only work of at least
-    ``plan.frames_threshold`` steps, smaller work runs serially (:meth:`Plan.serial_for`)."""
+    ``plan.frames_threshold`` steps, smaller work runs serially (:meth:`Plan.serial_for`), unless
+    ``frames_rule`` is false: that rule was measured on tracking frames, and a frame of ``diff``
+    (every backend solves it, clingo among them) is hundreds of times that work, so diff counts
+    its frames for the bar only."""
     items = list(items)
     sizes = [int(steps(item)) for item in items] if steps is not None else [1] * len(items)
     progress = Progress(sum(sizes), label, enabled=not quiet, unit="task" if steps is None else "frame")
     try:
-        if not items or plan.serial_for(sum(sizes) if steps is not None else None):  # the scale-out rule
+        if not items or plan.serial_for(sum(sizes) if steps is not None and frames_rule else None):  # the rule
             out = []
             for item, size in zip(items, sizes):
                 if steps is None:

@@ -10,6 +10,7 @@ One concern per module (each imports only the ones listed before it):
 * :mod:`.stream`       - DetectionStream: detections read from a pipe frame by frame as they arrive;
 * :mod:`.event_logs`   - event log lines and files;
 * :mod:`.results`      - results readers and writers (MOTChallenge, KITTI), ResultWriter;
+* :mod:`.classes`      - a detector's class names and ids (COCO's 80) as the types they are tracked as;
 * :mod:`.formats`      - the format registry (FORMATS, MOT, KITTI, get_format): each format's readers,
   writers, frame numbering, ground-truth layout and side files in one row;
 * :mod:`.catalogue`    - the files of the public benchmarks (Benchmark, benchmark_files; the names are
@@ -113,14 +114,16 @@ from .results import (ResultWriter, format_kitti_results, format_mot_results, re
                       read_mot_results, write_kitti_results, write_mot_results, write_text_atomic)
 from .formats import (FORMAT_NAMES, FORMATS, KITTI, MOT, RESULT_FORMATS, DataFormat, get_format, read_results,
                       results_formatter, write_results)
+from .classes import COCO_CLASS_TYPES, COCO_NAMES, class_id_type, class_type
 from .catalogue import (KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_ACF, MOT15_SORT6, MOT15_TRAIN, Benchmark,
-                        BenchmarkSequence, benchmark_files, demo_sequence_paths, kitti_val_sequences, load_detections,
-                        load_ground_truth)
+                        BenchmarkSequence, benchmark_files, bundled_data_dirs, demo_sequence_paths, kitti_val_sequences,
+                        load_detections, load_ground_truth, shipped_examples)
 
 __all__ = [
     "InputFormatError", "InputFormatWarning",
     "MAX_COORD", "MAX_DET_AREA", "MAX_FRAME", "MIN_DET_SIZE", "OBJECT_TYPES", "data_line_numbers", "data_lines",
     "read_seqinfo",
+    "COCO_CLASS_TYPES", "COCO_NAMES", "class_id_type", "class_type",
     "GroundTruth", "read_kitti_ground_truth", "read_mot_ground_truth",
     "DEFAULT_SCORE_RULE", "KITTI_FPS", "KITTI_IMAGE_SIZE", "SCORE_RULES", "DetectionFrame", "DetectionSequence", "read_kitti_detections",
     "read_mot_detections",
@@ -131,5 +134,6 @@ __all__ = [
     "write_results", "write_text_atomic",
     "FORMAT_NAMES", "FORMATS", "KITTI", "MOT", "DataFormat", "get_format",
     "KITTI_TRAIN", "KITTI_VAL_SEQMAP", "MOT15_ACF", "MOT15_SORT6", "MOT15_TRAIN", "Benchmark", "BenchmarkSequence",
-    "benchmark_files", "demo_sequence_paths", "kitti_val_sequences", "load_detections", "load_ground_truth",
+    "benchmark_files", "bundled_data_dirs", "demo_sequence_paths", "kitti_val_sequences", "load_detections",
+    "load_ground_truth", "shipped_examples",
 ]

@@ -137,12 +137,31 @@ def _demo_in(base: Path) -> BenchmarkSequence | None:
     return None
 
 
+def bundled_data_dirs() -> tuple[Path, Path]:
+    """Where the bundled ``data/`` is: a checkout's, then an installed package's ``refimpl/data``
+    (pyproject: package-dir refimpl.data)."""
+    here = Path(__file__).resolve()
+    return here.parents[2] / "data", here.parents[1] / "data"
+
+
 def demo_sequence_paths() -> BenchmarkSequence:
     """The bundled TUD-Campus demo (MOT15 gt + SORT Faster R-CNN dets), from a checkout or an install."""
-    checkout = Path(__file__).resolve().parents[2] / "data" / "demo"
-    found = _demo_in(checkout)
-    if found is not None:
-        return found
+    for base in bundled_data_dirs():
+        found = _demo_in(base / "demo")
+        if found is not None:
+            return found
+    raise InputFormatError("bundled demo sequence not found (expected data/demo/TUD-Campus in "
+                           "the checkout or the refimpl.data package)", bundled_data_dirs()[0] / "demo")
+
+
+def shipped_examples() -> dict[str, Path]:
+    """The frame problems the package ships (``data/examples/NAME.lp``: the paper's fully listed
+    frames), by NAME, from a checkout or an install; ``refimpl solve --example NAME`` reads them."""
+    for base in bundled_data_dirs():
+        found = sorted((base / "examples").glob("*.lp"))
+        if found:
+            return {p.stem: p for p in found}
+    return {}
     # an installed package holds data/ as refimpl/data/ (pyproject: package-dir refimpl.data)
     found = _demo_in(Path(__file__).resolve().parents[1] / "data" / "demo")
     if found is None:

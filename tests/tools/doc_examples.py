@@ -19,7 +19,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 FENCE = re.compile(r"^\s*```(\w*)\s*$")
 TIMING = [(re.compile(r"\d+(\.\d+)? ms\b"), "<t> ms"), (re.compile(r'"solve_ms": [0-9.]+'), '"solve_ms": <t>')]
-EXCERPT = re.compile(r"\s{2,}\(([^)]*an excerpt[^)]*)\)\s*$")
+ELLIPSIS = "..."
+"""A line of shown output that stands for lines left out: the command's output is an excerpt (every
+``$`` line stays a command a reader can paste; the document says in prose what is left out)."""
 FILES = {"docs/reasoning.md": {"bad.json": '{"format": "refimpl-scene", "version": 1}\n'}}
 """Input files a document describes in prose rather than makes with a command."""
 
@@ -78,10 +80,7 @@ def _example(at: tuple[int, str], shown: list[str]) -> Example:
     n, command = at
     while shown and not shown[-1].strip():  # a blank line between two commands is layout
         shown = shown[:-1]
-    m = EXCERPT.search(command)
-    if m:
-        return Example(n, command[:m.start()], tuple(shown), True)
-    return Example(n, command, tuple(shown))
+    return Example(n, command, tuple(shown), any(line.strip() == ELLIPSIS for line in shown))
 
 
 def _joined(lines: list[tuple[int, str]]) -> list[tuple[int, str]]:
