@@ -1,7 +1,9 @@
-"""The confidence of a detection (refimpl.core.confidence): the rank rule, online, and results that do
-not depend on a detector's score scale (issue 25)."""
+"""The confidence of a detection (refimpl.core.confidence): the evidence rule (the default) and the rank
+rule, online, and results that do not depend on a detector's score scale."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,7 +11,8 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
-from refimpl.core.confidence import OnlineRank, rank_confidences
+from refimpl.core.confidence import OnlineRank, PersistenceEvidence, evidence_confidences, rank_confidences
+from refimpl.io import DetectionFrame
 
 RESCALES = {
     "0.5*s-1.5": lambda s: 0.5 * s - 1.5,
@@ -54,11 +57,63 @@ def _rescaled_kitti(src, dst, f) -> None:
     dst.write_text("\n".join(lines) + "\n")
 
 
+def _persistent_and_flickering(n: int) -> list[DetectionFrame]:
+    """n frames of two detections: one box that stays put (score 0.8 + t/1000) and one that jumps
+    to a new place every frame, overlapping nothing (score 0.1 + t/1000)."""
+    out = []
+    for t in range(n):
+        boxes = np.array([[0.0, 0.0, 10.0, 10.0], [100.0 + 50.0 * t, 100.0, 10.0, 10.0]])
+        out.append(DetectionFrame(t, boxes, np.array([0.8 + t / 1000, 0.1 + t / 1000]), np.zeros(2, np.int64),
+                                  ("pedestrian", "pedestrian")))
+    return out
+
+
+def test_evidence_rule_learns_which_scores_persist():
+    conf = evidence_confidences(_persistent_and_flickering(12))
+    # frame t labels frame t-1 (overlapped in t-2 and in t): frames 1..t-1 are labelled, n = 2(t-1).
+    # Frame 10: n = 18 < 20 bins, so the rank prior alone: of the 22 scores seen, the steady box's
+    # 0.810 is the highest -> 100, the jumping box's 0.110 has 11 <= it -> 50
+    assert conf[10].tolist() == [100, 50]
+    # frame 11: n = 20, 20 bins of one: the 10 low scores never persisted (0), the 10 high always (1),
+    # already non-decreasing, top bin 1.  0.811 is above every labelled score: bin 19, learned 100,
+    # rank prior 100 (highest of 24) -> 100.  0.111: 10 labelled scores <= it, bin 9, learned 0; rank
+    # prior 12 of 24 -> 50; blended (20 * 0 + 50 * 50) / (20 + 50) = 35.7 -> 36
+    assert conf[11].tolist() == [100, 36]
+
+
+def test_evidence_rule_counts_only_an_overlap_of_the_same_type():
+    frames = _persistent_and_flickering(12)
+    # the steady box's neighbours are cars while it is a pedestrian in frames 1..10: nothing persists,
+    # the learned curve is 0 everywhere, so the rule keeps its prior (frame 11: the rank rule's 100, 50)
+    frames = [DetectionFrame(f.frame, f.boxes, f.scores, f.confidences,
+                             (("car" if f.frame % 2 else "pedestrian"), "pedestrian")) for f in frames]
+    assert evidence_confidences(frames)[11].tolist() == [100, 50]
+
+
 @pytest.mark.parametrize("name", list(RESCALES))
-def test_track_and_the_api_write_the_same_rows_whatever_the_score_scale(name, shared_data, tmp_path):
+def test_evidence_rule_reads_the_order_of_the_scores_only(name):
+    rng = np.random.default_rng(11)
+    frames = []
+    for t in range(60):
+        k = int(rng.integers(0, 8))
+        boxes = np.column_stack([rng.integers(0, 5, size=(k, 2)) * 20.0, np.full((k, 2), 25.0)])
+        frames.append(DetectionFrame(t, boxes, rng.normal(size=k), np.zeros(k, np.int64), ("car",) * k))
+    f = RESCALES[name]
+    rescaled = [DetectionFrame(fr.frame, fr.boxes, f(fr.scores), fr.confidences, fr.types) for fr in frames]
+    a, b = evidence_confidences(frames), evidence_confidences(rescaled)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b))
+    assert len({int(c) for x in a for c in x}) > 5  # the curve is learned, not one value
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        PersistenceEvidence().confidences(np.zeros((1, 4)), [float("inf")])
+
+
+@pytest.mark.parametrize("name", list(RESCALES))
+@pytest.mark.parametrize("rule", ["auto", "rank"])
+def test_track_and_the_api_write_the_same_rows_whatever_the_score_scale(name, rule, shared_data, tmp_path):
     # KITTI Pedestrian 0010, a tuning sequence (not in evaluate_tracking.seqmap.val): its PointRCNN
-    # logits rescaled; `refimpl track --scores rank` writes the same bytes, and the API fed the
-    # rescaled scores gives those rows too.  The folder layout keeps the label file beside it.
+    # logits rescaled; `refimpl track --scores RULE` writes the same bytes for both files under the
+    # default rule (evidence) and the rank rule, and the API fed the rescaled scores gives those rows
+    # too.  The folder layout keeps the label file beside it.
     src = shared_data / "KITTI" / "tracking" / "training" / "det_02_pointrcnn" / "Pedestrian" / "0010.txt"
     scores = np.array([float(line.split(",")[6]) for line in src.read_text().splitlines()])
     f = RESCALES[name]
@@ -70,16 +125,36 @@ def test_track_and_the_api_write_the_same_rows_whatever_the_score_scale(name, sh
     (tmp_path / "training" / "label_02" / "0010.txt").symlink_to(src.parent.parent.parent / "label_02" / "0010.txt")
     rescaled = folder / "0010.txt"
     _rescaled_kitti(src, rescaled, f)
-    flags = ["--format", "kitti", "--class", "Pedestrian", "--scores", "rank", "--quiet"]
+    flags = ["--format", "kitti", "--class", "Pedestrian", "--scores", rule, "--quiet"]
     assert main(["track", "--dets", str(src), *flags, "--out", str(tmp_path / "orig.txt")]) == 0
     assert main(["track", "--dets", str(rescaled), *flags, "--out", str(tmp_path / "new.txt")]) == 0
     original = (tmp_path / "orig.txt").read_bytes()
     assert original and (tmp_path / "new.txt").read_bytes() == original
-    seq = io.read_kitti_detections(rescaled, "pedestrian", scores_rule="rank")
-    tracker = refimpl.Tracker(format="kitti", object_type="pedestrian", scores="rank")
+    seq = io.read_kitti_detections(rescaled, "pedestrian", scores_rule=rule)
+    tracker = refimpl.Tracker(format="kitti", object_type="pedestrian", scores=rule)
     for fr in seq.frames:
         b = fr.boxes
         tracker.update(np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores]))
     api = tmp_path / "api.txt"
     io.write_mot_results(api, tracker.result().rows, first_frame=0)
     assert api.read_bytes() == original
+
+
+def test_a_detector_whose_scores_sit_lower_gets_the_same_tracks(tmp_path):
+    # the bundled TUD-Campus with every score x 0.6 (the same boxes): the default rule reads the
+    # scores' order only, so `refimpl track` writes the same rows as for the original scores (on
+    # the probability scale the preset's conf_thresh_new_track 70 would need a score above 0.7 / 0.6,
+    # which no probability reaches: nothing would start)
+    demo = Path(__file__).resolve().parent.parent / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
+    low = tmp_path / "TUD-Campus" / "det" / "det.txt"
+    low.parent.mkdir(parents=True)
+    (tmp_path / "TUD-Campus" / "seqinfo.ini").write_bytes((demo.parent.parent / "seqinfo.ini").read_bytes())
+    rows = [line.split(",") for line in demo.read_text().splitlines()]
+    low.write_text("".join(",".join(r[:6] + [repr(float(r[6]) * 0.6)] + r[7:]) + "\n" for r in rows))
+    assert main(["track", "--dets", str(demo), "--out", str(tmp_path / "a.txt"), "--quiet"]) == 0
+    assert main(["track", "--dets", str(low), "--out", str(tmp_path / "b.txt"), "--quiet"]) == 0
+    original = (tmp_path / "a.txt").read_bytes()
+    assert original.count(b"\n") > 200 and (tmp_path / "b.txt").read_bytes() == original
+    assert main(["track", "--dets", str(low), "--scores", "probability", "--out", str(tmp_path / "c.txt"),
+                 "--quiet"]) == 0
+    assert (tmp_path / "c.txt").read_bytes() == b""
