@@ -18,6 +18,7 @@ from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, 
                                      robust_report, write_preset)
 from ..experiments.occlusion import SCENARIOS, write_suite
 from ..experiments.occlusion_bench import format_results, parse_variant, run_suite
+from ..experiments.shifts import SHIFTS_BEGIN, SHIFTS_END, parse_shifts, shift_table, shifted_dataset
 from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
                                  peer_class, per_sequence_table)
 from ..experiments.progress import Progress
@@ -35,6 +36,8 @@ from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
     check_outputs({"--json": args.json, "--out": args.out})
+    if args.shift is not None:
+        return _benchmark_shifts(args)
     if args.results_dir and args.peers is not None:
         raise UserError("--results-dir writes the results files of refimpl's tracker: give it without --peers")
     if args.peers is not None:
@@ -82,6 +85,44 @@ def _write_results(args: argparse.Namespace, runs) -> None:
             for seq, rows in run.rows.items():
                 files.write(Path(args.results_dir) / name / f"{seq}.txt", io.results_formatter(io.MOT, first, cls)(rows))
     print(f"results: {args.results_dir}/<dataset>/<sequence>.txt", file=sys.stderr)
+
+
+def _benchmark_shifts(args: argparse.Namespace) -> int:
+    """benchmark --shift: baseline, abduction (and --peers) on every shift of every dataset
+    (refimpl.experiments.shifts): HOTA / IDF1 per shift, the worst case and the largest drop."""
+    try:
+        shifts = parse_shifts(args.shift)
+        peers = list(parse_peers(args.peers)) if args.peers is not None else []
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if args.results_dir or args.per_sequence or args.repeat != 1:
+        raise UserError("--shift prints one table of shifts per dataset: give it without --results-dir, "
+                        "--per-sequence and --repeat")
+    for p in peers:
+        peer_class(p)
+    backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
+    tables, report = [], {}
+    for name in args.names:
+        dataset = load_dataset(name, args.data)
+        setup = _setup(argparse.Namespace(**{**vars(args), "backend": backend}), *dataset_kind(name, args.data))
+        progress = Progress(len(shifts) * len(dataset) * (2 + len(peers)), f"{name}/shifts", enabled=not args.quiet)
+        results: dict[str, dict[str, tuple[float, float]]] = {}
+        for shift in shifts:
+            c = compare(name, args.data, peers, backend, dict(setup.constants), dataset=shifted_dataset(dataset, shift),
+                        step=progress.step, options=setup.options, without_preset=False)
+            results[shift] = {s.label: (s.overall["hota"], s.overall["idf1"]) for s in c.scores}
+        table = f"## {TITLES[name]}: shifts (HOTA / IDF1)\n\n{shift_table(results)}\n"
+        print(table)
+        tables.append(table)
+        report[name] = results
+    if args.out:
+        write_section(args.out, SHIFTS_BEGIN, SHIFTS_END,
+                      f"Made by `{format_command(sys.argv[1:])}`; {machine_note()}\n\n" + "\n".join(tables))
+        print(f"written: {args.out}")
+    if args.json:
+        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "shifts": report}, indent=2,
+                                                default=float))
+    return EXIT_OK
 
 
 def _benchmark_peers(args: argparse.Namespace) -> int:

@@ -9,6 +9,7 @@ from .. import __version__
 from ..evaluation import DEVKITS
 from ..experiments.peer_table import PEERS
 from ..experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
+from ..experiments.shifts import SHIFTS
 from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES, shipped_examples
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
@@ -262,6 +263,11 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
                         "motion-only trackers, extra 'peers-boxmot'): baseline, abduction (--backend, "
                         f"{DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
+    b.add_argument("--shift", metavar="LIST",
+                   help="re-run under detector and camera shifts of the datasets' own sequences, 'all' or a "
+                        "comma-separated list out of " + ", ".join(SHIFTS) + " (refimpl/experiments/shifts.py): "
+                        "HOTA / IDF1 of the baseline, abduction and any --peers per shift, the worst case and the "
+                        "largest drop")
     b.add_argument("--repeat", type=int, default=1, metavar="N",
                    help="with --peers: time every tracker on every sequence N times, interleaved, and report each "
                         "sequence's fastest run (speed columns only; default 1)")

@@ -278,14 +278,15 @@ class Comparison:
 
 def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAULT_BACKEND,
             constants: Mapping[str, int] | None = None, dataset=None, step=None, options=None,
-            repeat: int = 1) -> Comparison:
+            repeat: int = 1, without_preset: bool = True) -> Comparison:
     """Every tracker on the same detections of a dataset, scored by the same evaluator.
 
     ``repeat`` > 1: every tracker tracks every sequence that many times in all, the repetitions
     interleaved (sequence by sequence, every tracker in turn), and each (tracker, sequence) keeps
     the frame times of its fastest run (least CPU in all): on a shared machine a burst of other
     work then slows one run of one tracker, not one tracker's whole column.  The results and so
-    the scores are those of the first run (every run gives the same rows)."""
+    the scores are those of the first run (every run gives the same rows).  ``without_preset``: a row
+    of the abduction tracker without its preset too, where the preset changes anything."""
     if repeat < 1:
         raise ValueError(f"repeat must be >= 1, got {repeat}")
 
@@ -297,7 +298,7 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
     options = options or TrackerOptions()
     runs = [(BASELINE, "refimpl baseline (SORT)", None, None),
             (backend, f"refimpl abduction ({backend})", dict(constants or {}), options)]
-    if constants or options.changed():  # what the preset changes: model/constants.lp and default options
+    if without_preset and (constants or options.changed()):  # what the preset changes: model/constants.lp and default options
         runs.append((backend, f"refimpl abduction ({backend}), no preset", {}, TrackerOptions()))
     # per tracker: a function timing one sequence (its CPU seconds per frame), and the frame
     # times kept per sequence (the fastest run's)

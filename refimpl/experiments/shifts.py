@@ -1,0 +1,192 @@
+"""Detector and camera shifts of a benchmark's own sequences: how a tracker holds when the detector
+or the camera changes (``refimpl benchmark NAME... --shift all``).
+
+Each shift is one row of :data:`SHIFTS`: a function of one sequence's detections and ground truth
+(and a seeded generator) that returns both shifted, the detections then read again by the default
+score rule, as a file of the shifted rows would be read (refimpl.io.detections).  The family:
+
+* score rescales, every one strictly increasing, so a detection's rank among the scores is kept:
+  ``scores-x0.6`` (every score times 0.6: a detector whose scores sit lower; on logits an affine
+  map), ``scores-power3`` (sign(s) |s|^3), ``scores-0-100`` (times 100), ``scores-logit``
+  (probabilities given as logits, log(p / (1 - p)); scores that are not probabilities go the other
+  way, through a sigmoid);
+* ``recall-bursty``: about a fifth of the detections missed, in bursts: a detection whose
+  predecessor (IoU >= 0.3 in the frame before) was missed is missed with probability 0.6, any other
+  with 0.12 (stationary share 0.12 / (1 - 0.6 + 0.12) = 23 %);
+* ``fp-extra``: Poisson(a quarter of the mean detections per frame) extra false detections a
+  frame, each the size of a random detection of the sequence, anywhere in the image, with a score
+  drawn from the sequence's lower half;
+* ``half-fps``: every second frame (frame rate halved, ground truth of the kept frames);
+* ``half-res``: every box, the image size and the ground truth at half the resolution.
+
+Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..core.geometry import iou_matrix
+from ..io import DetectionFrame, DetectionSequence, GroundTruth
+from ..io.detections import DEFAULT_SCORE_RULE, calibrated, resolve_rule, scale_confidences
+
+Shifted = tuple[DetectionSequence, GroundTruth]
+SHIFTS_BEGIN = "<!-- refimpl benchmark --shift: begin -->"
+SHIFTS_END = "<!-- refimpl benchmark --shift: end -->"
+"""The markers of the section ``--shift --out FILE`` writes."""
+
+
+@dataclass(frozen=True)
+class Shift:
+    name: str
+    what: str
+    apply: Callable[[DetectionSequence, GroundTruth, np.random.Generator], Shifted]
+
+
+def _rescored(seq: DetectionSequence, f: Callable[[np.ndarray], np.ndarray]) -> DetectionSequence:
+    return replace(seq, frames=tuple(replace(fr, scores=f(np.asarray(fr.scores, dtype=float))) for fr in seq.frames))
+
+
+def _logit_or_sigmoid(seq: DetectionSequence) -> Callable[[np.ndarray], np.ndarray]:
+    scores = np.concatenate([f.scores for f in seq.frames]) if seq.frames else np.zeros(0)
+    if len(scores) and ((scores >= 0.0) & (scores <= 1.0)).all():
+        eps = 1e-6
+        return lambda s: np.log(np.clip(s, eps, 1 - eps) / (1 - np.clip(s, eps, 1 - eps)))
+    return lambda s: 0.5 * (1.0 + np.tanh(0.5 * s))
+
+
+def _score_shift(f: Callable[[np.ndarray], np.ndarray]) -> Callable[..., Shifted]:
+    return lambda seq, gt, rng: (_rescored(seq, f), gt)
+
+
+def _logit_shift(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    return _rescored(seq, _logit_or_sigmoid(seq)), gt
+
+
+def _frame(fr: DetectionFrame, keep: np.ndarray) -> DetectionFrame:
+    return DetectionFrame(fr.frame, fr.boxes[keep], fr.scores[keep], fr.confidences[keep],
+                          tuple(t for t, k in zip(fr.types, keep) if k))
+
+
+def _bursty_recall(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    frames, prev_boxes, prev_missed = [], np.zeros((0, 4)), np.zeros(0, dtype=bool)
+    for fr in seq.frames:
+        boxes = np.asarray(fr.boxes, dtype=float).reshape(-1, 4)
+        u = rng.random(len(boxes))
+        p = np.full(len(boxes), 0.12)
+        if len(boxes) and len(prev_boxes):
+            iou = iou_matrix(prev_boxes, boxes)
+            best = iou.argmax(axis=0)
+            linked = iou[best, np.arange(len(boxes))] >= 0.3
+            p[linked & prev_missed[best]] = 0.6
+        missed = u < p
+        frames.append(_frame(fr, ~missed))
+        prev_boxes, prev_missed = boxes, missed
+    return replace(seq, frames=tuple(frames)), gt
+
+
+def _extra_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    boxes = [np.asarray(f.boxes, dtype=float).reshape(-1, 4) for f in seq.frames]
+    every = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    scores = np.sort(np.concatenate([f.scores for f in seq.frames])) if seq.frames else np.zeros(0)
+    if not len(every):
+        return seq, gt
+    low = scores[: max(1, len(scores) // 2)]
+    width, height = seq.image_size or (float(np.max(every[:, 0] + every[:, 2])), float(np.max(every[:, 1] + every[:, 3])))
+    rate = 0.25 * len(every) / max(1, len(seq.frames))
+    kind = next((f.types[0] for f in seq.frames if len(f)), "pedestrian")
+    frames = []
+    for fr in seq.frames:
+        k = int(rng.poisson(rate))
+        size = every[rng.integers(0, len(every), size=k), 2:]
+        xy = rng.random((k, 2)) * np.maximum(np.array([width, height]) - size, 1.0)
+        extra = np.column_stack([xy, size])
+        frames.append(DetectionFrame(fr.frame, np.vstack([fr.boxes, extra]),
+                                     np.concatenate([fr.scores, rng.choice(low, size=k)]),
+                                     np.concatenate([fr.confidences, np.zeros(k, dtype=np.int64)]),
+                                     tuple(fr.types) + (kind,) * k))
+    return replace(seq, frames=tuple(frames)), gt
+
+
+def _half_fps(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    first = seq.first_frame
+    frames = tuple(replace(f, frame=first + (f.frame - first) // 2) for f in seq.frames if (f.frame - first) % 2 == 0)
+    keep = (gt.frames - gt.first_frame) % 2 == 0
+    care = (gt.dontcare[:, 0] - gt.first_frame) % 2 == 0 if len(gt.dontcare) else np.zeros(0, dtype=bool)
+    dontcare = gt.dontcare[care].copy()
+    if len(dontcare):
+        dontcare[:, 0] = gt.first_frame + (dontcare[:, 0] - gt.first_frame) // 2
+    shifted_gt = replace(gt, frames=gt.first_frame + (gt.frames[keep] - gt.first_frame) // 2, ids=gt.ids[keep],
+                         boxes=gt.boxes[keep], considered=gt.considered[keep], distractor=gt.distractor[keep],
+                         dontcare=dontcare, num_frames=math.ceil(gt.num_frames / 2), visibility=gt.visibility[keep])
+    return replace(seq, frames=frames, fps=None if seq.fps is None else seq.fps / 2), shifted_gt
+
+
+def _half_res(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    frames = tuple(replace(f, boxes=np.asarray(f.boxes, dtype=float) * 0.5) for f in seq.frames)
+    size = None if seq.image_size is None else (seq.image_size[0] // 2, seq.image_size[1] // 2)
+    dontcare = gt.dontcare.astype(float).copy()
+    if len(dontcare):
+        dontcare[:, 1:] *= 0.5
+    return (replace(seq, frames=frames, image_size=size),
+            replace(gt, boxes=np.asarray(gt.boxes, dtype=float) * 0.5, dontcare=dontcare))
+
+
+SHIFTS: dict[str, Shift] = {s.name: s for s in (
+    Shift("none", "the benchmark as it is", lambda seq, gt, rng: (seq, gt)),
+    Shift("scores-x0.6", "every score x 0.6", _score_shift(lambda s: 0.6 * s)),
+    Shift("scores-power3", "every score s as sign(s)|s|^3", _score_shift(lambda s: np.sign(s) * np.abs(s) ** 3)),
+    Shift("scores-0-100", "every score x 100", _score_shift(lambda s: 100.0 * s)),
+    Shift("scores-logit", "probabilities as logits (other scores through a sigmoid)", _logit_shift),
+    Shift("recall-bursty", "about 23 % of the detections missed, in bursts", _bursty_recall),
+    Shift("fp-extra", "a quarter more detections, false, anywhere", _extra_false_positives),
+    Shift("half-fps", "every second frame", _half_fps),
+    Shift("half-res", "half the resolution (boxes, image size, ground truth)", _half_res),
+)}
+"""The shifts by name (``--shift all`` or a comma-separated list), ``none`` first."""
+
+
+def parse_shifts(text: str) -> tuple[str, ...]:
+    """``all`` or a comma-separated list of SHIFTS names (``none`` is always run first, the reference)."""
+    names = list(SHIFTS) if text.strip() == "all" else [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in SHIFTS]
+    if unknown or not names:
+        raise ValueError(f"unknown shift {unknown[0] if unknown else text!r} (choose from all, {', '.join(SHIFTS)})")
+    return ("none", *[n for n in names if n != "none"])
+
+
+def shifted_dataset(dataset: Sequence[tuple[str, DetectionSequence, GroundTruth]], shift: str,
+                    seed: int = 0) -> list[tuple[str, DetectionSequence, GroundTruth]]:
+    """Every sequence of a loaded dataset under one shift, its detections read again by the default
+    score rule (as a file of the shifted rows would be)."""
+    rule = resolve_rule(DEFAULT_SCORE_RULE)
+    out = []
+    for index, (name, seq, gt) in enumerate(dataset):
+        if shift == "none":
+            out.append((name, seq, gt))
+            continue
+        dets, truth = SHIFTS[shift].apply(seq, gt, np.random.default_rng([seed, index]))
+        dets = replace(dets, frames=tuple(replace(f, confidences=scale_confidences(name, (), f.scores, rule))
+                                          for f in dets.frames))
+        out.append((name, calibrated(dets, rule), truth))
+    return out
+
+
+def shift_table(results: dict[str, dict[str, tuple[float, float]]]) -> str:
+    """Markdown: a row per shift, a column per tracker (HOTA / IDF1), then each tracker's worst HOTA
+    and its largest drop from ``none``."""
+    shifts = list(results)
+    trackers = list(results[shifts[0]])
+    lines = ["| shift | " + " | ".join(trackers) + " |", "|---|" + "---:|" * len(trackers)]
+    for s in shifts:
+        lines.append(f"| {s} | " + " | ".join(f"{100 * h:.1f} / {100 * i:.1f}" for h, i in
+                                                (results[s][t] for t in trackers)) + " |")
+    worst = [min(results[s][t][0] for s in shifts) for t in trackers]
+    drop = [max(results["none"][t][0] - results[s][t][0] for s in shifts) for t in trackers]
+    lines.append("| worst HOTA | " + " | ".join(f"{100 * w:.1f}" for w in worst) + " |")
+    lines.append("| largest HOTA drop | " + " | ".join(f"{100 * d:.1f}" for d in drop) + " |")
+    return "\n".join(lines)

@@ -1,0 +1,77 @@
+"""Detector and camera shifts (refimpl.experiments.shifts, `refimpl benchmark --shift`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from refimpl.cli import main
+from refimpl.experiments.shifts import SHIFTS, parse_shifts, shift_table, shifted_dataset
+from refimpl.io import DetectionFrame, DetectionSequence, GroundTruth
+
+
+def _toy(n: int = 6):
+    """n frames (1..n), one box walking right 4 px a frame with score 0.5 + t/100, and its ground truth."""
+    frames = tuple(DetectionFrame(t, np.array([[10.0 + 4 * t, 20.0, 40.0, 80.0]]), np.array([0.5 + t / 100]),
+                                  np.array([50], dtype=np.int64), ("pedestrian",)) for t in range(1, n + 1))
+    seq = DetectionSequence("toy", frames, 1, (640, 480), 30.0)
+    gt = GroundTruth("toy", np.arange(1, n + 1), np.ones(n, dtype=int),
+                     np.array([[10.0 + 4 * t, 20.0, 40.0, 80.0] for t in range(1, n + 1)]), np.ones(n, dtype=bool),
+                     np.zeros(n, dtype=bool), np.zeros((0, 5)), 1, n)
+    return [("toy", seq, gt)]
+
+
+def test_half_frame_rate_keeps_every_second_frame_renumbered():
+    (_, seq, gt), = shifted_dataset(_toy(6), "half-fps")
+    # frames 1, 3, 5 kept (offsets 0, 2, 4 from the first), renumbered 1 + offset / 2 = 1, 2, 3
+    assert [f.frame for f in seq.frames] == [1, 2, 3] and seq.fps == 15.0
+    assert [f.boxes[0, 0] for f in seq.frames] == [14.0, 22.0, 30.0]  # 10 + 4t at t = 1, 3, 5
+    assert gt.frames.tolist() == [1, 2, 3] and gt.num_frames == 3 and gt.boxes[:, 0].tolist() == [14.0, 22.0, 30.0]
+
+
+def test_half_resolution_halves_boxes_image_and_truth():
+    (_, seq, gt), = shifted_dataset(_toy(2), "half-res")
+    assert seq.image_size == (320, 240)
+    assert seq.frames[0].boxes[0].tolist() == [7.0, 10.0, 20.0, 40.0]  # (14, 20, 40, 80) / 2
+    assert gt.boxes[0].tolist() == [7.0, 10.0, 20.0, 40.0]
+
+
+@pytest.mark.parametrize("shift", ["scores-x0.6", "scores-power3", "scores-0-100", "scores-logit"])
+def test_score_rescales_keep_the_order_so_the_default_rule_gives_the_same_confidences(shift):
+    (_, a, _), = shifted_dataset(_toy(30), "none")
+    (_, b, _), = shifted_dataset(_toy(30), shift)
+    assert not np.array_equal(a.frames[0].scores, b.frames[0].scores)  # the scores did change
+    (_, c, _), = shifted_dataset(_toy(30), "scores-x0.6")  # read again by the default rule
+    assert [f.confidences.tolist() for f in b.frames] == [f.confidences.tolist() for f in c.frames]
+
+
+def test_bursty_misses_and_extra_detections_are_deterministic_and_of_the_expected_size():
+    rng = np.random.default_rng(3)
+    frames = tuple(DetectionFrame(t, np.column_stack([rng.random((20, 2)) * 500, np.full((20, 2), 30.0)]),
+                                  rng.random(20), np.zeros(20, dtype=np.int64), ("car",) * 20) for t in range(400))
+    data = [("s", DetectionSequence("s", frames, 0, (640, 480), 10.0), _toy(1)[0][2])]
+    kept = sum(len(f) for f in shifted_dataset(data, "recall-bursty")[0][1].frames)
+    # boxes scattered at random barely link across frames: almost every detection is missed with
+    # 0.12, so about 88 % of the 8,000 stay (binomial sd about 29)
+    assert 6900 < kept < 7200
+    assert kept == sum(len(f) for f in shifted_dataset(data, "recall-bursty")[0][1].frames)  # same seed
+    extra = sum(len(f) for f in shifted_dataset(data, "fp-extra")[0][1].frames) - 8000
+    assert 1850 < extra < 2150  # Poisson(0.25 * 20 = 5) a frame over 400 frames: 2,000, sd about 45
+
+
+def test_shift_names_and_the_table():
+    assert parse_shifts("all") == tuple(SHIFTS) and parse_shifts("half-res") == ("none", "half-res")
+    with pytest.raises(ValueError, match="unknown shift 'blur'"):
+        parse_shifts("half-res,blur")
+    table = shift_table({"none": {"a": (0.5, 0.6)}, "half-res": {"a": (0.45, 0.6)}})
+    # worst HOTA 45.0, the largest drop from none 50.0 - 45.0 = 5.0
+    assert "| half-res | 45.0 / 60.0 |" in table and "| worst HOTA | 45.0 |" in table
+    assert "| largest HOTA drop | 5.0 |" in table
+
+
+def test_benchmark_shift_prints_one_table_with_rescales_equal(shared_data, capsys):
+    assert main(["benchmark", "kitti-ped-train", "--shift", "scores-x0.6", "--quiet", "--data", str(shared_data)]) == 0
+    out = capsys.readouterr().out
+    rows = {line.split("|")[1].strip(): line.split("|")[2:] for line in out.splitlines() if line.startswith("| ")}
+    assert rows["none"] == rows["scores-x0.6"]  # the default rule reads the order of the scores only
+    assert main(["benchmark", "kitti-ped-train", "--shift", "blur", "--quiet", "--data", str(shared_data)]) == 2
