@@ -158,3 +158,33 @@ def test_a_detector_whose_scores_sit_lower_gets_the_same_tracks(tmp_path):
     assert main(["track", "--dets", str(low), "--scores", "probability", "--out", str(tmp_path / "c.txt"),
                  "--quiet"]) == 0
     assert (tmp_path / "c.txt").read_bytes() != original
+
+
+def _rewrite_scores(src: Path, dst: Path, column: int, f) -> None:
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    rows = [line.split(",") for line in src.read_text().splitlines()]
+    dst.write_text("".join(",".join(r[:column] + [repr(float(f(float(r[column]))))] + r[column + 1:]) + "\n"
+                           for r in rows))
+
+
+def test_a_fixed_scale_reads_every_format(shared_data, tmp_path):
+    # KITTI Car 0001 (a val sequence, only run here) with each logit l written as the probability
+    # sigmoid(l): --scores probability on it writes the bytes --scores sigmoid writes for the logits
+    # (both confidences are floor(100 * sigmoid(l) + 1/2)); and the TUD-Campus probabilities p written
+    # as logits log(p / (1 - p)) under --format mot --scores sigmoid give the rows of --scores
+    # probability on the original
+    src = shared_data / "KITTI" / "tracking" / "training" / "det_02_pointrcnn" / "Car" / "0001.txt"
+    probs = tmp_path / "k" / "0001.txt"
+    _rewrite_scores(src, probs, 6, lambda s: 1.0 / (1.0 + np.exp(-s)))
+    kitti = ["--format", "kitti", "--class", "Car", "--quiet"]
+    assert main(["track", "--dets", str(src), *kitti, "--scores", "sigmoid", "--out", str(tmp_path / "a.txt")]) == 0
+    assert main(["track", "--dets", str(probs), *kitti, "--scores", "probability", "--out", str(tmp_path / "b.txt")]) == 0
+    assert (tmp_path / "a.txt").read_bytes() == (tmp_path / "b.txt").read_bytes() != b""
+    demo = Path(__file__).resolve().parent.parent / "data" / "demo" / "TUD-Campus"
+    logits = tmp_path / "TUD-Campus" / "det" / "det.txt"
+    _rewrite_scores(demo / "det" / "det.txt", logits, 6, lambda p: np.log(p / (1.0 - p)))
+    (tmp_path / "TUD-Campus" / "seqinfo.ini").write_bytes((demo / "seqinfo.ini").read_bytes())
+    assert main(["track", "--dets", str(demo / "det" / "det.txt"), "--scores", "probability", "--quiet",
+                 "--out", str(tmp_path / "c.txt")]) == 0
+    assert main(["track", "--dets", str(logits), "--scores", "sigmoid", "--quiet", "--out", str(tmp_path / "d.txt")]) == 0
+    assert (tmp_path / "c.txt").read_bytes() == (tmp_path / "d.txt").read_bytes() != b""
