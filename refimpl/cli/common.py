@@ -32,26 +32,25 @@ def _parse_const(text: str) -> tuple[str, int]:
         raise argparse.ArgumentTypeError(f"expected NAME=INTEGER, got {text!r}") from None
 
 
-def _time_limit(text: str) -> float:
-    """--time-limit: a positive finite number of seconds."""
+def _positive_finite(text: str, unit: str) -> float:
+    """A positive finite number of ``unit``; the argparse error names the unit otherwise."""
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a number of {unit}, got {text!r}") from None
     if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive finite number of seconds, got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a positive finite number of {unit}, got {text!r}")
     return value
+
+
+def _time_limit(text: str) -> float:
+    """--time-limit: a positive finite number of seconds."""
+    return _positive_finite(text, "seconds")
 
 
 def _parse_fps(text: str) -> float:
     """A frame rate: a finite number of frames per second above 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of frames per second, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number of frames per second above 0, got {text!r}")
-    return value
+    return _positive_finite(text, "frames per second")
 
 
 def _parse_img_size(text: str) -> tuple[int, int]:
