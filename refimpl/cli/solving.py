@@ -10,6 +10,7 @@ from ..core.constants import resolve_constants
 from ..core.ranges import check_constant, check_ranges
 from ..core.spec import ProblemFormatError, with_constants
 from ..core.facts import read_problem
+from ..core.hypothesis import cost_list_text, cost_text
 from ..experiments.diff import DiffJob, DiffReport, diff_job
 from ..experiments.scaleout import run_tasks
 from ..io.datasets import load_dataset
@@ -37,7 +38,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         report = check_answer(problem, hyp)
         violations = report.messages
         if report.cost != hyp.cost:
-            violations += (f"[cost_vector] the answer's cost is {list(report.cost)}, not {list(hyp.cost)}",)
+            violations += (f"[cost_vector] the answer's cost is {cost_list_text(report.cost)}, "
+                           f"not {cost_list_text(hyp.cost)}",)
         optimum = ""
         if not violations and hyp.optimal:  # the checker's own enumeration where components are small
             verdict = FrameOptimum.of(problem).verdict(hyp)
@@ -51,7 +53,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
               f"  {hyp.solve_ms:.1f} ms")
         print("actions: " + " ".join(hyp.actions))
         print("events:  " + (" ".join(hyp.events) or "-"))
-        print("cost:    " + " ".join(f"{v}@{p}" for p, v in hyp.cost))
+        print("cost:    " + cost_text(hyp.cost))
     if args.check:
         print("check:   " + ("; ".join(violations) if violations else
                              "every rule holds, cost vector confirmed" + optimum),

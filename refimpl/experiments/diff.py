@@ -25,7 +25,8 @@ from typing import Sequence
 
 from ..solvers.check import check_answer
 from ..solvers.check_optimum import FrameOptimum
-from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
+from ..core.bigint import int_text
+from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis, cost_list_text
 from ..core.ranges import OutOfClingoRange
 from ..solvers import CLINGO, ORACLE_PAIR, NoAdmissibleHypothesis, Solver, get_solver
 from ..solvers.asp_model import AspModel
@@ -56,7 +57,7 @@ class Divergence:
         lines = [f"first divergence at frame {self.frame}: {self.explanation}"]
         ref = set(self.answers[0].answer)
         for k, h in enumerate(self.answers):
-            lines.append(f"  {h.backend}: cost {list(h.cost)} optimal={h.optimal}")
+            lines.append(f"  {h.backend}: cost {cost_list_text(h.cost)} optimal={h.optimal}")
             if k:
                 lines.append(f"    only in {self.answers[0].backend}: {' '.join(sorted(ref - set(h.answer))) or '-'}")
                 lines.append(f"    only here: {' '.join(sorted(set(h.answer) - ref)) or '-'}")
@@ -164,8 +165,8 @@ def _explain(answers: Sequence[Hypothesis], levels: Sequence[int] = PRIORITIES) 
         for (p, v1), (_, v2) in zip(_on(first.cost, levels), _on(other.cost, levels)):
             if v1 != v2:
                 worse = first if v1 > v2 else other
-                return (f"{worse.backend}'s answer is worse at priority {p} ({max(v1, v2)} vs "
-                        f"{min(v1, v2)}) although proven optimal")
+                return (f"{worse.backend}'s answer is worse at priority {p} ({int_text(max(v1, v2))} vs "
+                        f"{int_text(min(v1, v2))}) although proven optimal")
     return "equal costs, different answers: a tie the canonical tie-break did not separate"
 
 
