@@ -75,6 +75,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
             asp_model = load_asp_model(args.asp_model)
         except AspModelError as exc:
             raise UserError(str(exc)) from None
+        differences = asp_model.differences()  # printed once the inputs are known to be good
     plan = _plan(args)
     if args.benchmark:
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
@@ -82,6 +83,8 @@ def cmd_diff(args: argparse.Namespace) -> int:
         seqs = [_load_sequence(args, path) for path in args.dets]
     else:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
+    if asp_model is not None:
+        print(differences, flush=True)
     reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit, asp_model) for seq in seqs], plan,
                         label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name)
     total = DiffReport(reports[0].backends, levels=reports[0].levels) if reports else DiffReport(backends)

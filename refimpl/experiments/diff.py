@@ -12,10 +12,11 @@ checker; where answers differ, the checker says which rule or which cost level s
 
 With a user's own ASP encoding (``asp_model``, refimpl.solvers.asp_model) the clingo backend
 runs that encoding instead of model/*.lp, on the whole frame (no decomposition: that rests on
-properties of refimpl's model a user's encoding need not have) and with the checker's cost
-vector.  An encoding without refimpl's level-0 tie-break is compared on levels 10..1 only: a
-frame where its valid answer differs from the others' with equal costs there is a *tie* (an
-equal-cost choice the tie-break would decide), counted, not a disagreement.
+properties of refimpl's model a user's encoding need not have), with the constants its files
+define, and with the checker's cost vector (refimpl's constants: the reference's).  An encoding
+without refimpl's level-0 tie-break is compared on levels 10..1 only: a frame where its valid
+answer differs from the others' with equal costs there is a *tie* (an equal-cost choice the
+tie-break would decide), counted, not a disagreement.
 """
 
 from __future__ import annotations
@@ -259,9 +260,10 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
 
 
 def user_solver(asp_model: AspModel) -> Solver:
-    """The clingo backend on a user's encoding: the whole frame, the checker's costs, its own label."""
+    """The clingo backend on a user's encoding: the whole frame, the checker's costs, its own label,
+    its own constants (refimpl.solvers.asp_model)."""
     return get_solver(CLINGO, model_files=asp_model.files, decompose=False, checked_costs=True,
-                      name=asp_model.label)
+                      name=asp_model.label, own_constants=asp_model.defined)
 
 
 # ---------------------------------------------------------------------------------------

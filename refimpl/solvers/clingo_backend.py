@@ -69,8 +69,12 @@ def problem_facts(problem: FrameProblem) -> str:
     return "\n".join(lines) + "\n" + tiebreak_facts(problem)
 
 
-def clingo_arguments(problem: FrameProblem, threads: int = 1, certify: bool = False) -> list[str]:
-    """The clingo command-line options for this problem (see the module docstring)."""
+def clingo_arguments(problem: FrameProblem, threads: int = 1, certify: bool = False,
+                     own_constants: Sequence[str] = ()) -> list[str]:
+    """The clingo command-line options for this problem (see the module docstring).  No ``-c`` for
+    a constant of ``own_constants`` (those a user's encoding defines itself,
+    refimpl.solvers.asp_model) unless the problem sets it (``curr_time``, the image size, a
+    ``--const``): the encoding runs with its own values."""
     args = [
         "--opt-mode=opt",
         "--models=0",
@@ -80,8 +84,10 @@ def clingo_arguments(problem: FrameProblem, threads: int = 1, certify: bool = Fa
     ]
     if certify:
         args.append("--opt-strategy=usc,oll,stratify")
+    own = set(own_constants) - {name for name, _ in problem.constants} - {"curr_time"}
     for name, value in resolve_constants(problem).items():
-        args += ["-c", f"{name}={value}"]
+        if name not in own:
+            args += ["-c", f"{name}={value}"]
     return args
 
 
@@ -133,12 +139,13 @@ class ClingoSolver:
     (the backend name its answers carry: ``get_solver`` passes its entry's, a user's encoding its label),
     ``certify`` (default: True for the model in model/, False for other ``model_files``; True: each
     solve also gets the certificate of levels 10 and 5 (refimpl.solvers.certificate) as facts, which
-    model/certificate.lp checks and uses to prune, docs/model.md 2.10)."""
+    model/certificate.lp checks and uses to prune, docs/model.md 2.10), ``own_constants`` (the
+    constants a user's encoding defines itself, passed to it by no ``-c``: clingo_arguments)."""
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
                  recycle: int | None = None, inline_solves: int = INLINE_SOLVES, checked_costs: bool = False,
-                 name: str = CLINGO, certify: bool | None = None):
+                 name: str = CLINGO, certify: bool | None = None, own_constants: Sequence[str] = ()):
         try:
             import clingo
         except ImportError:
@@ -154,6 +161,8 @@ class ClingoSolver:
         self.model_files = (
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
+        self.own_constants = tuple(own_constants)
+        """Constants the encoding defines itself: no ``-c`` for them (clingo_arguments)."""
         self.certify = (model_files is None) if certify is None else bool(certify)
         """Whether a solve passes the certificate facts (model/certificate.lp checks them)."""
         self.isolate = isolate
@@ -163,7 +172,7 @@ class ClingoSolver:
         self._worker = None
         if isolate:  # clingo in a child process (refimpl.solvers.clingo_process): bounded memory
             self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files,
-                                         "certify": self.certify},
+                                         "certify": self.certify, "own_constants": self.own_constants},
                                         DEFAULT_RECYCLE if recycle is None else recycle)
 
     @property
@@ -187,7 +196,8 @@ class ClingoSolver:
         def logger(code, message: str) -> None:
             messages.append(" ".join(message.split()))
 
-        ctl = self._clingo.Control(clingo_arguments(problem, self.threads, self.certify), logger=logger,
+        ctl = self._clingo.Control(clingo_arguments(problem, self.threads, self.certify, self.own_constants),
+                                   logger=logger,
                                    message_limit=20)
         try:
             for path in self.model_files:
