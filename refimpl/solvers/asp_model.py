@@ -36,6 +36,7 @@ from typing import Sequence
 
 from ..core.constants import default_constants, model_dir
 from ..core.hypothesis import ACTION_TABLE
+from .certificate import CERTIFIED_STATEMENTS
 
 TIEBREAK_PREDICATES = ("tiebreak_pair", "tiebreak_event")
 
@@ -217,3 +218,53 @@ def _nodes(node, ast):
         else:
             for c in child:
                 yield from _nodes(c, ast)
+
+
+CERTIFICATE_ATOMS = ("ignore_det", "ignore_trk")
+"""The solo actions the certificate's witness relies on (docs/model.md 2.10)."""
+
+
+def certificate_preconditions(files: Sequence[str | Path]) -> tuple[str, ...]:
+    """Why the level-10/5 certificate (refimpl.solvers.certificate) is not sound for the encoding
+    ``files``, one reason per statement, in file order; () when it is.  A statement breaks the
+    preconditions if it is not one of CERTIFIED_STATEMENTS and mentions ignore_det or ignore_trk,
+    or weighs at a priority of 5 or more (a term at 6..9 or above 10 would change which answers
+    are optimal at levels 10 and 5 too), or at one that is not a number.  A file clingo cannot
+    parse is a reason too (the solve reports the error itself)."""
+    return _preconditions(tuple((str(f), Path(f).read_text(encoding="utf-8")) for f in files))
+
+
+@lru_cache(maxsize=8)
+def _preconditions(texts: tuple[tuple[str, str], ...]) -> tuple[str, ...]:
+    import clingo.ast
+    reasons: list[str] = []
+    for name, text in texts:
+        def visit(stm) -> None:
+            kind = stm.ast_type
+            if kind in (clingo.ast.ASTType.Comment, clingo.ast.ASTType.ShowSignature, clingo.ast.ASTType.Program):
+                return
+            printed = str(stm)
+            if printed in CERTIFIED_STATEMENTS:
+                return
+            atoms = {n.symbol.name for n in _nodes(stm, clingo.ast) if n.ast_type == clingo.ast.ASTType.SymbolicAtom
+                     and n.symbol.ast_type == clingo.ast.ASTType.Function}
+            if atoms & set(CERTIFICATE_ATOMS):
+                reasons.append(f"{Path(name).name}:{stm.location.begin.line}: {printed} reads "
+                               f"{' and '.join(sorted(atoms & set(CERTIFICATE_ATOMS)))}")
+            elif kind == clingo.ast.ASTType.Minimize and not _below_level_5(str(stm.priority)):
+                reasons.append(f"{Path(name).name}:{stm.location.begin.line}: {printed} weighs at priority "
+                               f"{stm.priority}")
+
+        try:
+            clingo.ast.parse_string(text, visit, logger=lambda code, message: None)
+        except RuntimeError:
+            reasons.append(f"{Path(name).name}: clingo cannot parse it")
+    return tuple(reasons)
+
+
+def _below_level_5(priority: str) -> bool:
+    """Whether a priority, as clingo prints it, is an integer below 5."""
+    try:
+        return int(priority) < 5
+    except ValueError:  # a variable or an expression: unknown
+        return False

@@ -41,6 +41,7 @@ from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, event_of, parse_atom
 from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, check_time_limit
 from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
+from .asp_model import certificate_preconditions
 from .certificate import certificate, certificate_facts
 from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
@@ -165,6 +166,12 @@ class ClingoSolver:
         """Constants the encoding defines itself: no ``-c`` for them (clingo_arguments)."""
         self.certify = (model_files is None) if certify is None else bool(certify)
         """Whether a solve passes the certificate facts (model/certificate.lp checks them)."""
+        self.certificate_withdrawn: tuple[str, ...] = ()
+        """Why the encoding is not offered the certificate although asked (its preconditions,
+        refimpl.solvers.asp_model.certificate_preconditions); () when it is, or was not asked."""
+        if self.certify:
+            self.certificate_withdrawn = certificate_preconditions(self.model_files)
+            self.certify = not self.certificate_withdrawn
         self.isolate = isolate
         self.checked_costs = bool(checked_costs)
         self.inline_solves = int(inline_solves)
