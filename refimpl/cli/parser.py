@@ -163,7 +163,9 @@ def _add_solve(sub: "argparse._SubParsersAction") -> None:
     s.add_argument("file", help="fact file in the paper's syntax (det/3, box2d/5, trk/2, trk_state/2, iou/3, ...)")
     s.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     s.add_argument("--json", action="store_true", help="print one JSON object")
-    s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
+    s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
+                   help="stop after this many seconds, reading the file included, with the best answer found "
+                        "(flagged NOT proven optimal) or one line (default: no limit)")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant (repeatable)")
     s.add_argument("--check", action="store_true",

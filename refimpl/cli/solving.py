@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 
 from .. import io
 from ..core.constants import resolve_constants
@@ -22,6 +23,7 @@ from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
+    started = time.perf_counter()  # --time-limit bounds the command: reading a large file counts
     problem = read_problem(args.file)
     if args.const:
         for name, value in args.const:
@@ -32,7 +34,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     except ProblemFormatError as exc:
         raise ProblemFormatError(exc.reason, args.file) from None
     check_ranges(problem, args.file)
-    hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
+    left = None if args.time_limit is None else max(0.0, args.time_limit - (time.perf_counter() - started))
+    hyp = get_solver(args.backend).solve(problem, time_limit=left)
     violations = ()
     if args.check:
         report = check_answer(problem, hyp)

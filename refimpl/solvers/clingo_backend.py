@@ -92,6 +92,13 @@ def clingo_arguments(problem: FrameProblem, threads: int = 1, certify: bool = Fa
     return args
 
 
+KILLABLE_IOU = 3000
+"""A sub-problem of at least this many iou/3 facts solved under a time limit goes to the worker
+process whatever the count of solves: grounding cannot be stopped half-way in this process, but
+the worker is killed when it overruns (refimpl.solvers.clingo_process), so the limit holds with
+grounding included.  A dense 100-track crowd has ~3,600 (refimpl.experiments.synthetic.dense_frame);
+a 400-track one, ~14,600, grounded in 10-20 s on this machine."""
+
 PART_NODES = 16
 """The clingo backend's default sub-problem size (own nodes, refimpl.solvers.decompose)."""
 
@@ -235,9 +242,9 @@ class ClingoSolver:
             else:
                 share = None if deadline is None else deadline - now  # all that is left: most parts are trivial
                 self._calls += 1
-                found = (self._worker.solve_one(part.problem, share)
-                         if self._worker is not None and self._calls > self.inline_solves
-                         else self._solve_one(part.problem, share))
+                in_child = self._worker is not None and (
+                    self._calls > self.inline_solves or (share is not None and len(part.problem.iou) >= KILLABLE_IOU))
+                found = self._worker.solve_one(part.problem, share) if in_child else self._solve_one(part.problem, share)
             if found is None:  # out of time without a model: the obvious answer of this part
                 fallback = obvious_hypothesis(part.problem, self.name)
                 if fallback is None:
