@@ -97,6 +97,9 @@ def _has_explanation(action: str, i: int, tracks: Sequence[TrackPrediction], top
 
 EXPLANATION = -1
 """AbductionModel.objectives key of the tie-break's explanation part (solved after the pair part)."""
+PAIR_ORDER = -2
+"""AbductionModel.objectives key, where present, of the pair part as it is minimised: the terms that
+can be nonzero in an optimum, each weighed 2^(its rank), the same order (cpsat_certificate)."""
 
 OBJECTIVE_BITS = 52
 """Every objective CP-SAT is asked to minimise takes fewer than 2^52 values in absolute value:
@@ -428,7 +431,8 @@ def objective_plan(am: AbductionModel, bits: int = OBJECTIVE_BITS,
     chunks need UNIQUE_CHECK_CHUNKS objectives or more (and ``unique_pairs``); otherwise
     (everything packed in one sequence, [], []): no question is asked."""
     upper = [(p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
-    chunks = [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(am.objectives[TIEBREAK_LEVEL], bits)]
+    pairs = am.objectives.get(PAIR_ORDER) or am.objectives[TIEBREAK_LEVEL]
+    chunks = [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(pairs, bits)]
     lower = [(TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, []))]
     packed = _pack_levels(chunks, bits) if chunks else []
     if not unique_pairs or len(packed) < UNIQUE_CHECK_CHUNKS:
