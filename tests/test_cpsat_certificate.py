@@ -123,3 +123,25 @@ def test_the_pair_order_keeps_the_order_of_the_pairs_left():
     kept = sorted(am.objectives[PAIR_ORDER], key=lambda t: original[t[1].index])
     assert [c for c, _ in kept] == sorted(c for c, _ in kept)
     assert len(kept) < len(original)
+
+
+def test_out_of_time_the_stand_in_answer_has_the_witnesss_assigns():
+    # issue 41: a dense crowd out of time got the obvious answer, no assign at all.  With the
+    # certificate accepted, the stand-in is the obvious answer with the witness's pairs assigned:
+    # still an answer (every other track takes the obvious answer's solo action; the checker
+    # confirms it), and its level 10 is the optimum's (the witness reaches the bound, 2.10).
+    from refimpl.core.hypothesis import Hypothesis
+    from refimpl.solvers.check import check_answer
+    from refimpl.solvers.cpsat_model import _trivial_solution
+    problem = dense_frame(60, 1)
+    am = build_model(problem, EventState.from_problem(problem), resolve_constants(problem))
+    assert prune(am, problem)[0] and len(am.witness) > 40
+    stand_in = _trivial_solution(am, problem)
+    chosen = [a for a, v in list(am.actions.items()) + list(am.events.items()) if stand_in[v.index]]
+    actions = tuple(sorted(a for a in chosen if a in am.actions))
+    events = tuple(sorted(f"occurs_at({e},{problem.time})" for e in chosen if e in am.events))
+    assert sum(a.startswith("assign(") for a in actions) == len(am.witness)
+    report = check_answer(problem, Hypothesis(problem.time, actions, events, (), optimal=False))
+    assert report.ok
+    optimum = _solve(problem, False)[2]
+    assert dict(report.cost)[10] == dict(optimum.cost)[10]

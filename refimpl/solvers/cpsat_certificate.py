@@ -19,7 +19,9 @@ them all adds its constraints:
 The argument needs the model's levels 10 and 5 to hold only assign and resume terms, as
 ``build_model`` makes them (``action_cost``), which ``prune`` checks too.  The pruned model keeps
 every lexicographic optimum, so the answer is the same (unique under the canonical tie-break);
-CP-SAT only proves level 10 and 5 without searching for them.
+CP-SAT only proves level 10 and 5 without searching for them.  The witness also goes into the
+answer that stands in when a time limit leaves the first level no time (cpsat_model's
+_trivial_solution): the obvious answer with the witness's pairs assigned, optimal at level 10.
 """
 
 from __future__ import annotations
@@ -68,6 +70,7 @@ def _prune(am, problem: FrameProblem, zero: set[int]) -> tuple[bool, bool]:
     if tight is None:
         return False, False
     _add(am, cert, assigns, tight, zero)
+    am.witness = tuple(cert.matching)  # a level-10 optimum: the stand-in answer's assigns
     if cert.resume is None:
         return True, False
     v10 = dict(cert.det)
