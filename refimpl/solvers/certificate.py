@@ -33,9 +33,14 @@ import numpy as np
 from ..core.assignment import linear_sum_assignment
 from ..core.constants import resolve_constants
 from ..core.spec import FrameProblem
+from ..knowledge.events import explaining
 from .admissibility import assignment_constraints
 from .common import candidate_pairs
 
+
+_AGAIN = "|".join(e.name for e in explaining("ignore_trk"))
+"""The event that re-explains an ignored missing track (the event table's role; model/events.lp
+[explain_ignore] names it)."""
 
 CERTIFIED_STATEMENTS = frozenset({
     # [actions_per_track], [actions_per_detection]: every track may take ignore_trk and every
@@ -47,9 +52,9 @@ CERTIFIED_STATEMENTS = frozenset({
     # [ignore_trk_constraints]: only a halted track is ignored (the argument's "a halted track")
     "#false :- ignore_trk(Trk); not trk_state(Trk,halted).",
     # [explain_ignore] (docs/model.md 3.16): the re-explanation is always possible where required
-    "0 <= { occurs_at(hides_behind(Trk,Trk2),curr_time): event(hides_behind(Trk,Trk2)) } <= 1 :- ignore_trk(Trk).",
-    "reexplained(Trk) :- ignore_trk(Trk); occurs_at(hides_behind(Trk,_),curr_time).",
-    "#false :- ignore_trk(Trk); holds_at(clipped(Trk),true,curr_time); poss(hides_behind(Trk,_)); "
+    f"0 <= {{ occurs_at({_AGAIN}(Trk,Trk2),curr_time): event({_AGAIN}(Trk,Trk2)) }} <= 1 :- ignore_trk(Trk).",
+    f"reexplained(Trk) :- ignore_trk(Trk); occurs_at({_AGAIN}(Trk,_),curr_time).",
+    f"#false :- ignore_trk(Trk); holds_at(clipped(Trk),true,curr_time); poss({_AGAIN}(Trk,_)); "
     "not reexplained(Trk).",
     # level 3: ignoring costs, below the levels the certificate prunes
     ":~ ignore_det(Det). [10@3,Det,ignore_det]",
