@@ -189,6 +189,8 @@ def test_an_encoding_without_the_tiebreak_counts_ties_not_disagreements(tmp_path
                  "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "equal cost vectors on levels 10..1" in out and "; 0 disagreements;" in out
+    # only optimisation.lp changed: no constant, event, action or fluent differs (issue 41)
+    assert out.splitlines()[0] == "clingo[notb] against model/: the same constants, events, actions and fluents"
 
 
 @pytest.mark.parametrize("make, message", [
@@ -250,3 +252,78 @@ def test_diff_shows_its_progress_frame_by_frame_on_a_terminal_only(tmp_path):
     assert counts - {0, 71}, f"no count between 0 and 71 frames: {sorted(counts)}"  # it moved during the run
     assert run(["--quiet"], _Terminal())[1] == ""           # --quiet: no bar
     assert run([], io_text.StringIO())[1] == ""              # not a terminal: no bar
+
+
+# --asp-model runs the encoding with its own #const values (issue 41, item 1)
+# ---------------------------------------------------------------------------------------------
+
+def _set_const(file: str, name: str, value: int):
+    """An edit for _copy_model: ``#const name=...`` set to value in ``file``."""
+    def edit(fname, text):
+        if fname != file:
+            return text
+        lines = [f"#const {name}={value}." if ln.startswith(f"#const {name}=") else ln for ln in text.splitlines()]
+        assert lines != text.splitlines(), f"no #const {name} in {file}"
+        return "\n".join(lines) + "\n"
+    return edit
+
+
+def test_the_users_iou_threshold_runs_and_the_changed_constant_is_named_first(tmp_path, capsys):
+    # iou_thresh=5000: the copy may assign a pair of IoU 0.05..0.3, which the reference (0.3) and
+    # the checker (refimpl's constants) refuse.  Before, refimpl's -c iou_thresh=30000 overrode the
+    # copy's value and diff reported 0 disagreements, exit 0.
+    pytest.importorskip("clingo")
+    from refimpl.tracking.pipeline import Setup, run_sequence
+    from refimpl.solvers.asp_model import load_asp_model
+    folder = _copy_model(tmp_path / "loose", _set_const("constants.lp", "iou_thresh", 5000))
+    assert main(["diff", "--dets", str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--asp-model", str(folder),
+                 "--quiet"]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "clingo[loose] against model/: 1 constant differs: iou_thresh=5000 (model/: 30000)"
+    assert "breaks assignment_constraints" in "\n".join(out)
+    # it can only matter on a frame with a same-type pair of IoU in (5000, 30000]: read off the
+    # oracle's own problems, tracked without the diff
+    seq = _demo40()
+    loose = []
+    run_sequence(seq, Setup("cpsat-full", ()), observer=lambda p, h: loose.append(p.time) if any(
+        5000 < ml <= 30000 for _, _, ml in p.iou) else None)
+    report = diff_sequence(seq, asp_model=load_asp_model(folder))
+    assert report.disagreements > 0 and set(report.disagreement_frames) <= set(loose)
+
+
+def test_the_users_event_cost_runs(tmp_path):
+    # cost_unhides_from_behind=3 makes recover (2) the copy's cheaper explanation of a resume; the
+    # checker prices it with refimpl's costs, so wherever the oracle resumes by unhides_from_behind
+    # the copy's answer is worse at level 1: a disagreement on exactly those frames
+    pytest.importorskip("clingo")
+    from refimpl.tracking.pipeline import Setup, run_sequence
+    from refimpl.solvers.asp_model import load_asp_model
+    model = load_asp_model(_copy_model(tmp_path / "dear", _set_const("events.lp", "cost_unhides_from_behind", 3)))
+    assert model.differences() == ("clingo[dear] against model/: 1 constant differs: "
+                                   "cost_unhides_from_behind=3 (model/: 1)")
+    seq = _demo40()
+    unhides = []
+    run_sequence(seq, Setup("cpsat-full", ()), observer=lambda p, h: unhides.append(p.time) if any(
+        name == "unhides_from_behind" for name, _ in h.event_terms) else None)
+    assert unhides
+    report = diff_sequence(seq, asp_model=model)
+    assert report.disagreement_frames == unhides and report.violations == 0
+
+
+def test_the_first_line_names_constants_events_and_fluents_in_one_encoding_only(tmp_path):
+    pytest.importorskip("clingo")
+    from refimpl.solvers.asp_model import load_asp_model
+    same = load_asp_model(_copy_model(tmp_path / "same"))
+    assert same.differences() == "clingo[same] against model/: the same constants, events, actions and fluents"
+    # no noise among the explanations of an end, and a fluent of its own: both named
+    noise = "    occurs_at(noise(Trk), curr_time) } 1 :- end(Trk)."
+    assert noise in (REPO / "model/events.lp").read_text()
+    folder = _copy_model(tmp_path / "quiet", lambda name, text: text.replace(
+        ";\n" + noise, " } 1 :- end(Trk).") + ("fluent(tired(T)) :- trk(T, _).\n" if name == "fluents.lp" else ""))
+    assert load_asp_model(folder).differences() == (
+        "clingo[quiet] against model/: events only in model/: noise; fluents only in clingo[quiet]: tired")
+    # a constant the files do not define is refimpl's (-c), as before: no difference
+    undefined = load_asp_model(_copy_model(tmp_path / "lean", lambda name, text: "\n".join(
+        ln for ln in text.splitlines() if not ln.startswith("#const size_threshold="))))
+    assert "size_threshold" not in undefined.vocabulary.defined
+    assert undefined.differences().endswith("the same constants, events, actions and fluents")

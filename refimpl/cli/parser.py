@@ -169,7 +169,9 @@ def _add_solve(sub: "argparse._SubParsersAction") -> None:
                         f"frames; found in the checkout or the installed package): {', '.join(sorted(shipped_examples()))}")
     s.add_argument("--backend", choices=BACKENDS, default=DEFAULT_BACKEND)
     s.add_argument("--json", action="store_true", help="print one JSON object")
-    s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS")
+    s.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
+                   help="stop after this many seconds, reading the file included, with the best answer found "
+                        "(flagged NOT proven optimal) or one line (default: no limit)")
     s.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
                    help="override a model constant (repeatable)")
     s.add_argument("--check", action="store_true",

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 
 from .. import io
 from ..core.constants import resolve_constants
 from ..core.ranges import check_constant, check_ranges
 from ..core.spec import ProblemFormatError, with_constants
 from ..core.facts import read_problem
+from ..core.hypothesis import cost_list_text, cost_text
 from ..experiments.diff import DiffJob, DiffReport, diff_job
 from ..experiments.scaleout import run_tasks
 from ..io.datasets import load_dataset
@@ -21,6 +23,7 @@ from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
+    started = time.perf_counter()  # --time-limit bounds the command: reading a large file counts
     if (args.file is None) == (args.example is None):
         raise UserError(f"give either a fact FILE or --example NAME ({', '.join(sorted(io.shipped_examples()))})")
     if args.example is not None:
@@ -35,13 +38,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
     except ProblemFormatError as exc:
         raise ProblemFormatError(exc.reason, args.file) from None
     check_ranges(problem, args.file)
-    hyp = get_solver(args.backend).solve(problem, time_limit=args.time_limit)
+    left = None if args.time_limit is None else max(0.0, args.time_limit - (time.perf_counter() - started))
+    hyp = get_solver(args.backend).solve(problem, time_limit=left)
     violations = ()
     if args.check:
         report = check_answer(problem, hyp)
         violations = report.messages
         if report.cost != hyp.cost:
-            violations += (f"[cost_vector] the answer's cost is {list(report.cost)}, not {list(hyp.cost)}",)
+            violations += (f"[cost_vector] the answer's cost is {cost_list_text(report.cost)}, "
+                           f"not {cost_list_text(hyp.cost)}",)
         optimum = ""
         if not violations and hyp.optimal:  # the checker's own enumeration where components are small
             verdict = FrameOptimum.of(problem).verdict(hyp)
@@ -55,7 +60,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
               f"  {hyp.solve_ms:.1f} ms")
         print("actions: " + " ".join(hyp.actions))
         print("events:  " + (" ".join(hyp.events) or "-"))
-        print("cost:    " + " ".join(f"{v}@{p}" for p, v in hyp.cost))
+        print("cost:    " + cost_text(hyp.cost))
     if args.check:
         print("check:   " + ("; ".join(violations) if violations else
                              "every rule holds, cost vector confirmed" + optimum),
@@ -77,6 +82,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
             asp_model = load_asp_model(args.asp_model)
         except AspModelError as exc:
             raise UserError(str(exc)) from None
+        differences = asp_model.differences()  # printed once the inputs are known to be good
     plan = _plan(args)
     if args.benchmark:
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
@@ -84,6 +90,8 @@ def cmd_diff(args: argparse.Namespace) -> int:
         seqs = [_load_sequence(args, path) for path in args.dets]
     else:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
+    if asp_model is not None:
+        print(differences, flush=True)
     reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit, asp_model) for seq in seqs], plan,
                         label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name,
                         steps=lambda j: len(j.seq.frames), frames_rule=False)  # a bar frame by frame, as track's

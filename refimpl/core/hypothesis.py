@@ -8,9 +8,9 @@ pairs, highest priority first, maximise statements counted negatively.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 
+from . import bigint
 from .spec import event_of, parse_atom
 
 PRIORITIES = (10, 5, 3, 2, 1, 0)
@@ -55,6 +55,17 @@ ACTION_TABLE: dict[str, ActionType] = {a.name: a for a in (
 """action name -> ActionType; the one copy of model/optimisation.lp's per-action weights."""
 
 Cost = tuple[tuple[int, int], ...]
+
+
+def cost_text(cost: Cost) -> str:
+    """A cost vector as ``solve`` prints it, ``value@priority`` highest first (values of any size,
+    refimpl.core.bigint: level 0 of a dense crowd has thousands of digits)."""
+    return " ".join(f"{bigint.int_text(v)}@{p}" for p, v in cost)
+
+
+def cost_list_text(cost: Cost) -> str:
+    """A cost vector as the list of (priority, value) pairs it is, ``[(10, -5), ...]``, any size."""
+    return "[" + ", ".join(f"({p}, {bigint.int_text(v)})" for p, v in cost) + "]"
 
 
 def action_cost(name: str, likelihood: int = 0) -> tuple[int, ...]:
@@ -133,7 +144,8 @@ class Hypothesis:
         }
 
     def to_json(self) -> str:
-        return json.dumps(self.to_json_dict())
+        """``json.dumps(self.to_json_dict())``, with a level 0 of any size (refimpl.core.bigint)."""
+        return bigint.dumps(self.to_json_dict())
 
 
 def parse_action(atom: str) -> tuple[str, tuple[str, ...]]:

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
 from .. import io
+from ..core import bigint
 from ..core.errors import UserFacingError
 from ..io.datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS, benchmark_sequences
 from ..io.outputs import OutputSet, section_text, write_atomic, write_section  # noqa: F401  (section_text, write_section: re-exported for the report writers)
@@ -233,7 +234,7 @@ def summarise_scale(result: ScaleResult) -> list[ScaleRow]:
                 proven = [r for r in frame.values() if r.optimal and r.cost is not None]
                 if len(proven) >= 2:
                     compared += 1
-                    agree += len({json.dumps(r.cost) for r in proven}) == 1
+                    agree += len({bigint.dumps(r.cost) for r in proven}) == 1
                     same += len({r.answer_hash for r in proven}) == 1
                 if REFERENCE_BACKEND in frame:
                     for b in ratios:
@@ -467,7 +468,7 @@ def save_json(path: str | os.PathLike, result: ScaleResult | ThroughputResult) -
 
 def json_text(result: ScaleResult | ThroughputResult) -> str:
     kind = "scale" if isinstance(result, ScaleResult) else "throughput"
-    return json.dumps({"kind": kind, **asdict(result)}, indent=1)
+    return bigint.dumps({"kind": kind, **asdict(result)}, indent=1)  # a level 0 of any size
 
 
 def _is(value, kind) -> bool:
@@ -508,7 +509,7 @@ def _build(cls, data, where: str):
 def load_json(path: str | os.PathLike) -> ScaleResult | ThroughputResult:
     """A file written by save_json; anything else is a BenchmarkFileError naming the file."""
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        data = bigint.loads(Path(path).read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise BenchmarkFileError(f"{path}: file not found") from None
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:

@@ -12,10 +12,11 @@ checker; where answers differ, the checker says which rule or which cost level s
 
 With a user's own ASP encoding (``asp_model``, refimpl.solvers.asp_model) the clingo backend
 runs that encoding instead of model/*.lp, on the whole frame (no decomposition: that rests on
-properties of refimpl's model a user's encoding need not have) and with the checker's cost
-vector.  An encoding without refimpl's level-0 tie-break is compared on levels 10..1 only: a
-frame where its valid answer differs from the others' with equal costs there is a *tie* (an
-equal-cost choice the tie-break would decide), counted, not a disagreement.
+properties of refimpl's model a user's encoding need not have), with the constants its files
+define, and with the checker's cost vector (refimpl's constants: the reference's).  An encoding
+without refimpl's level-0 tie-break is compared on levels 10..1 only: a frame where its valid
+answer differs from the others' with equal costs there is a *tie* (an equal-cost choice the
+tie-break would decide), counted, not a disagreement.
 """
 
 from __future__ import annotations
@@ -25,7 +26,8 @@ from typing import Callable, Sequence
 
 from ..solvers.check import check_answer
 from ..solvers.check_optimum import FrameOptimum
-from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
+from ..core.bigint import int_text
+from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis, cost_list_text
 from ..core.ranges import OutOfClingoRange
 from ..solvers import CLINGO, ORACLE_PAIR, NoAdmissibleHypothesis, Solver, get_solver
 from ..solvers.asp_model import AspModel
@@ -56,7 +58,7 @@ class Divergence:
         lines = [f"first divergence at frame {self.frame}: {self.explanation}"]
         ref = set(self.answers[0].answer)
         for k, h in enumerate(self.answers):
-            lines.append(f"  {h.backend}: cost {list(h.cost)} optimal={h.optimal}")
+            lines.append(f"  {h.backend}: cost {cost_list_text(h.cost)} optimal={h.optimal}")
             if k:
                 lines.append(f"    only in {self.answers[0].backend}: {' '.join(sorted(ref - set(h.answer))) or '-'}")
                 lines.append(f"    only here: {' '.join(sorted(set(h.answer) - ref)) or '-'}")
@@ -164,8 +166,8 @@ def _explain(answers: Sequence[Hypothesis], levels: Sequence[int] = PRIORITIES) 
         for (p, v1), (_, v2) in zip(_on(first.cost, levels), _on(other.cost, levels)):
             if v1 != v2:
                 worse = first if v1 > v2 else other
-                return (f"{worse.backend}'s answer is worse at priority {p} ({max(v1, v2)} vs "
-                        f"{min(v1, v2)}) although proven optimal")
+                return (f"{worse.backend}'s answer is worse at priority {p} ({int_text(max(v1, v2))} vs "
+                        f"{int_text(min(v1, v2))}) although proven optimal")
     return "equal costs, different answers: a tie the canonical tie-break did not separate"
 
 
@@ -260,9 +262,10 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
 
 
 def user_solver(asp_model: AspModel) -> Solver:
-    """The clingo backend on a user's encoding: the whole frame, the checker's costs, its own label."""
+    """The clingo backend on a user's encoding: the whole frame, the checker's costs, its own label,
+    its own constants (refimpl.solvers.asp_model)."""
     return get_solver(CLINGO, model_files=asp_model.files, decompose=False, checked_costs=True,
-                      name=asp_model.label)
+                      name=asp_model.label, own_constants=asp_model.defined)
 
 
 # ---------------------------------------------------------------------------------------

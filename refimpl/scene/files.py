@@ -10,6 +10,7 @@ import json
 import math
 import os
 
+from ..core import bigint
 from ..core.spec import HistoryEvent, ProblemFormatError
 from ..core.facts import parse_term
 from ..io import write_text_atomic
@@ -43,6 +44,20 @@ def scene_to_json(scene: Scene) -> dict:
 def _need(cond: bool, what: str) -> None:
     if not cond:
         raise SceneError(what)
+
+
+SCENE_MAX_INT = 2 ** 63 - 1
+"""No number of a scene (frame, pixel, size) is larger; a larger integer is refused on reading."""
+
+
+def _scene_int(text: str) -> int:
+    """An integer of the file, read whatever its length (refimpl.core.bigint), refused beyond
+    SCENE_MAX_INT with its number of digits (the messages below print the values they check)."""
+    value = bigint.parse_int(text)
+    if abs(value) > SCENE_MAX_INT:
+        raise SceneError(f"not a refimpl scene file (an integer of {len(text.lstrip('-+'))} digits; "
+                         f"a scene's frames and pixels are below 2^63)")
+    return value
 
 
 def _int(v, what: str) -> int:
@@ -173,7 +188,7 @@ def load_scene(path: str | os.PathLike) -> Scene:
     path = os.fspath(path)
     try:
         with open(path, encoding="utf-8") as fh:
-            data = json.load(fh)
+            data = json.loads(fh.read(), parse_int=_scene_int)
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file") from None
     except UnicodeDecodeError:
@@ -183,7 +198,9 @@ def load_scene(path: str | os.PathLike) -> Scene:
                          f" column {exc.colno}: {exc.msg})") from None
     except RecursionError:
         raise SceneError(f"{path}: not a refimpl scene file (JSON nested too deeply)") from None
-    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+    except SceneError as exc:  # an integer beyond SCENE_MAX_INT
+        raise SceneError(f"{path}: {exc}") from None
+    except ValueError as exc:
         raise SceneError(f"{path}: not a refimpl scene file ({str(exc).splitlines()[0][:80]})") from None
     except OSError as exc:
         raise SceneError(f"{path}: cannot read: {exc.strerror or exc}") from None

@@ -17,9 +17,11 @@ The time-out contract (every backend)
 -------------------------------------
 ``solve(problem, time_limit=None)``: ``time_limit`` is None (no limit) or a finite number of
 seconds >= 0 (anything else: ValueError).  It bounds the whole call: building the problem, the
-fast path, clingo's grounding (counted: grounding cannot be stopped half-way inside a process, so
-the in-process clingo checks the clock after it, and clingo's worker process, refimpl.solvers.
-clingo_worker, is killed when it overruns its limit by a second) and the search.  A frame solved in
+fast path, CP-SAT's model, clingo's grounding (counted: grounding cannot be stopped half-way
+inside a process, so the in-process clingo checks the clock after it, a large part under a limit
+goes to clingo's worker process, refimpl.solvers.clingo_worker, and the worker is killed when it
+overruns its limit by a second, less under a short limit: clingo_process.grace) and the search;
+a call ends within 10 % of its limit + 1 s (tests/test_time_limit.py).  A frame solved in
 parts (refimpl.solvers.decompose) gives each part all the time that is left.  Out of time, a backend returns the best answer it
 has, flagged ``optimal=False``: the best solution found so far, or, when it found none, the
 obvious answer (every detection ignored, every halted track ignored, every active track halted

@@ -33,8 +33,53 @@ import numpy as np
 from ..core.assignment import linear_sum_assignment
 from ..core.constants import resolve_constants
 from ..core.spec import FrameProblem
+from ..knowledge.events import explaining
 from .admissibility import assignment_constraints
 from .common import candidate_pairs
+
+
+_AGAIN = "|".join(e.name for e in explaining("ignore_trk"))
+"""The event that re-explains an ignored missing track (the event table's role; model/events.lp
+[explain_ignore] names it)."""
+
+CERTIFIED_STATEMENTS = frozenset({
+    # [actions_per_track], [actions_per_detection]: every track may take ignore_trk and every
+    # detection ignore_det (the solo actions the witness's extension takes)
+    "1 <= { assign(Trk,Det): det(Det,_,_); end(Trk); ignore_trk(Trk); halt(Trk); "
+    "resume(Trk,Det): det(Det,_,_) } <= 1 :- trk(Trk,_).",
+    "1 <= { assign(Trk,Det): trk(Trk,_); start(Det); ignore_det(Det); resume(Trk,Det): trk(Trk,_) } <= 1 "
+    ":- det(Det,_,_).",
+    # [ignore_trk_constraints]: only a halted track is ignored (the argument's "a halted track")
+    "#false :- ignore_trk(Trk); not trk_state(Trk,halted).",
+    # [explain_ignore] (docs/model.md 3.16): the re-explanation is always possible where required
+    f"0 <= {{ occurs_at({_AGAIN}(Trk,Trk2),curr_time): event({_AGAIN}(Trk,Trk2)) }} <= 1 :- ignore_trk(Trk).",
+    f"reexplained(Trk) :- ignore_trk(Trk); occurs_at({_AGAIN}(Trk,_),curr_time).",
+    f"#false :- ignore_trk(Trk); holds_at(clipped(Trk),true,curr_time); poss({_AGAIN}(Trk,_)); "
+    "not reexplained(Trk).",
+    # level 3: ignoring costs, below the levels the certificate prunes
+    ":~ ignore_det(Det). [10@3,Det,ignore_det]",
+    ":~ ignore_trk(Trk). [10@3,Trk,ignore_trk]",
+    # levels 10 and 5: assigns only, resumes only ([level10_likelihood], [level10_count],
+    # [level5_resume_likelihood]), and the empty statements that declare the levels
+    ":~ . [0@10]",
+    ":~ . [0@5]",
+    ":~ assign(Trk,Det); iou(Trk,Det,ML). [-ML@10,Trk,Det]",
+    ":~ assign(Trk,Det). [-1@10,Trk,Det,count]",
+    ":~ resume(Trk,Det); iou(Trk,Det,ML). [-ML@5,Trk,Det]",
+    # [level0_tiebreak]: priorities from refimpl's tie-break facts, all below level 1
+    ":~ assign(Trk,Det); tiebreak_pair(Trk,Det,P,W). [W@P,Trk,Det,assign]",
+    ":~ resume(Trk,Det); tiebreak_pair(Trk,Det,P,W). [W@P,Trk,Det,resume]",
+    ":~ occurs_at(E,curr_time); tiebreak_event(E,P,W). [W@P,E,event]",
+})
+"""The preconditions of the certificate, as clingo prints the statements of model/ they rest on
+(docs/model.md 2.10, "Preconditions").  The argument needs ignore_det always admissible, ignore_trk
+admissible for every halted track, and only assigns at level 10 and only resumes at level 5.  An
+encoding in which a statement outside this set mentions ``ignore_det`` or ``ignore_trk``, or
+weighs at priority 5 or more (or at a priority not written as a number), is not offered the
+certificate (refimpl.solvers.asp_model.certificate_preconditions, checked when a ClingoSolver is
+built): such a statement may forbid the solo actions or add terms the certificate does not bound,
+and its pruning could then cut an optimum.  A change to one of these statements withdraws it too,
+until the argument is made again for the new text and the text is written here."""
 
 
 @dataclass(frozen=True)

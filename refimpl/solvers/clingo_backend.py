@@ -41,6 +41,7 @@ from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, event_of, parse_atom
 from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, check_time_limit
 from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
+from .asp_model import certificate_preconditions
 from .certificate import certificate, certificate_facts
 from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
@@ -69,8 +70,12 @@ def problem_facts(problem: FrameProblem) -> str:
     return "\n".join(lines) + "\n" + tiebreak_facts(problem)
 
 
-def clingo_arguments(problem: FrameProblem, threads: int = 1, certify: bool = False) -> list[str]:
-    """The clingo command-line options for this problem (see the module docstring)."""
+def clingo_arguments(problem: FrameProblem, threads: int = 1, certify: bool = False,
+                     own_constants: Sequence[str] = ()) -> list[str]:
+    """The clingo command-line options for this problem (see the module docstring).  No ``-c`` for
+    a constant of ``own_constants`` (those a user's encoding defines itself,
+    refimpl.solvers.asp_model) unless the problem sets it (``curr_time``, the image size, a
+    ``--const``): the encoding runs with its own values."""
     args = [
         "--opt-mode=opt",
         "--models=0",
@@ -80,10 +85,19 @@ def clingo_arguments(problem: FrameProblem, threads: int = 1, certify: bool = Fa
     ]
     if certify:
         args.append("--opt-strategy=usc,oll,stratify")
+    own = set(own_constants) - {name for name, _ in problem.constants} - {"curr_time"}
     for name, value in resolve_constants(problem).items():
-        args += ["-c", f"{name}={value}"]
+        if name not in own:
+            args += ["-c", f"{name}={value}"]
     return args
 
+
+KILLABLE_IOU = 3000
+"""A sub-problem of at least this many iou/3 facts solved under a time limit goes to the worker
+process whatever the count of solves: grounding cannot be stopped half-way in this process, but
+the worker is killed when it overruns (refimpl.solvers.clingo_process), so the limit holds with
+grounding included.  A dense 100-track crowd has ~3,600 (refimpl.experiments.synthetic.dense_frame);
+a 400-track one, ~14,600, grounded in 10-20 s on this machine."""
 
 PART_NODES = 16
 """The clingo backend's default sub-problem size (own nodes, refimpl.solvers.decompose)."""
@@ -133,12 +147,13 @@ class ClingoSolver:
     (the backend name its answers carry: ``get_solver`` passes its entry's, a user's encoding its label),
     ``certify`` (default: True for the model in model/, False for other ``model_files``; True: each
     solve also gets the certificate of levels 10 and 5 (refimpl.solvers.certificate) as facts, which
-    model/certificate.lp checks and uses to prune, docs/model.md 2.10)."""
+    model/certificate.lp checks and uses to prune, docs/model.md 2.10), ``own_constants`` (the
+    constants a user's encoding defines itself, passed to it by no ``-c``: clingo_arguments)."""
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
                  recycle: int | None = None, inline_solves: int = INLINE_SOLVES, checked_costs: bool = False,
-                 name: str = CLINGO, certify: bool | None = None):
+                 name: str = CLINGO, certify: bool | None = None, own_constants: Sequence[str] = ()):
         try:
             import clingo
         except ImportError:
@@ -154,8 +169,16 @@ class ClingoSolver:
         self.model_files = (
             tuple(Path(p) for p in model_files) if model_files is not None else default_model_files()
         )
+        self.own_constants = tuple(own_constants)
+        """Constants the encoding defines itself: no ``-c`` for them (clingo_arguments)."""
         self.certify = (model_files is None) if certify is None else bool(certify)
         """Whether a solve passes the certificate facts (model/certificate.lp checks them)."""
+        self.certificate_withdrawn: tuple[str, ...] = ()
+        """Why the encoding is not offered the certificate although asked (its preconditions,
+        refimpl.solvers.asp_model.certificate_preconditions); () when it is, or was not asked."""
+        if self.certify:
+            self.certificate_withdrawn = certificate_preconditions(self.model_files)
+            self.certify = not self.certificate_withdrawn
         self.isolate = isolate
         self.checked_costs = bool(checked_costs)
         self.inline_solves = int(inline_solves)
@@ -163,7 +186,7 @@ class ClingoSolver:
         self._worker = None
         if isolate:  # clingo in a child process (refimpl.solvers.clingo_process): bounded memory
             self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files,
-                                         "certify": self.certify},
+                                         "certify": self.certify, "own_constants": self.own_constants},
                                         DEFAULT_RECYCLE if recycle is None else recycle)
 
     @property
@@ -187,7 +210,8 @@ class ClingoSolver:
         def logger(code, message: str) -> None:
             messages.append(" ".join(message.split()))
 
-        ctl = self._clingo.Control(clingo_arguments(problem, self.threads, self.certify), logger=logger,
+        ctl = self._clingo.Control(clingo_arguments(problem, self.threads, self.certify, self.own_constants),
+                                   logger=logger,
                                    message_limit=20)
         try:
             for path in self.model_files:
@@ -218,9 +242,9 @@ class ClingoSolver:
             else:
                 share = None if deadline is None else deadline - now  # all that is left: most parts are trivial
                 self._calls += 1
-                found = (self._worker.solve_one(part.problem, share)
-                         if self._worker is not None and self._calls > self.inline_solves
-                         else self._solve_one(part.problem, share))
+                in_child = self._worker is not None and (
+                    self._calls > self.inline_solves or (share is not None and len(part.problem.iou) >= KILLABLE_IOU))
+                found = self._worker.solve_one(part.problem, share) if in_child else self._solve_one(part.problem, share)
             if found is None:  # out of time without a model: the obvious answer of this part
                 fallback = obvious_hypothesis(part.problem, self.name)
                 if fallback is None:

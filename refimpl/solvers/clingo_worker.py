@@ -30,7 +30,8 @@ from .clingo_backend import ClingoSolver
 
 
 def _serve(conn) -> None:
-    """The child's loop: its options first, then (problem, time limit) in, ("ok", result, cpu
+    """The child's loop: its options first, then (problem, time limit, time.monotonic() of the
+    send) in, ("ok", result, cpu
     seconds) or ("error", type, message) out; None or a closed pipe ends it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides about interrupts
     solver = ClingoSolver(**conn.recv(), isolate=False)
@@ -41,7 +42,11 @@ def _serve(conn) -> None:
             return
         if job is None:
             return
-        problem, time_limit = job
+        problem, time_limit, sent = job
+        if time_limit is not None:  # the limit counts from the parent's send: a child that was
+            # just started (imports, ~1 s) or a large problem's transfer must not push the search
+            # past the parent's kill (time.monotonic is the system's clock, the parent's too)
+            time_limit = max(0.0, time_limit - (time.monotonic() - sent))
         cpu = time.process_time()
         try:
             result = solver._solve_one(problem, time_limit)

@@ -209,7 +209,21 @@ def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> 
     """The level-0 weights of every pair and event of the frame (module docstring).
 
     ``inter`` optionally passes ``intersection_matrix`` of the track boxes (in problem.tracks
-    order) when the caller has it already."""
+    order) when the caller has it already.  Without it the weights of the last two problems are
+    memoised (read them, never change them): one solve prices its problem's tie-break several
+    times (clingo's range check, the fallback's check, the answer's level 0), 0.44 s each on a
+    400-track crowd, time its time limit must cover."""
+    if inter is None:
+        return _tiebreak_weights(problem)
+    return _compute_tiebreak_weights(problem, inter)
+
+
+@lru_cache(maxsize=2)
+def _tiebreak_weights(problem: FrameProblem) -> TiebreakWeights:
+    return _compute_tiebreak_weights(problem, None)
+
+
+def _compute_tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None) -> TiebreakWeights:
     comps = components(problem)
     cands = _event_candidates(problem, inter)
     event = {e: idx for evs in cands.values() for idx, e in enumerate(evs)}

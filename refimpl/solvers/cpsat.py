@@ -73,6 +73,7 @@ from .admissibility import (  # noqa: F401  (re-exported)
     resume_constraints,
     start_constraints,
 )
+from .cpsat_certificate import prune
 from .decompose import DEFAULT_PART_NODES, Part, own_atoms, split
 from .fallback import obvious_hypothesis
 from .fast_path import (  # noqa: F401  (re-exported)
@@ -164,8 +165,11 @@ class CpSatSolver:
             now = time.perf_counter()
             if deadline is not None and now >= deadline:
                 return self._fallback(problem, start, time_limit)
-            share = None if deadline is None else deadline - now  # all that is left: most parts are trivial
             am = build_model(part.problem, state, constants)
+            prune(am, part.problem)  # the level-10/5 certificate where it checks (cpsat_certificate)
+            # all that is left after building the model (a dense crowd's takes seconds, and it
+            # counts): most parts are trivial
+            share = None if deadline is None else max(0.0, deadline - time.perf_counter())
             res = solve_lexicographic(am, part.problem, share, self.workers, self.seed)
             optimal = optimal and res.optimal
             chosen = [a for a, v in res.values.items() if v]

@@ -97,6 +97,9 @@ def _has_explanation(action: str, i: int, tracks: Sequence[TrackPrediction], top
 
 EXPLANATION = -1
 """AbductionModel.objectives key of the tie-break's explanation part (solved after the pair part)."""
+PAIR_ORDER = -2
+"""AbductionModel.objectives key, where present, of the pair part as it is minimised: the terms that
+can be nonzero in an optimum, each weighed 2^(its rank), the same order (cpsat_certificate)."""
 
 OBJECTIVE_BITS = 52
 """Every objective CP-SAT is asked to minimise takes fewer than 2^52 values in absolute value:
@@ -133,6 +136,9 @@ class AbductionModel:
     part (coefficients 2^q, Python integers of any size); EXPLANATION its explanation part."""
     tiebreak_shift: int = 0
     """E of the tie-break (common.py): level 0 = pair part * 2^E + explanation part."""
+    witness: tuple[tuple[str, str], ...] = ()
+    """Assign pairs of a level-10 optimum known before any solve (the accepted certificate's witness,
+    cpsat_certificate): the stand-in answer of a level without time takes them (_trivial_solution)."""
 
     def all_vars(self) -> list[cp_model.IntVar]:
         return list(self.actions.values()) + list(self.events.values())
@@ -298,6 +304,11 @@ def _trivial_solution(am: AbductionModel, problem: FrameProblem) -> dict[int, in
     the model, found without search; None if the model has no variable for one of its atoms (some
     active track cannot be halted)."""
     actions, events = obvious_answer(problem)
+    if am.witness:  # its tracks assigned, not halted; its detections assigned, not ignored
+        taken = {x for pair in am.witness for x in pair}
+        actions = tuple(a for a in actions if parse_atom(a).arg_names[0] not in taken) + tuple(
+            f"assign({t},{d})" for t, d in am.witness)
+        events = tuple(e for e in events if parse_atom(e).arg_names[0] not in taken)
     if not all(a in am.actions for a in actions) or not all(e in am.events for e in events):
         return None
     chosen = set(actions) | set(events)
@@ -428,7 +439,8 @@ def objective_plan(am: AbductionModel, bits: int = OBJECTIVE_BITS,
     chunks need UNIQUE_CHECK_CHUNKS objectives or more (and ``unique_pairs``); otherwise
     (everything packed in one sequence, [], []): no question is asked."""
     upper = [(p, am.objectives[p]) for p in PRIORITIES if p != TIEBREAK_LEVEL]
-    chunks = [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(am.objectives[TIEBREAK_LEVEL], bits)]
+    pairs = am.objectives.get(PAIR_ORDER) or am.objectives[TIEBREAK_LEVEL]
+    chunks = [(TIEBREAK_LEVEL, chunk) for chunk in _chunk_pairs(pairs, bits)]
     lower = [(TIEBREAK_LEVEL, am.objectives.get(EXPLANATION, []))]
     packed = _pack_levels(chunks, bits) if chunks else []
     if not unique_pairs or len(packed) < UNIQUE_CHECK_CHUNKS:

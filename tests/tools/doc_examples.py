@@ -1,6 +1,6 @@
-"""The README's and docs/reasoning.md's examples: parse them, run them, and regenerate what they show.
+"""The documents' examples (README.md, docs/*.md): parse them, run them, and regenerate what they show.
 
-    python tests/tools/doc_examples.py README.md [docs/reasoning.md ...] [--data ../shared/data]
+    python tests/tools/doc_examples.py README.md [docs/reasoning.md docs/model.md ...] [--data ../shared/data]
 
 rewrites each document's ```text blocks with what their commands print now (timings as printed);
 tests/test_doc_examples.py runs the same commands and fails while a document shows anything else.
@@ -24,6 +24,14 @@ ELLIPSIS = "..."
 ``$`` line stays a command a reader can paste; the document says in prose what is left out)."""
 FILES = {"docs/reasoning.md": {"bad.json": '{"format": "refimpl-scene", "version": 1}\n'}}
 """Input files a document describes in prose rather than makes with a command."""
+SESSIONS = ("text", "console")
+"""The fences of a block that holds a session (``$`` commands and what they print)."""
+SHOWN_ONLY = {"docs/model.md", "docs/evaluation.md"}
+"""Documents of which only the commands that show output are run: their ```sh blocks name long
+runs (a whole benchmark's diff) that the text describes rather than shows."""
+HALT_CHOICE = """1 { occurs_at(hides_behind(Trk, Trk2), curr_time) : event(hides_behind(Trk, Trk2));
+    occurs_at(missing_detections(Trk), curr_time) } 1 :- halt(Trk)."""
+"""model/events.lp's [explain_halt], which docs/model.md 6's ``nohide`` copy replaces."""
 
 
 @dataclass(frozen=True)
@@ -60,7 +68,7 @@ def _block(lang: str, lines: list[tuple[int, str]]) -> list[Example]:
             if line.startswith("refimpl ") and "[" not in line:
                 found.append(Example(n, line, None))
         return found
-    if lang != "text" or not any(line.startswith("$ ") for _, line in lines):
+    if lang not in SESSIONS or not any(line.startswith("$ ") for _, line in lines):
         return found
     current: tuple[int, str] | None = None
     shown: list[str] = []
@@ -118,7 +126,24 @@ def _workspace(tmp: Path, data: Path, doc: str) -> Path:
     (root / "shared").symlink_to(Path(data).resolve().parent)
     for name, text in FILES.get(doc, {}).items():
         (work / name).write_text(text)
+    if doc == "docs/model.md":  # section 6's worked example: model/ without hides_behind for a halt
+        (work / "nohide").mkdir()
+        for lp in sorted((REPO / "model").glob("*.lp")):
+            text = lp.read_text(encoding="utf-8")
+            if lp.name == "events.lp":
+                assert HALT_CHOICE in text, "model/events.lp's [explain_halt] changed: update HALT_CHOICE"
+                text = text.replace(HALT_CHOICE, "1 { occurs_at(missing_detections(Trk), curr_time) } 1 :- halt(Trk).")
+            (work / "nohide" / lp.name).write_text(text, encoding="utf-8")
+    if doc == "docs/evaluation.md":  # "the KITTI Car 0011 results of the README": its track command
+        _run("refimpl track --dets ../shared/data/KITTI/tracking/training/det_02_pointrcnn/Car/0011.txt "
+             "--format kitti --class Car --out 0011.txt", work)
     return work
+
+
+def runnable(doc: str) -> list[Example]:
+    """The examples of a document the tests run, in order (SHOWN_ONLY: those that show output)."""
+    found = examples(REPO / doc)
+    return [e for e in found if e.shown is not None] if doc in SHOWN_ONLY else found
 
 
 def _run(command: str, cwd: Path) -> str:
@@ -136,7 +161,7 @@ def regenerate(doc: Path, shared: Path, tmp: Path) -> int:
     are left as they are); the number of commands rewritten."""
     work = _workspace(tmp, shared, str(doc.relative_to(REPO)))
     printed: dict[int, list[str]] = {}
-    for ex in examples(doc):
+    for ex in runnable(str(doc.relative_to(REPO))):
         out = _run(ex.command, work).rstrip("\n").splitlines()
         if ex.shown is not None and not ex.excerpt:
             printed[ex.line] = out
@@ -154,7 +179,7 @@ def regenerate(doc: Path, shared: Path, tmp: Path) -> int:
             continue
         out_lines.append(line)
         k += 1
-        if lang == "text" and line.startswith("$ ") and k in printed:
+        if lang in SESSIONS and line.startswith("$ ") and k in printed:
             start = k
             while out_lines[-1].endswith("\\"):  # the command's continuation lines
                 out_lines.append(lines[k])
