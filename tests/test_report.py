@@ -184,3 +184,43 @@ def test_kitti_car_0011_report_renders_in_headless_chromium(kitti_car_0011, tmp_
     for colour in (STATE_COLOURS[ACTIVE], STATE_COLOURS[HIDDEN]):
         rgb = tuple(int(colour[i:i + 2], 16) for i in (1, 3, 5))
         assert rgb in pixels, colour
+
+
+# ---------------------------------------------------------------------------------------
+# the legend of the relation codes
+
+
+def _emitted_codes() -> set[str]:
+    """Every word frame_relations (what the relations list prints for a pair) says on a grid of box pairs."""
+    from refimpl.scene.queries import frame_relations
+    seen: set[str] = set()
+    sizes = (5, 10, 20, 40)
+    for aw in sizes:
+        for ah in sizes:
+            a = (20, 20, aw, ah)
+            for x in range(0, 70, 5):
+                for y in range(0, 70, 5):
+                    for bw in sizes:
+                        for bh in sizes:
+                            seen.update(frame_relations(a, (x, y, bw, bh)))
+    return seen
+
+
+def test_every_relation_code_has_a_legend_entry_and_every_entry_is_said():
+    from refimpl.knowledge.relations import RCC8_CODE, RELATION_CODES, TOPOLOGY_RELATIONS, orientation
+    codes = [r.code for r in RELATION_CODES]
+    assert len(codes) == len(set(codes))
+    # every answer of topology() and of orientation() has a code (RCC-8: 8 of them, 4 orientation words)
+    assert sorted(RCC8_CODE) == sorted(TOPOLOGY_RELATIONS) and len(RCC8_CODE) == 8
+    assert orientation((0, 0, 1, 1), (5, 5, 1, 1)) <= set(codes) and orientation((5, 5, 1, 1), (0, 0, 1, 1)) <= set(codes)
+    # both ways on 16 x 16 x 14 x 14 x 16 box pairs: what the listing says is in the table, and no row is dead
+    # (eq at x = y = 20 with equal sizes, ntpp/ntppi for a 5 box inside a 20 one, far for 5 boxes 40 px apart, ...)
+    assert _emitted_codes() == set(codes)
+    # the page's legend: one <dt data-code> per row of the table, in its order, with its meaning
+    page = render_html(build_report(bus_scene(), 245))
+    assert re.findall(r'<dt data-code="([^"]+)">', page) == codes
+    assert "<dt>clipped(T)</dt>" in page and "<dt>hidden_by(T1,T2)</dt>" in page
+    # overlapping_top's threshold is the model's hide_overlap, 10 (model/constants.lp)
+    assert "more than hide_overlap % (= 10 %) of A" in page
+    # the bus frame's line "12 13 ntppi, in_front_of, near" (test_plots.py): each code explained
+    assert all(f'<dt data-code="{c}">' in page for c in ("ntppi", "in_front_of", "near"))

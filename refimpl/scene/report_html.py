@@ -19,7 +19,9 @@ from __future__ import annotations
 import html
 import json
 
+from ..core.constants import default_constants
 from ..knowledge.events import EVENT_TABLE, explaining
+from ..knowledge.relations import RELATION_CODES
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
 from ..io.outputs import check_outputs, write_atomic
 from .report import ACTIVE, HALTED, HIDDEN, MISSING, Report, STATES, TrackTimeline, build_report
@@ -133,6 +135,26 @@ def _legend() -> str:
     return '<p class="legend">' + " ".join(parts) + "</p>"
 
 
+FLUENT_TEXT = (("clipped(T)", "T was missed by the detector: from the frame after its missing_detections to "
+                               "the frame it is resumed"),
+               ("hidden_by(T1,T2)", "T1 is hidden behind T2: from the frame after its hides_behind to the frame "
+                                    "of its unhides_from_behind"))
+"""The fluents the relations list names (refimpl.scene.plots.frame_relation_lines)."""
+
+
+def relation_legend() -> str:
+    """What every line of the relations list means: the fluents, then every code of the relation
+    code table (refimpl.knowledge.relations.RELATION_CODES), in its order."""
+    hide = default_constants()["hide_overlap"]
+    rows = [f'<dt>{_e(name)}</dt><dd>{_e(text)}</dd>' for name, text in FLUENT_TEXT]
+    rows.append('<dt class="head">A B codes</dt><dd class="head">a pair of tracks whose boxes touch or are near: '
+                'the relations of track A to track B</dd>')
+    for r in RELATION_CODES:
+        text = r.meaning.replace("hide_overlap %", f"hide_overlap % (= {hide} %)")
+        rows.append(f'<dt data-code="{_e(r.code)}">{_e(r.code)}</dt><dd>{_e(text)}</dd>')
+    return '<dl class="codes" id="relation-codes">' + "".join(rows) + "</dl>"
+
+
 def _event_chip(t: TrackTimeline, ev, numbers: dict[str, object]) -> str:
     colour = EVENT_STYLE[ev.name][1] if ev.name in EVENT_STYLE else "#444444"
     other = f" {numbers.get(ev.other, ev.other)}" if ev.other else ""
@@ -222,7 +244,8 @@ Written by <code>refimpl report</code> from a scene of <code>refimpl track --sce
 <div class="two">
 <table class="boxes"><thead><tr><th>track</th><th>type</th><th>state</th><th>box x, y, w, h</th></tr></thead>
 <tbody id="frame-rows"></tbody></table>
-<div><h3>Fluents and relations</h3><pre id="frame-relations"></pre></div>
+<div><h3>Fluents and relations</h3><pre id="frame-relations"></pre>
+{relation_legend()}</div>
 </div>
 <p class="note">A halted box is the tracker's Kalman prediction. A track that <i>hides_behind</i> at t and
 <i>unhides_from_behind</i> at r is drawn hidden at t .. r-1; the fluent <code>hidden_by</code> holds from t+1
@@ -286,6 +309,8 @@ margin:1px 0;font-size:11.5px;white-space:nowrap}
 .chips{line-height:1.9}.none,.empty{color:#888}
 .explanations li{margin:1px 0;cursor:pointer}
 .hide{display:none}
+.codes{display:grid;grid-template-columns:max-content 1fr;gap:0 8px;font-size:11.5px;margin:6px 0 0;color:#333}
+.codes dt{font-family:monospace;font-weight:600}.codes dd{margin:0}.codes .head{margin-top:3px;color:#555}
 """
 
 SCRIPT = r"""
