@@ -224,3 +224,45 @@ def test_every_relation_code_has_a_legend_entry_and_every_entry_is_said():
     assert "more than hide_overlap % (= 10 %) of A" in page
     # the bus frame's line "12 13 ntppi, in_front_of, near" (test_plots.py): each code explained
     assert all(f'<dt data-code="{c}">' in page for c in ("ntppi", "in_front_of", "near"))
+
+
+# ---------------------------------------------------------------------------------------
+# labels without overlap in a crowded frame (headless Chromium)
+
+
+def crowded_scene():
+    """20 cars in a jam at frame 0 on a KITTI-sized image (1242 x 375): boxes 60 x 40 px at y = 150, 3 px
+    apart in x (x = 300, 303, ..., 357).  The page's labels are bold 15 px (user units): about 10.4 units
+    wide for one digit, 20.8 for two, kept 1 apart.  A label starts at its box's x, so one row of labels
+    spans at most 300 .. 357 + 21 = 378, 78 units, while the 20 labels need 9 x 11.4 + 11 x 21.8 = 343:
+    at least 5 rows.  The four places next to a box (above, below, inside top, inside bottom) are one
+    row each, as every box has the same y: some labels must be stacked."""
+    from refimpl.scene import SceneTrack, make_scene
+    tracks = [SceneTrack(f"trk_{i + 1}", "Car", ((0, (300.0 + 3 * i, 150.0, 60.0, 40.0)),), (), None)
+              for i in range(20)]
+    return make_scene("JAM", tracks, [], 0, 0, (1242, 375), 10.0)
+
+
+def _rects(dom: str) -> list[tuple[float, float, float, float]]:
+    return [tuple(map(float, r.split(","))) for r in re.findall(r'<text class="label"[^>]* data-rect="([^"]+)"', dom)]
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (apt-get install chromium)")
+def test_box_labels_do_not_overlap_in_a_crowded_frame(tmp_path):
+    page = tmp_path / "jam.html"
+    page.write_text(render_html(build_report(crowded_scene())), encoding="utf-8")
+    dom = _headless(page.resolve().as_uri(), tmp_path / "profile").stdout
+    assert 'data-report="rendered"' in dom and "rendered: frame 0 with 20 boxes" in dom
+    rects = _rects(dom)
+    assert len(rects) == 20 and all(w > 5 and h > 5 for _, _, w, h in rects)  # every label drawn, with a size
+    for i, (x1, y1, w1, h1) in enumerate(rects):
+        for x2, y2, w2, h2 in rects[i + 1:]:
+            overlap_x, overlap_y = min(x1 + w1, x2 + w2) - max(x1, x2), min(y1 + h1, y2 + h2) - max(y1, y2)
+            assert overlap_x <= 0 or overlap_y <= 0, ((x1, y1, w1, h1), (x2, y2, w2, h2))
+    # the crowd forced stacking (crowded_scene): at least 5 rows, more than the 4 places next to a box
+    assert len({round(y) for _, y, _, _ in rects}) > 4
+    # the picture's frame: every label lies inside the drawn SVG (stacked rows under the image included)
+    svg = re.search(r'<div id="frame-view"><svg viewBox="0 0 1242 ([\d.]+)"', dom)
+    assert svg is not None
+    # deterministic: a second run places every label at the same place
+    assert _rects(_headless(page.resolve().as_uri(), tmp_path / "profile2").stdout) == rects

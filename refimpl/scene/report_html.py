@@ -7,7 +7,9 @@ with the box states of every frame, ``refimpl.scene.report``).  The page referen
 Sections: the chosen frame (its boxes drawn by state -- active solid, hidden / missing / halted
 dashed -- with a slider to move through the frames, the table of its boxes and the relations
 that hold), the space-time picture (one row per track; a click picks the frame), the events per
-track (a click on an event picks its frame) and the explanations.  A filter field keeps one
+track (a click on an event picks its frame) and the explanations.  The box labels (track number, the occluder of
+a hidden box) are placed by the script so that no two overlap: above the box, below it, inside, then
+stacked (``placeLabels``); each label's rectangle on the screen is left in its ``data-rect``.  A filter field keeps one
 track's rows; ``report.html#frame=274&track=129`` opens the page at that frame with that filter.  When the script has drawn the page it sets ``data-report="rendered"`` on the
 ``<html>`` element and fills ``#report-status`` (a script error sets ``data-report="error: ..."``):
 what a headless browser test reads.  :func:`write_report` is the command: load the scene, build
@@ -341,18 +343,18 @@ SCRIPT = r"""
       var text = D.stateText[r[5]] + (r[6] >= 0 ? " track " + D.tracks[r[6]][1] : "");
       var kind = state === "active" ? "" : " halted-kind";
       var label = String(t[1]) + (r[6] >= 0 ? " \u2190 " + D.tracks[r[6]][1] : "");
-      var ly = state === "active" ? Math.max(r[2] - 4, 14) : Math.min(r[2] + r[4] + 15, H - 2);
       var dim = filterId && t[0] !== filterId && trackName(r[6]) !== filterId ? " dim" : "";
       parts.push('<g class="box ' + state + kind + dim + '" data-track="' + esc(t[0]) + '"><title>' +
                  esc(t[0] + " (" + t[2] + "): " + text) + '</title><rect x="' + r[1] + '" y="' + r[2] +
-                 '" width="' + r[3] + '" height="' + r[4] + '" stroke="' + colour + '"/><text x="' + r[1] +
-                 '" y="' + ly + '" fill="' + colour + '">' + esc(label) + '</text></g>');
+                 '" width="' + r[3] + '" height="' + r[4] + '" stroke="' + colour + '"/><text class="label" x="' +
+                 r[1] + '" y="' + r[2] + '" fill="' + colour + '">' + esc(label) + '</text></g>');
       table.push('<tr data-tracks="' + esc(t[0] + (r[6] >= 0 ? " " + D.tracks[r[6]][0] : "")) + '"><td>' +
                  esc(t[1]) + '</td><td>' + esc(t[2]) + '</td><td class="state" style="color:' + colour + '">' +
                  esc(text) + '</td><td>' + [r[1], r[2], r[3], r[4]].join(", ") + '</td></tr>');
     });
     parts.push("</svg>");
     document.getElementById("frame-view").innerHTML = parts.join("");
+    placeLabels(document.querySelector("#frame-view svg"));
     document.getElementById("frame-rows").innerHTML = table.join("") ||
       '<tr><td colspan="4" class="none">no track has a box at this frame</td></tr>';
     document.getElementById("frame-relations").textContent = D.relations[frame - D.first].join("\n") || "(none)";
@@ -365,6 +367,48 @@ SCRIPT = r"""
     }
     applyFilter();
     return rows.length;
+  }
+
+  // Box labels without overlap: each label in track order takes the first free place of: above its
+  // box, below it, inside at the top, inside at the bottom, then stacked further above, then further
+  // below (one label height a step), inside the picture; failing all, a row under the picture, which
+  // grows to hold it.  Free: its rectangle (getBBox, user units) keeps GAP clear of every placed label.
+  var GAP = 1;
+  function placeLabels(svg) {
+    var placed = [], bottom = H;
+    function free(x, y, w, h) {
+      return placed.every(function (p) {
+        return x + w + GAP <= p[0] || p[0] + p[2] + GAP <= x || y + h + GAP <= p[1] || p[1] + p[3] + GAP <= y;
+      });
+    }
+    svg.querySelectorAll(".box").forEach(function (g) {
+      var t = g.querySelector("text"), rect = g.querySelector("rect"), bb = t.getBBox();
+      var w = bb.width, h = bb.height, base = Number(t.getAttribute("y")) - bb.y;  // baseline below the top
+      var bx = Number(rect.getAttribute("x")), by = Number(rect.getAttribute("y"));
+      var bw = Number(rect.getAttribute("width")), bh = Number(rect.getAttribute("height"));
+      var x = Math.max(0, Math.min(bx, W - w)), k, spot = null;
+      var tops = [by - h - 2, by + bh + 2, by + 2, by + bh - h - 2];
+      for (k = 1; k <= 40; k++) { tops.push(by - h - 2 - k * (h + GAP)); }
+      for (k = 1; k <= 40; k++) { tops.push(by + bh + 2 + k * (h + GAP)); }
+      for (k = 0; k < tops.length && spot === null; k++) {
+        if (tops[k] >= 0 && tops[k] + h <= H && free(x, tops[k], w, h)) { spot = tops[k]; }
+      }
+      for (k = 0; spot === null; k++) {
+        if (free(x, H + 2 + k * (h + GAP), w, h)) { spot = H + 2 + k * (h + GAP); }
+      }
+      placed.push([x, spot, w, h]);
+      bottom = Math.max(bottom, spot + h + 2);
+      t.setAttribute("x", x.toFixed(1));
+      t.setAttribute("y", (spot + base).toFixed(1));
+    });
+    if (bottom > H) { svg.setAttribute("viewBox", "0 0 " + W + " " + bottom.toFixed(1)); }
+    // what a test reads back (the labels' rectangles on the screen, CSS px): left,top,width,height
+    svg.querySelectorAll(".box text").forEach(function (t) {
+      var c = t.getBoundingClientRect();
+      t.setAttribute("data-rect", [c.left, c.top, c.width, c.height].map(function (v) {
+        return v.toFixed(2);
+      }).join(","));
+    });
   }
 
   function setFrame(f) {
