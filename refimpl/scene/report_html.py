@@ -12,12 +12,15 @@ a hidden box) are placed by the script so that no two overlap: above the box, be
 stacked (``placeLabels``); each label's rectangle on the screen is left in its ``data-rect``.  A filter field keeps one
 track's rows; ``report.html#frame=274&track=129`` opens the page at that frame with that filter.  When the script has drawn the page it sets ``data-report="rendered"`` on the
 ``<html>`` element and fills ``#report-status`` (a script error sets ``data-report="error: ..."``):
-what a headless browser test reads.  :func:`write_report` is the command: load the scene, build
+what a headless browser test reads.  With the frame images (``--images``,
+refimpl.scene.report_images) a second JSON block holds them as data URIs; the script puts the shown
+frame's image under its boxes.  :func:`write_report` is the command: load the scene, build
 its report (refimpl.scene.report), write the page.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import json
 
@@ -27,7 +30,8 @@ from ..knowledge.relations import RELATION_CODES
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
 from ..io.outputs import check_outputs, write_atomic
 from .report import ACTIVE, HALTED, HIDDEN, MISSING, Report, STATES, TrackTimeline, build_report
-from . import load_scene
+from .report_images import FrameImage, image_frames, load_frame_images
+from . import SceneError, load_scene
 
 STATE_COLOURS = {ACTIVE: OBSERVED_COLOUR, **{e.halt_kind: e.colour for e in explaining("halt")},
                  HALTED: ENDED_COLOUR}
@@ -203,13 +207,23 @@ def frame_data(report: Report) -> dict:
             "explanations": len(report.explanations)}
 
 
-def _json_script(data: dict) -> str:
+def _json_script(data: dict, ident: str = "report-data") -> str:
     text = json.dumps(data, separators=(",", ":"), ensure_ascii=True).replace("<", "\\u003c")
-    return f'<script type="application/json" id="report-data">{text}</script>'
+    return f'<script type="application/json" id="{ident}">{text}</script>'
 
 
-def render_html(report: Report) -> str:
-    """The whole page (module doc)."""
+def _images_script(images: tuple[FrameImage, ...]) -> str:
+    """The frame images (refimpl.scene.report_images) as frame -> [data URI, width, height]; none: nothing."""
+    if not images:
+        return ""
+    return _json_script({str(i.frame): [i.data_uri(), i.width, i.height] for i in images}, "report-images")
+
+
+def render_html(report: Report, images: tuple[FrameImage, ...] = ()) -> str:
+    """The whole page (module doc), with the frame images under the boxes when given."""
+    if images and not report.image_size:  # no size in the scene: the picture holds the boxes and the images
+        report = dataclasses.replace(report, canvas=(max(report.canvas[0], *(i.width for i in images)),
+                                                     max(report.canvas[1], *(i.height for i in images))))
     size = f"{report.image_size[0]} x {report.image_size[1]} px" if report.image_size else "image size unknown"
     fps = f", {report.fps:g} fps" if report.fps else ""
     n_frames = report.last_frame - report.first_frame + 1
@@ -269,6 +283,7 @@ time runs left to right. Click to show a frame; the red line is the frame shown 
 {explanations_list(report)}
 </section>
 {_json_script(frame_data(report))}
+{_images_script(images)}
 <script>{SCRIPT}</script>
 </body>
 </html>
@@ -324,6 +339,8 @@ SCRIPT = r"""
   var frame = D.frame, filterId = null;
   var slider = document.getElementById("slider");
   var W = D.canvas[0], H = D.canvas[1];
+  var imagesBlock = document.getElementById("report-images");
+  var IMG = imagesBlock ? JSON.parse(imagesBlock.textContent) : null;  // frame -> [data URI, width, height]
 
   function esc(s) {
     return String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;").replace(/"/g, "&quot;");
@@ -354,11 +371,22 @@ SCRIPT = r"""
     });
     parts.push("</svg>");
     document.getElementById("frame-view").innerHTML = parts.join("");
-    placeLabels(document.querySelector("#frame-view svg"));
+    var view = document.querySelector("#frame-view svg"), picture = IMG && IMG[String(frame)];
+    if (picture) {  // the frame's own image, under the boxes
+      var im = document.createElementNS("http" + "://www.w3.org/2000/svg", "image");
+      im.setAttribute("class", "frame-image");
+      im.setAttribute("x", 0); im.setAttribute("y", 0);
+      im.setAttribute("width", picture[1]); im.setAttribute("height", picture[2]);
+      im.setAttribute("preserveAspectRatio", "none");
+      im.setAttribute("href", picture[0]);
+      view.insertBefore(im, view.children[1]);
+    }
+    placeLabels(view);
     document.getElementById("frame-rows").innerHTML = table.join("") ||
       '<tr><td colspan="4" class="none">no track has a box at this frame</td></tr>';
     document.getElementById("frame-relations").textContent = D.relations[frame - D.first].join("\n") || "(none)";
-    document.getElementById("frame-number").textContent = frame + " (" + rows.length + " boxes)";
+    document.getElementById("frame-number").textContent = frame + " (" + rows.length + " boxes" +
+      (IMG ? (picture ? ", on its image" : ", no image embedded for this frame") : "") + ")";
     slider.value = frame;
     var cursor = document.getElementById("cursor"), svg = document.getElementById("spacetime-svg");
     if (cursor && svg) {
@@ -472,10 +500,23 @@ SCRIPT = r"""
 """
 
 
-def write_report(scene_path: str, out: str, frame: int | None = None) -> str:
-    """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line."""
+def write_report(scene_path: str, out: str, frame: int | None = None, images: str | None = None,
+                 frames: str | None = None) -> str:
+    """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line.
+    images: the folder of the frame images (refimpl.scene.report_images), frames: which of them."""
     check_outputs({"--out": out}, {"scene": scene_path})
-    report = build_report(load_scene(scene_path), frame)
-    write_atomic(out, render_html(report))
+    scene = load_scene(scene_path)
+    report = build_report(scene, frame)
+    pictures: tuple[FrameImage, ...] = ()
+    if images is not None:
+        pictures = load_frame_images(images, scene, *image_frames(scene, report.frame, frames))
+    elif frames is not None:
+        raise SceneError("--image-frames needs --images DIR")
+    write_atomic(out, render_html(report, pictures))
+    embedded = ""
+    if pictures:
+        size = sum(len(p.data_uri()) for p in pictures) / 1e6
+        embedded = (f"; the images of frames {pictures[0].frame}-{pictures[-1].frame} embedded "
+                    f"({len(pictures)} files, {size:.1f} MB)")
     return (f"{report.name}: {len(report.tracks)} tracks, {report.events} events, frame {report.frame} "
-            f"({len(report.states_at(report.frame))} boxes) -> {out}")
+            f"({len(report.states_at(report.frame))} boxes){embedded} -> {out}")
