@@ -309,7 +309,7 @@ button{font:inherit;cursor:pointer}
 .key i.active,.key i.hidden,.key i.missing,.key i.halted{border:2px solid;height:7px;width:16px}
 .key i.hidden,.key i.missing,.key i.halted{border-style:dashed}.key i.ego{background:#ffe9a8;border:1px solid #d4a017}
 .key svg.mark{width:11px;height:11px;margin-right:3px;vertical-align:-1px}
-.two{display:grid;grid-template-columns:minmax(0,3fr) minmax(0,2fr);gap:18px}
+.two{display:grid;grid-template-columns:minmax(0,3fr) minmax(0,2fr);gap:18px;align-items:start}
 table{border-collapse:collapse;width:100%;font-size:12.5px;background:#fff}
 th,td{border-bottom:1px solid #e4e4e4;padding:2px 6px;text-align:left;vertical-align:top}th{background:#f0f0f0}
 td.state{font-weight:600}
