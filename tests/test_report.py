@@ -11,9 +11,12 @@ chosen frame, no console error, and a screenshot that shows the figures in their
 
 from __future__ import annotations
 
+import base64
 import json
 import re
+import struct
 import subprocess
+import zlib
 from pathlib import Path
 
 import pytest
@@ -184,3 +187,208 @@ def test_kitti_car_0011_report_renders_in_headless_chromium(kitti_car_0011, tmp_
     for colour in (STATE_COLOURS[ACTIVE], STATE_COLOURS[HIDDEN]):
         rgb = tuple(int(colour[i:i + 2], 16) for i in (1, 3, 5))
         assert rgb in pixels, colour
+
+
+# ---------------------------------------------------------------------------------------
+# the legend of the relation codes
+
+
+def _emitted_codes() -> set[str]:
+    """Every word frame_relations (what the relations list prints for a pair) says on a grid of box pairs."""
+    from refimpl.scene.queries import frame_relations
+    seen: set[str] = set()
+    sizes = (5, 10, 20, 40)
+    for aw in sizes:
+        for ah in sizes:
+            a = (20, 20, aw, ah)
+            for x in range(0, 70, 5):
+                for y in range(0, 70, 5):
+                    for bw in sizes:
+                        for bh in sizes:
+                            seen.update(frame_relations(a, (x, y, bw, bh)))
+    return seen
+
+
+def test_every_relation_code_has_a_legend_entry_and_every_entry_is_said():
+    from refimpl.knowledge.relations import RCC8_CODE, RELATION_CODES, TOPOLOGY_RELATIONS, orientation
+    codes = [r.code for r in RELATION_CODES]
+    assert len(codes) == len(set(codes))
+    # every answer of topology() and of orientation() has a code (RCC-8: 8 of them, 4 orientation words)
+    assert sorted(RCC8_CODE) == sorted(TOPOLOGY_RELATIONS) and len(RCC8_CODE) == 8
+    assert orientation((0, 0, 1, 1), (5, 5, 1, 1)) <= set(codes) and orientation((5, 5, 1, 1), (0, 0, 1, 1)) <= set(codes)
+    # both ways on 16 x 16 x 14 x 14 x 16 box pairs: what the listing says is in the table, and no row is dead
+    # (eq at x = y = 20 with equal sizes, ntpp/ntppi for a 5 box inside a 20 one, far for 5 boxes 40 px apart, ...)
+    assert _emitted_codes() == set(codes)
+    # the page's legend: one <dt data-code> per row of the table, in its order, with its meaning
+    page = render_html(build_report(bus_scene(), 245))
+    assert re.findall(r'<dt data-code="([^"]+)">', page) == codes
+    assert "<dt>clipped(T)</dt>" in page and "<dt>hidden_by(T1,T2)</dt>" in page
+    # overlapping_top's threshold is the model's hide_overlap, 10 (model/constants.lp)
+    assert "more than hide_overlap % (= 10 %) of A" in page
+    # the bus frame's line "12 13 ntppi, in_front_of, near" (test_plots.py): each code explained
+    assert all(f'<dt data-code="{c}">' in page for c in ("ntppi", "in_front_of", "near"))
+
+
+# ---------------------------------------------------------------------------------------
+# labels without overlap in a crowded frame (headless Chromium)
+
+
+def crowded_scene():
+    """20 cars in a jam at frame 0 on a KITTI-sized image (1242 x 375): boxes 60 x 40 px at y = 150, 3 px
+    apart in x (x = 300, 303, ..., 357).  The page's labels are bold 15 px (user units): about 10.4 units
+    wide for one digit, 20.8 for two, kept 1 apart.  A label starts at its box's x, so one row of labels
+    spans at most 300 .. 357 + 21 = 378, 78 units, while the 20 labels need 9 x 11.4 + 11 x 21.8 = 343:
+    at least 5 rows.  The four places next to a box (above, below, inside top, inside bottom) are one
+    row each, as every box has the same y: some labels must be stacked."""
+    from refimpl.scene import SceneTrack, make_scene
+    tracks = [SceneTrack(f"trk_{i + 1}", "Car", ((0, (300.0 + 3 * i, 150.0, 60.0, 40.0)),), (), None)
+              for i in range(20)]
+    return make_scene("JAM", tracks, [], 0, 0, (1242, 375), 10.0)
+
+
+def _rects(dom: str) -> list[tuple[float, float, float, float]]:
+    return [tuple(map(float, r.split(","))) for r in re.findall(r'<text class="label"[^>]* data-rect="([^"]+)"', dom)]
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (apt-get install chromium)")
+def test_box_labels_do_not_overlap_in_a_crowded_frame(tmp_path):
+    page = tmp_path / "jam.html"
+    page.write_text(render_html(build_report(crowded_scene())), encoding="utf-8")
+    dom = _headless(page.resolve().as_uri(), tmp_path / "profile").stdout
+    assert 'data-report="rendered"' in dom and "rendered: frame 0 with 20 boxes" in dom
+    rects = _rects(dom)
+    assert len(rects) == 20 and all(w > 5 and h > 5 for _, _, w, h in rects)  # every label drawn, with a size
+    for i, (x1, y1, w1, h1) in enumerate(rects):
+        for x2, y2, w2, h2 in rects[i + 1:]:
+            overlap_x, overlap_y = min(x1 + w1, x2 + w2) - max(x1, x2), min(y1 + h1, y2 + h2) - max(y1, y2)
+            assert overlap_x <= 0 or overlap_y <= 0, ((x1, y1, w1, h1), (x2, y2, w2, h2))
+    # the crowd forced stacking (crowded_scene): at least 5 rows, more than the 4 places next to a box
+    assert len({round(y) for _, y, _, _ in rects}) > 4
+    # the picture's frame: every label lies inside the drawn SVG (stacked rows under the image included)
+    svg = re.search(r'<div id="frame-view"><svg viewBox="0 0 1242 ([\d.]+)"', dom)
+    assert svg is not None
+    # deterministic: a second run places every label at the same place
+    assert _rects(_headless(page.resolve().as_uri(), tmp_path / "profile2").stdout) == rects
+
+
+# ---------------------------------------------------------------------------------------
+# the frame images under the boxes (--images)
+
+
+def _png(path: Path, width: int, height: int, rgb: tuple[int, int, int]) -> None:
+    """A solid-colour 8-bit RGB PNG, written with the standard library (no image library needed)."""
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+    rows = b"".join(b"\0" + bytes(rgb) * width for _ in range(height))
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+def frame_colour(frame: int) -> tuple[int, int, int]:
+    """Each frame image's own colour: frame 245 is (45, 210, 140), a colour nothing else on the page has."""
+    return (frame - 200, 255 - (frame - 200), 140)
+
+
+@pytest.fixture
+def bus_frames(tmp_path):
+    """The BUS scene (600 x 240 px, frames 200..280) and a folder of its 81 frames, 000200.png .. 000280.png."""
+    scene, folder = tmp_path / "bus.json", tmp_path / "img"
+    save_scene(scene, bus_scene())
+    folder.mkdir()
+    for f in range(200, 281):
+        _png(folder / f"{f:06d}.png", 600, 240, frame_colour(f))
+    return scene, folder
+
+
+def _images(page: str) -> dict[int, list]:
+    block = re.search(r'<script type="application/json" id="report-images">(.*?)</script>', page)
+    return {int(k): v for k, v in json.loads(block.group(1)).items()} if block else {}
+
+
+def test_report_embeds_the_frame_images_as_they_are(bus_frames, tmp_path, capsys):
+    scene, folder = bus_frames
+    out = tmp_path / "bus.html"
+    assert cli.main(["report", str(scene), "--out", str(out), "--frame", "245", "--images", str(folder)]) == 0
+    summary = capsys.readouterr().out
+    images = _images(out.read_text())
+    # by default the frame shown, 245, and the 25 either side: 220..270, 51 files, each byte for byte the
+    # file of its frame (render's rule: name order from the scene's first frame, 200)
+    assert sorted(images) == list(range(220, 271))
+    for f, (uri, width, height) in images.items():
+        assert uri.startswith("data:image/png;base64,") and (width, height) == (600, 240)
+        assert base64.b64decode(uri.split(",", 1)[1]) == (folder / f"{f:06d}.png").read_bytes()
+    mb = sum(len(v[0]) for v in images.values()) / 1e6
+    assert summary == (f"BUS: 4 tracks, 10 events, frame 245 (3 boxes); the images of frames 220-270 embedded "
+                       f"(51 files, {mb:.1f} MB) -> {out}\n")
+    # a range, and all of them
+    for frames, expected in (("200:210", range(200, 211)), ("all", range(200, 281)), (":203", range(200, 204))):
+        assert cli.main(["report", str(scene), "--out", str(out), "--images", str(folder), "--image-frames", frames]) == 0
+        capsys.readouterr()
+        assert sorted(_images(out.read_text())) == list(expected)
+    # without --images: no image block, the page of before
+    assert cli.main(["report", str(scene), "--out", str(out), "--frame", "245"]) == 0
+    assert _images(out.read_text()) == {} and out.read_text() == render_html(build_report(bus_scene(), 245))
+
+
+def test_image_header_reads_png_and_jpeg_sizes(tmp_path):
+    from refimpl.scene.report_images import image_header
+    _png(tmp_path / "a.png", 7, 3, (1, 2, 3))
+    assert image_header((tmp_path / "a.png").read_bytes()) == ("image/png", 7, 3)
+    Image = pytest.importorskip("PIL.Image")
+    Image.new("RGB", (33, 17), (200, 10, 10)).save(tmp_path / "b.jpg", quality=90)
+    assert image_header((tmp_path / "b.jpg").read_bytes()) == ("image/jpeg", 33, 17)
+    assert image_header(b"GIF89a....") is None and image_header(b"\xff\xd8\xff\xe0") is None  # cut short
+
+
+def test_report_images_mistakes_are_one_line(bus_frames, tmp_path, capsys):
+    scene, folder = bus_frames
+    out = tmp_path / "x.html"
+    few = tmp_path / "few"
+    few.mkdir()
+    for f in range(200, 210):
+        _png(few / f"{f:06d}.png", 600, 240, (0, 0, 0))
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    for f in range(200, 281):
+        (bad / f"{f:06d}.png").write_bytes((folder / f"{f:06d}.png").read_bytes())
+    (bad / "000230.png").write_bytes(b"not an image")
+    small = tmp_path / "small"
+    small.mkdir()
+    for f in range(200, 281):
+        _png(small / f"{f:06d}.png", 300, 120, (0, 0, 0))
+    cases = ((["--images", str(tmp_path / "none")], "not a folder of frame images"),
+             (["--images", str(few)], "10 image(s)"),
+             (["--images", str(bad)], "000230.png (frame 230) is not a readable PNG or JPEG image"),
+             (["--images", str(small)], "is 300 x 120 px, but scene BUS is 600 x 240 px"),
+             (["--images", str(folder), "--image-frames", "5:1"], "--image-frames must be all or FROM:TO"),
+             (["--images", str(folder), "--image-frames", "190:210"], "the scene's frames are 200..280"),
+             (["--image-frames", "200:210"], "--image-frames needs --images DIR"))
+    for argv, message in cases:
+        assert cli.main(["report", str(scene), "--out", str(out), *argv]) == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("refimpl report: error: ") and message in err, err
+        assert not out.exists()
+
+
+@pytest.mark.skipif(not CHROMIUM.exists(), reason="no /usr/bin/chromium (apt-get install chromium)")
+def test_the_frame_image_is_drawn_under_the_boxes_in_headless_chromium(bus_frames, tmp_path, capsys):
+    scene, folder = bus_frames
+    page = tmp_path / "bus.html"
+    assert cli.main(["report", str(scene), "--out", str(page), "--frame", "245", "--images", str(folder)]) == 0
+    capsys.readouterr()
+    shot = tmp_path / "shot.png"
+    run = _headless(page.resolve().as_uri(), tmp_path / "profile", f"--screenshot={shot}")
+    assert 'data-report="rendered"' in run.stdout
+    assert 'id="frame-number">245 (3 boxes, on its image)<' in run.stdout
+    # the image element sits under the boxes: right after the picture's background, before any box
+    assert re.search(r'<rect class="image"[^>]*></rect><image class="frame-image" x="0" y="0" width="600" '
+                     r'height="240" preserveAspectRatio="none" href="data:image/png;base64,', run.stdout)
+    assert run.stdout.index('class="frame-image"') < run.stdout.index('<g class="box')
+    # the screenshot shows frame 245's own colour (frame_colour) and not a neighbour's
+    imread = pytest.importorskip("matplotlib.image").imread
+    pixels = {tuple(p) for p in (imread(str(shot))[:, :, :3].reshape(-1, 3) * 255).round().astype(int).tolist()}
+    assert frame_colour(245) in pixels and frame_colour(244) not in pixels and frame_colour(246) not in pixels
+    # frame 210 lies outside the images carried by default (220..270): the plain picture, said so
+    dom = _headless(page.resolve().as_uri() + "#frame=210", tmp_path / "profile2").stdout
+    assert 'id="frame-number">210 (2 boxes, no image embedded for this frame)<' in dom
+    assert 'class="frame-image"' not in dom

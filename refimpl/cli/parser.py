@@ -462,6 +462,12 @@ def _add_report(sub: "argparse._SubParsersAction") -> None:
     rp.add_argument("scene", help="scene file written by 'refimpl track --scene'")
     rp.add_argument("--out", required=True, help="HTML file to write (- for standard output)")
     rp.add_argument("--frame", type=int, help="the frame shown first (default: the one with the most hidden tracks)")
+    rp.add_argument("--images", metavar="DIR",
+                    help="the sequence's frames (PNG or JPEG files in name order, the first being the scene's first "
+                         "frame, as 'refimpl render' reads them): shown under the boxes, embedded in the page")
+    rp.add_argument("--image-frames", metavar="FROM:TO|all",
+                    help="with --images: the frames whose images the page carries (default: the frame shown first "
+                         "and those near it, docs/reasoning.md 8; each adds 4/3 of its file's size to the page)")
 
 
 def _add_render(sub: "argparse._SubParsersAction") -> None:

@@ -32,7 +32,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    summary = write_report(args.scene, args.out, frame=args.frame)
+    summary = write_report(args.scene, args.out, frame=args.frame, images=args.images, frames=args.image_frames)
     print(summary, file=sys.stderr if args.out == STDOUT else sys.stdout)  # the page itself may be stdout
     return EXIT_OK
 

@@ -23,6 +23,7 @@ Table 2 that apply to axis-aligned boxes over time and accept integers or floats
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 from ..core.geometry import intersection_area
@@ -145,6 +146,52 @@ TOPOLOGY_CONVERSE = {
     "equal": "equal",
 }
 """topology(b, a) == TOPOLOGY_CONVERSE[topology(a, b)]."""
+
+
+@dataclass(frozen=True)
+class RelationCode:
+    """One code of the frame listings (``refimpl plot --frame``, the report's relations list):
+    ``A B code`` reads "box A code box B"."""
+
+    code: str
+    """As the listings print it (RCC-8's short names: dc, ec, po, ...)."""
+    relation: str
+    """The relation of this module it names: topology()'s answer, an orientation word, ..."""
+    meaning: str
+    """What it says about A and B, in words (the report's legend)."""
+
+
+RELATION_CODES: tuple[RelationCode, ...] = (
+    RelationCode("dc", "disconnected", "A and B share no point (RCC-8 disconnected)"),
+    RelationCode("ec", "externally_connected",
+                 "A and B touch at an edge or a corner but share no area (externally connected)"),
+    RelationCode("po", "partially_overlapping",
+                 "A and B share area and neither lies inside the other (partially overlapping)"),
+    RelationCode("tpp", "tangential_proper_part", "A lies inside B and touches B's border (tangential proper part)"),
+    RelationCode("ntpp", "non_tangential_proper_part",
+                 "A lies inside B, clear of B's border (non-tangential proper part)"),
+    RelationCode("tppi", "tangential_proper_part_inverse", "B lies inside A and touches A's border (tpp inverse)"),
+    RelationCode("ntppi", "non_tangential_proper_part_inverse", "B lies inside A, clear of A's border (ntpp inverse)"),
+    RelationCode("eq", "equal", "A and B are the same box (equal)"),
+    RelationCode("overlapping_top", "overlapping_top",
+                 "B covers more than hide_overlap % of A and is not behind A: what the model calls "
+                 "B in front of A, the position a hides_behind needs"),
+    RelationCode("left_of", "left_of", "A lies entirely left of B (A's right edge at or left of B's left edge)"),
+    RelationCode("right_of", "right_of", "A lies entirely right of B"),
+    RelationCode("above", "above", "A lies entirely above B in the image"),
+    RelationCode("below", "below", "A lies entirely below B in the image"),
+    RelationCode("in_front_of", "in_front_of", "A's bottom edge is lower in the image than B's: on a ground plane, "
+                 "A is nearer the camera"),
+    RelationCode("behind", "behind", "B's bottom edge is lower in the image than A's: A is further from the camera"),
+    RelationCode("near", "near", "the centres are closer than the mean of the two box diagonals"),
+    RelationCode("far", "far", "the centres are further apart than 3 x the mean of the two box diagonals"),
+)
+"""Every code a frame listing prints for a pair of boxes, the one table of them: the listings
+(refimpl.scene.queries.frame_relations) spell RCC-8 by these codes and the report's legend is
+made from it.  Pairs with neither near nor far are between the two."""
+
+RCC8_CODE = {r.relation: r.code for r in RELATION_CODES if r.relation in TOPOLOGY_RELATIONS}
+"""topology()'s answer -> its short code (disconnected -> dc, ...)."""
 
 
 def _edges(b: BoxLike) -> tuple[float, float, float, float]:

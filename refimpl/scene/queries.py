@@ -20,11 +20,9 @@ from ..core.constants import default_constants
 # Relations between tracks (Table 2)
 # ---------------------------------------------------------------------------------------
 
-_RCC_SHORT = {"dc": "disconnected", "ec": "externally_connected", "po": "partially_overlapping",
-              "tpp": "tangential_proper_part", "ntpp": "non_tangential_proper_part",
-              "tppi": "tangential_proper_part_inverse", "ntppi": "non_tangential_proper_part_inverse",
-              "eq": "equal"}
-RCC_SHORT_NAME = {v: k for k, v in _RCC_SHORT.items()}
+RCC_SHORT_NAME = dict(rel.RCC8_CODE)
+"""topology()'s answer -> its short code, from the relation code table (refimpl.knowledge.relations)."""
+_RCC_SHORT = {code: full for full, code in RCC_SHORT_NAME.items()}
 
 MOVEMENT_WINDOW = 5
 """Pair movement relations compare the boxes at f - MOVEMENT_WINDOW and f."""

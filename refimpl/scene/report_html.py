@@ -7,23 +7,31 @@ with the box states of every frame, ``refimpl.scene.report``).  The page referen
 Sections: the chosen frame (its boxes drawn by state -- active solid, hidden / missing / halted
 dashed -- with a slider to move through the frames, the table of its boxes and the relations
 that hold), the space-time picture (one row per track; a click picks the frame), the events per
-track (a click on an event picks its frame) and the explanations.  A filter field keeps one
+track (a click on an event picks its frame) and the explanations.  The box labels (track number, the occluder of
+a hidden box) are placed by the script so that no two overlap: above the box, below it, inside, then
+stacked (``placeLabels``); each label's rectangle on the screen is left in its ``data-rect``.  A filter field keeps one
 track's rows; ``report.html#frame=274&track=129`` opens the page at that frame with that filter.  When the script has drawn the page it sets ``data-report="rendered"`` on the
 ``<html>`` element and fills ``#report-status`` (a script error sets ``data-report="error: ..."``):
-what a headless browser test reads.  :func:`write_report` is the command: load the scene, build
+what a headless browser test reads.  With the frame images (``--images``,
+refimpl.scene.report_images) a second JSON block holds them as data URIs; the script puts the shown
+frame's image under its boxes.  :func:`write_report` is the command: load the scene, build
 its report (refimpl.scene.report), write the page.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import json
 
+from ..core.constants import default_constants
 from ..knowledge.events import EVENT_TABLE, explaining
+from ..knowledge.relations import RELATION_CODES
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
 from ..io.outputs import check_outputs, write_atomic
 from .report import ACTIVE, HALTED, HIDDEN, MISSING, Report, STATES, TrackTimeline, build_report
-from . import load_scene
+from .report_images import FrameImage, image_frames, load_frame_images
+from . import SceneError, load_scene
 
 STATE_COLOURS = {ACTIVE: OBSERVED_COLOUR, **{e.halt_kind: e.colour for e in explaining("halt")},
                  HALTED: ENDED_COLOUR}
@@ -133,6 +141,26 @@ def _legend() -> str:
     return '<p class="legend">' + " ".join(parts) + "</p>"
 
 
+FLUENT_TEXT = (("clipped(T)", "T was missed by the detector: from the frame after its missing_detections to "
+                               "the frame it is resumed"),
+               ("hidden_by(T1,T2)", "T1 is hidden behind T2: from the frame after its hides_behind to the frame "
+                                    "of its unhides_from_behind"))
+"""The fluents the relations list names (refimpl.scene.plots.frame_relation_lines)."""
+
+
+def relation_legend() -> str:
+    """What every line of the relations list means: the fluents, then every code of the relation
+    code table (refimpl.knowledge.relations.RELATION_CODES), in its order."""
+    hide = default_constants()["hide_overlap"]
+    rows = [f'<dt>{_e(name)}</dt><dd>{_e(text)}</dd>' for name, text in FLUENT_TEXT]
+    rows.append('<dt class="head">A B codes</dt><dd class="head">a pair of tracks whose boxes touch or are near: '
+                'the relations of track A to track B</dd>')
+    for r in RELATION_CODES:
+        text = r.meaning.replace("hide_overlap %", f"hide_overlap % (= {hide} %)")
+        rows.append(f'<dt data-code="{_e(r.code)}">{_e(r.code)}</dt><dd>{_e(text)}</dd>')
+    return '<dl class="codes" id="relation-codes">' + "".join(rows) + "</dl>"
+
+
 def _event_chip(t: TrackTimeline, ev, numbers: dict[str, object]) -> str:
     colour = EVENT_STYLE[ev.name][1] if ev.name in EVENT_STYLE else "#444444"
     other = f" {numbers.get(ev.other, ev.other)}" if ev.other else ""
@@ -179,13 +207,23 @@ def frame_data(report: Report) -> dict:
             "explanations": len(report.explanations)}
 
 
-def _json_script(data: dict) -> str:
+def _json_script(data: dict, ident: str = "report-data") -> str:
     text = json.dumps(data, separators=(",", ":"), ensure_ascii=True).replace("<", "\\u003c")
-    return f'<script type="application/json" id="report-data">{text}</script>'
+    return f'<script type="application/json" id="{ident}">{text}</script>'
 
 
-def render_html(report: Report) -> str:
-    """The whole page (module doc)."""
+def _images_script(images: tuple[FrameImage, ...]) -> str:
+    """The frame images (refimpl.scene.report_images) as frame -> [data URI, width, height]; none: nothing."""
+    if not images:
+        return ""
+    return _json_script({str(i.frame): [i.data_uri(), i.width, i.height] for i in images}, "report-images")
+
+
+def render_html(report: Report, images: tuple[FrameImage, ...] = ()) -> str:
+    """The whole page (module doc), with the frame images under the boxes when given."""
+    if images and not report.image_size:  # no size in the scene: the picture holds the boxes and the images
+        report = dataclasses.replace(report, canvas=(max(report.canvas[0], *(i.width for i in images)),
+                                                     max(report.canvas[1], *(i.height for i in images))))
     size = f"{report.image_size[0]} x {report.image_size[1]} px" if report.image_size else "image size unknown"
     fps = f", {report.fps:g} fps" if report.fps else ""
     n_frames = report.last_frame - report.first_frame + 1
@@ -222,7 +260,8 @@ Written by <code>refimpl report</code> from a scene of <code>refimpl track --sce
 <div class="two">
 <table class="boxes"><thead><tr><th>track</th><th>type</th><th>state</th><th>box x, y, w, h</th></tr></thead>
 <tbody id="frame-rows"></tbody></table>
-<div><h3>Fluents and relations</h3><pre id="frame-relations"></pre></div>
+<div><h3>Fluents and relations</h3><pre id="frame-relations"></pre>
+{relation_legend()}</div>
 </div>
 <p class="note">A halted box is the tracker's Kalman prediction. A track that <i>hides_behind</i> at t and
 <i>unhides_from_behind</i> at r is drawn hidden at t .. r-1; the fluent <code>hidden_by</code> holds from t+1
@@ -244,6 +283,7 @@ time runs left to right. Click to show a frame; the red line is the frame shown 
 {explanations_list(report)}
 </section>
 {_json_script(frame_data(report))}
+{_images_script(images)}
 <script>{SCRIPT}</script>
 </body>
 </html>
@@ -269,7 +309,7 @@ button{font:inherit;cursor:pointer}
 .key i.active,.key i.hidden,.key i.missing,.key i.halted{border:2px solid;height:7px;width:16px}
 .key i.hidden,.key i.missing,.key i.halted{border-style:dashed}.key i.ego{background:#ffe9a8;border:1px solid #d4a017}
 .key svg.mark{width:11px;height:11px;margin-right:3px;vertical-align:-1px}
-.two{display:grid;grid-template-columns:minmax(0,3fr) minmax(0,2fr);gap:18px}
+.two{display:grid;grid-template-columns:minmax(0,3fr) minmax(0,2fr);gap:18px;align-items:start}
 table{border-collapse:collapse;width:100%;font-size:12.5px;background:#fff}
 th,td{border-bottom:1px solid #e4e4e4;padding:2px 6px;text-align:left;vertical-align:top}th{background:#f0f0f0}
 td.state{font-weight:600}
@@ -286,6 +326,8 @@ margin:1px 0;font-size:11.5px;white-space:nowrap}
 .chips{line-height:1.9}.none,.empty{color:#888}
 .explanations li{margin:1px 0;cursor:pointer}
 .hide{display:none}
+.codes{display:grid;grid-template-columns:max-content 1fr;gap:0 8px;font-size:11.5px;margin:6px 0 0;color:#333}
+.codes dt{font-family:monospace;font-weight:600}.codes dd{margin:0}.codes .head{margin-top:3px;color:#555}
 """
 
 SCRIPT = r"""
@@ -297,6 +339,8 @@ SCRIPT = r"""
   var frame = D.frame, filterId = null;
   var slider = document.getElementById("slider");
   var W = D.canvas[0], H = D.canvas[1];
+  var imagesBlock = document.getElementById("report-images");
+  var IMG = imagesBlock ? JSON.parse(imagesBlock.textContent) : null;  // frame -> [data URI, width, height]
 
   function esc(s) {
     return String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;").replace(/>/g, "&gt;").replace(/"/g, "&quot;");
@@ -316,22 +360,33 @@ SCRIPT = r"""
       var text = D.stateText[r[5]] + (r[6] >= 0 ? " track " + D.tracks[r[6]][1] : "");
       var kind = state === "active" ? "" : " halted-kind";
       var label = String(t[1]) + (r[6] >= 0 ? " \u2190 " + D.tracks[r[6]][1] : "");
-      var ly = state === "active" ? Math.max(r[2] - 4, 14) : Math.min(r[2] + r[4] + 15, H - 2);
       var dim = filterId && t[0] !== filterId && trackName(r[6]) !== filterId ? " dim" : "";
       parts.push('<g class="box ' + state + kind + dim + '" data-track="' + esc(t[0]) + '"><title>' +
                  esc(t[0] + " (" + t[2] + "): " + text) + '</title><rect x="' + r[1] + '" y="' + r[2] +
-                 '" width="' + r[3] + '" height="' + r[4] + '" stroke="' + colour + '"/><text x="' + r[1] +
-                 '" y="' + ly + '" fill="' + colour + '">' + esc(label) + '</text></g>');
+                 '" width="' + r[3] + '" height="' + r[4] + '" stroke="' + colour + '"/><text class="label" x="' +
+                 r[1] + '" y="' + r[2] + '" fill="' + colour + '">' + esc(label) + '</text></g>');
       table.push('<tr data-tracks="' + esc(t[0] + (r[6] >= 0 ? " " + D.tracks[r[6]][0] : "")) + '"><td>' +
                  esc(t[1]) + '</td><td>' + esc(t[2]) + '</td><td class="state" style="color:' + colour + '">' +
                  esc(text) + '</td><td>' + [r[1], r[2], r[3], r[4]].join(", ") + '</td></tr>');
     });
     parts.push("</svg>");
     document.getElementById("frame-view").innerHTML = parts.join("");
+    var view = document.querySelector("#frame-view svg"), picture = IMG && IMG[String(frame)];
+    if (picture) {  // the frame's own image, under the boxes
+      var im = document.createElementNS("http" + "://www.w3.org/2000/svg", "image");
+      im.setAttribute("class", "frame-image");
+      im.setAttribute("x", 0); im.setAttribute("y", 0);
+      im.setAttribute("width", picture[1]); im.setAttribute("height", picture[2]);
+      im.setAttribute("preserveAspectRatio", "none");
+      im.setAttribute("href", picture[0]);
+      view.insertBefore(im, view.children[1]);
+    }
+    placeLabels(view);
     document.getElementById("frame-rows").innerHTML = table.join("") ||
       '<tr><td colspan="4" class="none">no track has a box at this frame</td></tr>';
     document.getElementById("frame-relations").textContent = D.relations[frame - D.first].join("\n") || "(none)";
-    document.getElementById("frame-number").textContent = frame + " (" + rows.length + " boxes)";
+    document.getElementById("frame-number").textContent = frame + " (" + rows.length + " boxes" +
+      (IMG ? (picture ? ", on its image" : ", no image embedded for this frame") : "") + ")";
     slider.value = frame;
     var cursor = document.getElementById("cursor"), svg = document.getElementById("spacetime-svg");
     if (cursor && svg) {
@@ -340,6 +395,48 @@ SCRIPT = r"""
     }
     applyFilter();
     return rows.length;
+  }
+
+  // Box labels without overlap: each label in track order takes the first free place of: above its
+  // box, below it, inside at the top, inside at the bottom, then stacked further above, then further
+  // below (one label height a step), inside the picture; failing all, a row under the picture, which
+  // grows to hold it.  Free: its rectangle (getBBox, user units) keeps GAP clear of every placed label.
+  var GAP = 1;
+  function placeLabels(svg) {
+    var placed = [], bottom = H;
+    function free(x, y, w, h) {
+      return placed.every(function (p) {
+        return x + w + GAP <= p[0] || p[0] + p[2] + GAP <= x || y + h + GAP <= p[1] || p[1] + p[3] + GAP <= y;
+      });
+    }
+    svg.querySelectorAll(".box").forEach(function (g) {
+      var t = g.querySelector("text"), rect = g.querySelector("rect"), bb = t.getBBox();
+      var w = bb.width, h = bb.height, base = Number(t.getAttribute("y")) - bb.y;  // baseline below the top
+      var bx = Number(rect.getAttribute("x")), by = Number(rect.getAttribute("y"));
+      var bw = Number(rect.getAttribute("width")), bh = Number(rect.getAttribute("height"));
+      var x = Math.max(0, Math.min(bx, W - w)), k, spot = null;
+      var tops = [by - h - 2, by + bh + 2, by + 2, by + bh - h - 2];
+      for (k = 1; k <= 40; k++) { tops.push(by - h - 2 - k * (h + GAP)); }
+      for (k = 1; k <= 40; k++) { tops.push(by + bh + 2 + k * (h + GAP)); }
+      for (k = 0; k < tops.length && spot === null; k++) {
+        if (tops[k] >= 0 && tops[k] + h <= H && free(x, tops[k], w, h)) { spot = tops[k]; }
+      }
+      for (k = 0; spot === null; k++) {
+        if (free(x, H + 2 + k * (h + GAP), w, h)) { spot = H + 2 + k * (h + GAP); }
+      }
+      placed.push([x, spot, w, h]);
+      bottom = Math.max(bottom, spot + h + 2);
+      t.setAttribute("x", x.toFixed(1));
+      t.setAttribute("y", (spot + base).toFixed(1));
+    });
+    if (bottom > H) { svg.setAttribute("viewBox", "0 0 " + W + " " + bottom.toFixed(1)); }
+    // what a test reads back (the labels' rectangles on the screen, CSS px): left,top,width,height
+    svg.querySelectorAll(".box text").forEach(function (t) {
+      var c = t.getBoundingClientRect();
+      t.setAttribute("data-rect", [c.left, c.top, c.width, c.height].map(function (v) {
+        return v.toFixed(2);
+      }).join(","));
+    });
   }
 
   function setFrame(f) {
@@ -403,10 +500,23 @@ SCRIPT = r"""
 """
 
 
-def write_report(scene_path: str, out: str, frame: int | None = None) -> str:
-    """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line."""
+def write_report(scene_path: str, out: str, frame: int | None = None, images: str | None = None,
+                 frames: str | None = None) -> str:
+    """``refimpl report``: load the scene, write the HTML page to out atomically; a summary line.
+    images: the folder of the frame images (refimpl.scene.report_images), frames: which of them."""
     check_outputs({"--out": out}, {"scene": scene_path})
-    report = build_report(load_scene(scene_path), frame)
-    write_atomic(out, render_html(report))
+    scene = load_scene(scene_path)
+    report = build_report(scene, frame)
+    pictures: tuple[FrameImage, ...] = ()
+    if images is not None:
+        pictures = load_frame_images(images, scene, *image_frames(scene, report.frame, frames))
+    elif frames is not None:
+        raise SceneError("--image-frames needs --images DIR")
+    write_atomic(out, render_html(report, pictures))
+    embedded = ""
+    if pictures:
+        size = sum(len(p.data_uri()) for p in pictures) / 1e6
+        embedded = (f"; the images of frames {pictures[0].frame}-{pictures[-1].frame} embedded "
+                    f"({len(pictures)} files, {size:.1f} MB)")
     return (f"{report.name}: {len(report.tracks)} tracks, {report.events} events, frame {report.frame} "
-            f"({len(report.states_at(report.frame))} boxes) -> {out}")
+            f"({len(report.states_at(report.frame))} boxes){embedded} -> {out}")
