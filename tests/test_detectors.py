@@ -75,10 +75,12 @@ def test_real_detector_report_on_one_mot15_sequence(shared_data, capsys):
     # PROVENANCE.md: TUD-Campus det.txt (ACF) has 322 lines, det_sort_frcnn.txt 321 (MOT15 has no
     # distractors or DontCare, so every detection is counted); TUD-Campus gt has 359 lines, all flag 1
     assert rows["acf"][1] == "322" and rows["frcnn"][1] == "321"
-    # SORT's Faster R-CNN scores are >= 0.5, so every confidence is >= 50 > 40: all can start a track
-    assert rows["frcnn"][4] == "100.0"
-    # ACF's raw scores (0.09 .. 117.88 here) map to clip(round(score), 0, 100): some matches are <= 40
-    assert float(rows["acf"][4]) < 100.0
+    # the default score rule (evidence) reads each detector on its own scale: a true detection's
+    # confidence is how persistent the detections of its score have been, so some true detections
+    # of either detector (an occluded person's, the rank prior's in the first frames) are at or below
+    # the model's default conf_thresh_new_track 40: neither share is 100 %, neither is 0
+    for name in ("frcnn", "acf"):
+        assert 0.0 < float(rows[name][4]) < 100.0
     assert "raw scores 0.09 .. 117.88" in out
 
 

@@ -178,9 +178,10 @@ def test_img_size_and_const_restore_the_seqinfo_behaviour(tmp_path, capsys):
                               ("img_size", lone, ["--img-size", "640,480"]),
                               ("const", lone, ["--const", "img_width=640", "--const", "img_height=480"])):
         outs[name] = tmp_path / f"{name}.txt"
-        # --no-preset: with constants.lp as is (the mot preset's higher new-track threshold hides the border effect here)
+        # --no-preset: with constants.lp as is (the mot preset's higher new-track threshold hides the border
+        # effect here); --scores probability: the confidences this sequence shows the effect with
         assert main(["track", "--dets", str(dets), "--backend", "cpsat", "--out", str(outs[name]), "--no-preset",
-                     *extra]) == 0
+                     "--scores", "probability", *extra]) == 0
     text = {k: p.read_bytes() for k, p in outs.items()}
     assert text["img_size"] == text["seqinfo"] and text["const"] == text["seqinfo"]
     assert text["unknown"] != text["seqinfo"]

@@ -114,9 +114,11 @@ def test_peers_read_confidence_over_100_and_the_sequence_frame_rate():
     assert peers.peer_parameters("ocsort", None)["frame_rate"] == peers.DEFAULT_FRAME_RATE
 
     def with_conf(c: int):
-        frames = tuple(replace(f, confidences=np.full(len(f), c)) for f in seq.frames)
+        # every score the probability c / 100: the peers get the scores as their callers give them
+        # (refimpl.io.detections.probability_scale: probabilities as they are, to 0.01)
+        frames = tuple(replace(f, scores=np.full(len(f), c / 100)) for f in seq.frames)
         return replace(seq, frames=frames)
-    # confidence 69 -> 0.69 < 0.7: ByteTrack starts no track at all; 70 -> 0.70: it does
+    # score 0.69 -> 0.69 < 0.7: ByteTrack starts no track at all; 0.70: it does
     assert len(peers.run_peer(with_conf(69), "bytetrack").rows) == 0
     assert len(peers.run_peer(with_conf(70), "bytetrack").rows) > 100
 

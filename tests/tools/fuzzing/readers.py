@@ -52,7 +52,8 @@ def _check_detections(seq: rio.DetectionSequence, first: int, expect_conf, toler
 
 
 def _mot_conf(scores: list[float]) -> list[int]:
-    """Module doc of refimpl.io: round(100 score) if every score is in [0, 1], else clip(round(score), 0, 100)."""
+    """The fixed scales of refimpl.io: round(100 score) (probability) if every score is in [0, 1],
+    else clip(round(score), 0, 100) (raw)."""
     if all(0.0 <= v <= 1.0 for v in scores):
         return [math.floor(100.0 * s + 0.5) for s in scores]
     return [int(min(100.0, max(0.0, math.floor(s + 0.5)))) for s in scores]
@@ -99,9 +100,18 @@ def read_facts(path: Path, data: bytes, ctx: dict) -> None:
         raise CheckFailed("write/parse round trip differs")
 
 
+def _in_range(scores: list[float]) -> list[int]:
+    """The default rule (evidence) gives any confidence 0..100: 50 +- 50."""
+    return [50] * len(scores)
+
+
 def read_mot_det(path: Path, data: bytes, ctx: dict) -> None:
-    seq = rio.read_mot_detections(path)
-    _check_detections(seq, 1, _mot_conf, 0)
+    seq = rio.read_mot_detections(path)  # the default rule: any scale accepted, confidences 0..100
+    _check_detections(seq, 1, _in_range, 50)
+    scores = [s for f in seq.frames for s in f.scores.tolist()]
+    fixed = "probability" if all(0.0 <= v <= 1.0 for v in scores) else "raw"
+    # the same rows on the fixed scale _mot_conf computes (another way)
+    _check_detections(rio.read_mot_detections(path, scores_rule=fixed), 1, _mot_conf, 0)
     if seq.num_detections != len(_data_lines(data)):
         raise CheckFailed(f"{seq.num_detections} detections from {len(_data_lines(data))} data lines")
     info = ctx.get("seqinfo")
@@ -135,7 +145,9 @@ def read_kitti_det(path: Path, data: bytes, ctx: dict) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", rio.InputFormatWarning)
         seq = rio.read_kitti_detections(path, ctx["class"])
-    _check_detections(seq, 0, _kitti_conf, 1)
+        fixed = rio.read_kitti_detections(path, ctx["class"], scores_rule="sigmoid")
+    _check_detections(seq, 0, _in_range, 50)
+    _check_detections(fixed, 0, _kitti_conf, 1)
     want = {"pedestrian": 1, "car": 2, "cyclist": 3}[ctx["class"]]
     rows = [l for l in _data_lines(data) if float(l.split(",")[1]) == want]
     if seq.num_detections + len(seq.dropped) != len(rows):
