@@ -15,6 +15,7 @@ import pytest
 
 pytest.importorskip("clingo")
 
+from certificate_frames import OUTSIDE_THE_WITNESS  # noqa: E402
 from refimpl.core.facts import parse_facts  # noqa: E402
 from refimpl.core.spec import FrameProblem  # noqa: E402
 from refimpl.knowledge.events import EVENT_TABLE  # noqa: E402
@@ -193,19 +194,7 @@ def test_a_track_without_a_solo_action_must_be_in_the_witness():
     # v1 = 80001 (the least): u1 = 20000, v1 = 60001 ((1,1) tight, (2,1) 60001 >= 40001).  It passes
     # every check but the witness's: trk_2 is outside it without a solo action.  Trusted, it would
     # allow only (1,1) and force it: trk_2 would have no action, and there would be no answer.
-    text = """#const curr_time=100.
-det(det_1, car, 90).
-box2d(det_1, 0, 0, 50, 50).
-trk(trk_1, car).
-trk_state(trk_1, active).
-box2d(trk_1, 0, 0, 50, 50).
-trk(trk_2, car).
-trk_state(trk_2, active).
-box2d(trk_2, 500, 0, 50, 50).
-iou(trk_1,det_1,80000).
-iou(trk_2,det_1,40000).
-occurs_at(missing_detections(trk_2),95).
-"""
+    text = OUTSIDE_THE_WITNESS
     problem = _problem(text)
     assert certificate(problem) == Certificate((("trk_1", 20000), ("trk_2", 0)), (("det_1", 60001),),
                                                (("trk_1", "det_1"),))

@@ -24,6 +24,7 @@ from refimpl.solvers.cpsat_model import PAIR_ORDER, TIEBREAK_LEVEL, build_model,
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from framegen import random_frame  # noqa: E402
 from densegen import dense_frame as pile  # noqa: E402
+from certificate_frames import OUTSIDE_THE_WITNESS  # noqa: E402
 
 HEAD = """#const curr_time=100.
 det(det_1, car, 90).
@@ -68,19 +69,7 @@ def test_a_track_without_a_solo_action_outside_the_witness_prunes_nothing():
     # Trusted, the pruning would forbid (trk_2, det_1) (not tight) and leave trk_2 no action;
     # the check sees there is no halt(trk_2) in the model and prunes nothing.  The answer:
     # assign(trk_2,det_1), trk_1 halted, level 10 = -(40000 + 1).
-    problem = parse_facts("""#const curr_time=100.
-det(det_1, car, 90).
-box2d(det_1, 0, 0, 50, 50).
-trk(trk_1, car).
-trk_state(trk_1, active).
-box2d(trk_1, 0, 0, 50, 50).
-trk(trk_2, car).
-trk_state(trk_2, active).
-box2d(trk_2, 500, 0, 50, 50).
-iou(trk_1,det_1,80000).
-iou(trk_2,det_1,40000).
-occurs_at(missing_detections(trk_2),95).
-""")
+    problem = parse_facts(OUTSIDE_THE_WITNESS)
     done, am, res = _solve(problem, True)
     assert done == (False, False) and PAIR_ORDER not in am.objectives
     assert res.optimal and dict(res.cost)[10] == -40001

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..core.geometry import iou_matrix
 from ..io import DetectionFrame, DetectionSequence, GroundTruth
-from ..io.detections import DEFAULT_SCORE_RULE, calibrated, resolve_rule, scale_confidences
+from ..io.detections import DEFAULT_SCORE_RULE, read_again, resolve_rule
 
 Shifted = tuple[DetectionSequence, GroundTruth]
 SHIFTS_BEGIN = "<!-- refimpl benchmark --shift: begin -->"
@@ -170,9 +170,7 @@ def shifted_dataset(dataset: Sequence[tuple[str, DetectionSequence, GroundTruth]
             out.append((name, seq, gt))
             continue
         dets, truth = SHIFTS[shift].apply(seq, gt, np.random.default_rng([seed, index]))
-        dets = replace(dets, frames=tuple(replace(f, confidences=scale_confidences(name, (), f.scores, rule))
-                                          for f in dets.frames))
-        out.append((name, calibrated(dets, rule), truth))
+        out.append((name, read_again(dets, rule), truth))
     return out
 
 

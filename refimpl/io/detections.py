@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -142,7 +142,6 @@ def _check_rule(rule: str, allowed: Sequence[str]) -> None:
 def calibrated(seq: DetectionSequence, rule: str) -> DetectionSequence:
     """An online rule (``evidence`` or ``rank``) applied to the sequence's frames in order: each
     frame's confidences from the frames <= it, as a stream and the library compute them."""
-    from dataclasses import replace
     state = online_rule(rule)
     if state is None:
         return seq
@@ -162,7 +161,12 @@ def probability_scale(seq: DetectionSequence) -> DetectionSequence:
         rule = "sigmoid"
     else:
         rule = RANK
-    from dataclasses import replace
+    return read_again(seq, rule)
+
+
+def read_again(seq: DetectionSequence, rule: str) -> DetectionSequence:
+    """The sequence's confidences computed again from its scores by ``rule`` (a resolved rule), as a
+    reader would compute them for a file of its rows."""
     seq = replace(seq, frames=tuple(replace(f, confidences=scale_confidences(seq.name, (), f.scores, rule))
                                     for f in seq.frames))
     return calibrated(seq, rule)
