@@ -262,3 +262,41 @@ def test_motion_options_are_rows_of_the_table_parsed_like_the_others():
     with pytest.raises(ValueError, match="unknown tracker option"):
         AbductionTracker(get_solver("cpsat"), {}, hold=True)
     assert OPTIONS_BY_NAME["reupdate_on_resume"].flag == "--reupdate-on-resume"
+
+
+def _forward_camera() -> DetectionSequence:
+    """What a camera driving forward does (refimpl decision, docs/model.md 3.20): the two cars in
+    view from frame 1 are overtaken and slide 45 px/frame to the left (100 px wide: IoU 55/145 =
+    0.38 with their place a frame before, enough to be followed from rest), while a car far ahead
+    (40x40, from frame 6) stands still in the image.  Predicted d px to the left, that car overlaps
+    its detection by (40 - d) / (40 + d), below SORT's 0.3 once d > 21.5 px."""
+    frames = []
+    for f in range(1, 13):
+        boxes = [[1200.0 - 45 * (f - 1), 40.0, 100.0, 60.0], [1150.0 - 45 * (f - 1), 420.0, 100.0, 60.0]]
+        if f >= 6:
+            boxes.append([600.0, 250.0, 40.0, 40.0])
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.ones(n), np.full(n, 90), ("car",) * n))
+    return DetectionSequence("forward", tuple(frames), 1, (1400, 600), 10.0)
+
+
+def test_a_car_started_with_the_scene_motion_is_matched_where_it_stands():
+    from refimpl.core.geometry import iou_matrix, scale_iou
+    from refimpl.solvers import get_solver
+    from refimpl.tracking.tracker import AbductionTracker
+    seq = _forward_camera()
+    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1400, "img_height": 600}, scene_velocity=True)
+    for fr in seq.frames[:6]:
+        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types)
+    (newborn,) = [t for t in tracker.tracks.values() if min(t.observed) == 6]
+    fr = seq.frames[6]
+    problem = tracker.frame_problem(fr.frame, fr.boxes, fr.confidences, fr.types)
+    (pred,) = [p for p in problem.tracks if p.id == newborn.id]
+    moved = scale_iou(iou_matrix(newborn.predicted[None], fr.boxes[2:3]))[0, 0]
+    assert pred.box[0] < 600 - 22  # predicted with the scene's motion, more than 21.5 px to the left
+    assert moved < 30000  # that prediction alone could not be assigned (iou_thresh 30000) ...
+    assert (newborn.id, "det_2", 100000) in problem.iou  # ... the car where it stands: IoU 1
+    # so one identity holds the standing car from frame 6 to 12 (7 frames, none restarted)
+    result = track_sequence(seq, backend="cpsat", scene_velocity=True)
+    standing = [[f for f, box in rec.observed if box[1] == 250.0] for rec in result.tracks]
+    assert [f for f in standing if f] == [list(range(6, 13))]

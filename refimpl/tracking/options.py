@@ -124,7 +124,8 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "that many frames late)"),
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
-                  "(the image motion that a turning camera gives every object) instead of zero"),
+                  "(the image motion that a turning camera gives every object) instead of zero; until it is "
+                  "seen again it is matched by the better of that prediction and rest"),
     TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
                   "a halted track's prediction keeps its size and a bounded constant velocity "
                   "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),

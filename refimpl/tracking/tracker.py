@@ -103,6 +103,7 @@ class _Track:
     bridged: bool = False  # resumed after a short gap while confirmed: stays confirmed
     episode: tuple[int, int] | None = None  # an occlusion episode to fill once re-confirmed (fill_hidden)
     confirmed: set[int] = field(default_factory=set)  # observed frames that are written
+    at_rest: np.ndarray | None = None  # started with the scene's motion: its first box, until observed again
 
 
 @dataclass(frozen=True)
@@ -211,6 +212,7 @@ class AbductionTracker:
         iou: tuple[tuple[str, str, int], ...] = ()
         if len(tracks) and len(boxes):
             ml = scale_iou(iou_matrix(predicted, boxes))
+            self._either_motion(tracks, boxes, ml)
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
             iou = tuple((tracks[k].id, det_ids[j], v)
                         for k, j, v in zip(ks.tolist(), js.tolist(), ml[ks, js].tolist()))
@@ -228,6 +230,18 @@ class AbductionTracker:
             make = FrameProblem
         return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self.constants,
                     history=history)
+
+    @staticmethod
+    def _either_motion(tracks: list[_Track], boxes: np.ndarray, ml: np.ndarray) -> None:
+        """The tracker option scene_velocity, refimpl decision (docs/model.md 3.20): a track started
+        with the scene's motion and not observed since has two predictions, the scene's motion and
+        rest where it was seen; its matching likelihood (ML_t, in place) is the better of the two.
+        The scene's median motion is the motion of a turning camera, not of a car on either side of
+        a camera driving forward."""
+        rest = [k for k, t in enumerate(tracks) if t.at_rest is not None]
+        if rest:
+            still = np.array([tracks[k].at_rest for k in rest], dtype=float).reshape(-1, 4)
+            ml[rest] = np.maximum(ml[rest], scale_iou(iou_matrix(still, boxes)))
 
     def _bounded(self, box: np.ndarray) -> np.ndarray:
         """A prediction clipped to the image extended by one image size on every side, its area
@@ -348,13 +362,14 @@ class AbductionTracker:
                 self._pend_gap(trk, last, frame)
         for (trk_id,) in acts.get("halt", ()):
             self.tracks[trk_id].state = "halted"
+            self.tracks[trk_id].at_rest = None
         # start: new identities in detection order, so ids do not depend on atom sorting
         new_ids: dict[str, str] = {}
         for j in sorted(index[d] for (d,) in acts.get("start", ())):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
             kalman = BoxKalman(boxes[j], self.velocity_noise, scene, self.area_noise)
-            trk = _Track(trk_id, types[j], kalman)
+            trk = _Track(trk_id, types[j], kalman, at_rest=None if scene is None else boxes[j].copy())
             trk.observed[frame] = self._written(kalman, boxes[j])
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
@@ -411,6 +426,7 @@ class AbductionTracker:
     def _observed(self, trk: _Track, frame: int, box: np.ndarray) -> None:
         """After the track's filter took the detection: SORT's hit streak, the written box, the rows."""
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
+        trk.at_rest = None
         trk.observed[frame] = self._written(trk.kalman, box)
         self._confirm(trk, frame)
 
