@@ -343,6 +343,26 @@ def test_start_needs_area_above_size_threshold(backend, box, started):
                         else ("ignore_det(det_1)",))
 
 
+@pytest.mark.parametrize("typ,iou_value,started", [
+    ("car", 66667, False),         # (110,100,50,50) on trk_1's (100,100,50,50): 2000 / 3000 > 0.5
+    ("car", 50000, True),          # exactly 0.5 is not more than iou_thresh_occupied 50000
+    ("car", 33333, True),          # (125,100,50,50): 1250 / 3750, a car beside it may be new
+    ("pedestrian", 66667, True),   # no track of its type is there (match_type)
+])
+def test_a_new_track_does_not_start_where_a_track_of_its_type_is(backend, typ, iou_value, started):
+    # refimpl rule [start_occupied] (docs/model.md 3.21).  trk_1 takes det_0, its own box (IoU 1);
+    # det_1 (conf 90 > 40, area 2500 > 100) overlaps trk_1 by iou_value: above 0.5 it is trk_1
+    # seen twice and is ignored (10@3), else it starts (5@2, enters_fov 1@1).
+    p = frame([det(0, box=(100, 100, 50, 50)), det(1, box=(110, 100, 50, 50), typ=typ)],
+              [trk(1, box=(100, 100, 50, 50))],
+              [("trk_1", "det_0", 100000), ("trk_1", "det_1", iou_value)])
+    h = solve(backend, p)
+    assert "assign(trk_1,det_0)" in h.actions
+    assert ("start(det_1)" in h.actions) is started
+    assert ("ignore_det(det_1)" in h.actions) is not started
+    assert [c for p_, c in h.cost if p_ in (3, 2)] == ([0, 5] if started else [10, 0])
+
+
 # --- end_constraints, ignore_trk_constraints, halt_constraints -------------------------------------
 
 def test_active_track_is_neither_ended_nor_ignored(backend):
@@ -828,8 +848,10 @@ def test_a_track_anticipated_to_unhide_resumes_with_new_track_confidence(backend
     # (x 200..500): x=480 leaves 20 of 50 px behind it, 2 * 1200 = 2400 <= 3000: at least half
     # is out, anticipated_unhide(trk_1); x=470: 30 px behind, 2 * 1800 = 3600 > 3000: not yet.
     # det_1 (conf 45 > conf_thresh_new_track 40, <= conf_thresh_resume 50) where trk_1 is predicted
-    # (IoU 0.8): anticipated, it resumes trk_1 (unhides_from_behind); otherwise it starts a track.
-    # conf 51 resumes in either case (conf_thresh_resume).  The bus keeps its own detection det_2.
+    # (IoU 0.8): anticipated, it resumes trk_1 (unhides_from_behind); otherwise it cannot start a
+    # track either, since trk_1 is where it is (IoU 0.8 > iou_thresh_occupied 0.5, [start_occupied],
+    # 3.21): it is ignored.  conf 51 resumes in either case (conf_thresh_resume).  The bus keeps
+    # its own detection det_2.
     p = frame([det(1, box=(x, 320, 50, 60), conf=conf), det(2, box=BUS)],
               [trk(1, "halted", box=(x, 320, 50, 60)), trk(2, box=BUS)],
               [("trk_1", "det_1", 80000), ("trk_2", "det_2", 100000)],
@@ -838,9 +860,7 @@ def test_a_track_anticipated_to_unhide_resumes_with_new_track_confidence(backend
     assert "assign(trk_2,det_2)" in h.actions
     if resumed:
         assert "resume(trk_1,det_1)" in h.actions and ev("unhides_from_behind(trk_1,trk_2)") in h.events
-    elif conf > 40:
-        assert {"start(det_1)", "ignore_trk(trk_1)"} <= set(h.actions)
-    else:  # conf 40 can neither resume nor start
+    else:  # not anticipated: neither resumed nor started (conf 40 could not start anyway)
         assert {"ignore_det(det_1)", "ignore_trk(trk_1)"} <= set(h.actions)
 
 

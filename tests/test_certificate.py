@@ -332,7 +332,8 @@ iou(trk_1,det_2,81818).
 """
 # A constraint on ignore_det: a detection below confidence 35 must be explained, not ignored.
 # det_2 can then only be assigned (it cannot start), so the encoding's unique optimum is
-# assign(trk_1,det_2) and start(det_1) (explained by enters_fov): level 10 = -81819, below the
+# assign(trk_1,det_2) and ignore_det(det_1) (det_1, conf 90, may be ignored, and it cannot start
+# where trk_1 is: IoU 1 > iou_thresh_occupied, [start_occupied]): level 10 = -81819, below the
 # level-10 optimum of model/ (-100001) that the certificate proposes.
 NO_IGNORE = ":- ignore_det(D), det(D, _, C), C < 35.\n"
 
@@ -356,8 +357,8 @@ def test_a_constraint_on_ignore_det_withdraws_the_certificate_and_the_answer_sta
     assert reason.startswith("association.lp:") and "reads ignore_det" in reason
     h = solver.solve(problem)
     assert h.optimal
-    assert h.actions == ("assign(trk_1,det_2)", "start(det_1)")
-    assert h.events == ("occurs_at(enters_fov(det_1),100)",)
+    assert h.actions == ("assign(trk_1,det_2)", "ignore_det(det_1)")
+    assert h.events == ()
     assert dict(h.cost)[10] == -81819
     # the same answer as the encoding solved without any certificate
     plain = ClingoSolver(model_files=files, certify=False, isolate=False).solve(problem)

@@ -122,10 +122,11 @@ def test_the_proven_optimum_of_the_bus_frame_is_confirmed(bus):
     # before t=235) instead of hides_behind(trk_13,trk_12): levels 10..2 equal, level 1 costs
     # cost_missing_detections 2 instead of cost_hides_behind 1 -> 3 instead of 2
     (BUS_ACTIONS, ("occurs_at(enters_fov(det_5),235)", "occurs_at(missing_detections(trk_13),235)"), 1),
-    # trk_3 halted (missing_detections) and det_3 started instead of assign(trk_3,det_3): level 10
-    # loses its ML 94981 + 1, i.e. -359498 instead of -454480: worse at the top level
-    (_swap("assign(trk_3,det_3)", "halt(trk_3)") + ("start(det_3)",),
-     BUS_EVENTS + ("occurs_at(missing_detections(trk_3),235)", "occurs_at(enters_fov(det_3),235)"), 10),
+    # trk_3 halted (missing_detections) and det_3 ignored (it cannot start where trk_3 is,
+    # [start_occupied]) instead of assign(trk_3,det_3): level 10 loses its ML 94981 + 1, i.e.
+    # -359498 instead of -454480: worse at the top level
+    (_swap("assign(trk_3,det_3)", "halt(trk_3)") + ("ignore_det(det_3)",),
+     BUS_EVENTS + ("occurs_at(missing_detections(trk_3),235)",), 10),
     # det_5 ignored instead of started: 10@3 instead of 5@2 + enters_fov 1@1: worse at level 3
     (_swap("start(det_5)", "ignore_det(det_5)"), BUS_EVENTS[1:], 3),
 ])
@@ -152,15 +153,16 @@ def _two_identical_detections():
 
 
 def test_a_choice_worse_only_at_the_tiebreak_is_caught():
-    # resume(trk_1,det_1) + start(det_0) vs resume(trk_1,det_0) + start(det_1): levels 10..1 equal
-    # (the same ML 100000 at level 5, one resume and one start at level 2, recover and enters_fov
-    # at level 1).  Level 0: the component's pairs in (trk, det) order are (trk_1,det_0) rank 0,
-    # weight 2^0, and (trk_1,det_1) rank 1, weight 2^1; enters_fov has the same index for either
-    # detection.  So resuming det_1 costs (2 - 1) << E more: worse at priority 0 only.
+    # resume(trk_1,det_1) + ignore_det(det_0) vs resume(trk_1,det_0) + ignore_det(det_1): levels
+    # 10..1 equal (the same ML 100000 at level 5, one ignore at level 3, one resume at level 2,
+    # recover at level 1; neither detection can start: trk_1 is where both are, [start_occupied]).
+    # Level 0: the component's pairs in (trk, det) order are (trk_1,det_0) rank 0, weight 2^0, and
+    # (trk_1,det_1) rank 1, weight 2^1.  So resuming det_1 costs (2 - 1) << E more: worse at
+    # priority 0 only.
     problem = _two_identical_detections()
-    events = ("occurs_at(recover(trk_1),40)", "occurs_at(enters_fov({}),40)")
-    worse = _checked(problem, ("resume(trk_1,det_1)", "start(det_0)"), (events[0], events[1].format("det_0")))
-    best = _checked(problem, ("resume(trk_1,det_0)", "start(det_1)"), (events[0], events[1].format("det_1")))
+    recover = "occurs_at(recover(trk_1),40)"
+    worse = _checked(problem, ("resume(trk_1,det_1)", "ignore_det(det_0)"), (recover,))
+    best = _checked(problem, ("resume(trk_1,det_0)", "ignore_det(det_1)"), (recover,))
     assert worse.cost[:5] == best.cost[:5] and worse.cost[5][1] > best.cost[5][1]
     optimum = FrameOptimum.of(problem)
     verdict = optimum.verdict(worse)

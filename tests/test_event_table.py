@@ -140,13 +140,17 @@ def test_the_action_costs_and_priorities_are_those_of_optimisation_lp():
 #   trk_4 halted, started and missing at 97, near the right border (x+w = 998 > 1000-10): at
 #     curr_time 100, noise (100-97 <= noise_max_age 3), lost (100-97 >= lost_after_missing 3)
 #     and leaves_fov are possible;
-#   det_0 (area 2500 > 100, conf 90 > 40) can start a track: enters_fov(det_0).
+#   det_0 cannot start a track (trk_3 is where it is: IoU 0.9 > iou_thresh_occupied 0.5,
+#     [start_occupied]); det_1 (area 2500 > 100, conf 90 > 40, no track overlaps it) can:
+#     enters_fov(det_1).
 FRAME = """
 #const curr_time=100.
 #const img_width=1000.
 #const img_height=500.
 det(det_0, car, 90).
 box2d(det_0, 132, 121, 50, 50).
+det(det_1, car, 90).
+box2d(det_1, 600, 300, 50, 50).
 trk(trk_1, car). trk_state(trk_1, active). box2d(trk_1, 100, 100, 100, 100).
 trk(trk_2, car). trk_state(trk_2, active). box2d(trk_2, 120, 110, 120, 100).
 trk(trk_3, car). trk_state(trk_3, halted). box2d(trk_3, 130, 120, 50, 50).

@@ -1,5 +1,6 @@
 """The admissibility of actions (docs/model-spec.md section 1): match_type and the integrity
-constraints assignment_constraints, resume_constraints and start_constraints of Appendix A.
+constraints assignment_constraints, resume_constraints and start_constraints of Appendix A
+(with refimpl's start_occupied, docs/model.md 3.21).
 
 Backend-neutral: the CP-SAT model, the fast path, the candidate pairs of the decomposition and
 the tie-break (refimpl.solvers.common) all read these rules from here, one place.
@@ -57,6 +58,24 @@ def resume_constraints(problem: FrameProblem, constants: Mapping[str, int], iou:
     return anticipated_unhide(state, constants, trk, by_id)
 
 
-def start_constraints(constants: Mapping[str, int], det: Detection) -> bool:
-    """Appendix A start_constraints(Det): confidence and size(bigger, Det, size_threshold) as area."""
-    return det.conf > constants["conf_thresh_new_track"] and area(det.box) > constants["size_threshold"]
+def occupying_pairs(problem: FrameProblem, constants: Mapping[str, int]) -> list[tuple[str, str]]:
+    """refimpl rule (docs/model.md 3.21, association.lp [start_occupied]): the (trk, det) pairs of a
+    matching type with IoU > iou_thresh_occupied; such a detection is that track seen again, or
+    seen twice, and cannot start a new track."""
+    limit = constants["iou_thresh_occupied"]
+    types = {t.id: t.type for t in problem.tracks}
+    det_types = {d.id: d.type for d in problem.detections}
+    return [(t, d) for t, d, v in problem.iou
+            if v > limit and t in types and d in det_types and match_type(problem, types[t], det_types[d])]
+
+
+def occupied(problem: FrameProblem, constants: Mapping[str, int]) -> frozenset[str]:
+    """The ids of the detections that lie where a track of their type is (:func:`occupying_pairs`)."""
+    return frozenset(d for _, d in occupying_pairs(problem, constants))
+
+
+def start_constraints(constants: Mapping[str, int], det: Detection, taken: frozenset[str]) -> bool:
+    """Appendix A start_constraints(Det): confidence and size(bigger, Det, size_threshold) as area;
+    and refimpl's [start_occupied]: not one of the frame's ``taken`` detections (:func:`occupied`)."""
+    return (det.conf > constants["conf_thresh_new_track"] and area(det.box) > constants["size_threshold"]
+            and det.id not in taken)

@@ -107,6 +107,12 @@ class FrameRules:
             d = dets[args[0]]
             if not (d.conf > c["conf_thresh_new_track"] and d.box[2] * d.box[3] > c["size_threshold"]):
                 return Violation("start_constraints", f"{atom} is not admissible")
+            # association.lp [start_occupied]: no track of a matching type overlaps it by more
+            # than iou_thresh_occupied
+            for t in tracks.values():
+                v = iou.get((t.id, d.id))
+                if v is not None and v > c["iou_thresh_occupied"] and self.match_type(t.type, d.type):
+                    return Violation("start_occupied", f"{atom}: {t.id} is where {d.id} is (IoU {v})")
         elif name in ("end", "ignore_trk") and tracks[args[0]].state != "halted":
             return Violation(f"{name}_constraints", f"{atom} needs a halted track")
         elif name == "halt" and tracks[args[0]].state != "active":

@@ -7,8 +7,10 @@ Only a pair action (assign(T, D), resume(T, D)) ties the choice of a track to th
 detection, and a pair action needs an iou/3 fact and its integrity constraint (candidate_pairs).  Every other rule concerns one track or one
 detection: "exactly one action" is per node, an event explains exactly one action of its first
 argument, and every event's precondition reads the history and the (fixed) boxes only, never
-another choice of this frame.  So the connected components of the bipartite graph of candidate pairs
-(tracks and detections as nodes; a node without a pair is a component of its own) are
+another choice of this frame (refimpl's [start_occupied] reads a detection's iou/3 facts with the
+tracks: facts, not choices; refimpl.solvers.decompose keeps such a detection and track in one
+sub-problem).  So the connected components of the bipartite graph of candidate pairs (tracks and
+detections as nodes; a node without a pair is a component of its own) are
 independent: the answers of the frame are exactly the unions of one answer per component, and
 every cost level is a sum over the components.  The lexicographic optimum of the frame is the
 union of the components' optima.

@@ -24,7 +24,7 @@ from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LE
 from ..core.spec import Detection, FrameProblem, TrackPrediction, parse_atom
 from ..knowledge.relations import area
 from . import NoAdmissibleHypothesis, SolveTimeout
-from .admissibility import assignment_constraints, resume_constraints, start_constraints
+from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
 from .common import intersection_matrix, tiebreak_weights
 from .fallback import obvious_answer
 
@@ -251,10 +251,11 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
                     obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
                 model.add(sum(event(spec, args) for spec, args in expl) == sum(res))
 
+    taken = occupied(problem, constants)  # [start_occupied]
     for d in problem.detections:
         # start(D) <=> exactly one of its possible explanations (enters_fov)   (explain_start)
         starts = [spec for spec in explaining("start") if spec.poss(state, constants, d.id, tracks=None)]
-        if start_constraints(constants, d) and starts:
+        if start_constraints(constants, d, taken) and starts:
             s = action(f"start({d.id})", "start")
             per_det[d.id].append(s)
             model.add(sum(event(spec, (d.id,)) for spec in starts) == s)

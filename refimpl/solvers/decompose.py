@@ -21,7 +21,9 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from ..core.spec import FrameProblem, parse_atom
-from .common import Component, components, event_term, intersection_matrix
+from ..core.constants import resolve_constants
+from .admissibility import occupying_pairs
+from .common import Component, DisjointSets, components, event_term, intersection_matrix
 
 DEFAULT_PART_NODES = 60
 """Components are grouped into sub-problems of about this many own tracks and detections (small
@@ -42,12 +44,12 @@ def split(problem: FrameProblem, part_nodes: int = DEFAULT_PART_NODES) -> list[P
         return [Part(problem, frozenset(t.id for t in problem.tracks) | {d.id for d in problem.detections})]
     groups: list[list[Component]] = []
     size = 0
-    for c in comps:
-        n = len(c.tracks) + len(c.detections)
+    for unit in _kept_together(problem, comps):
+        n = sum(len(c.tracks) + len(c.detections) for c in unit)
         if not groups or size + n > part_nodes:
             groups.append([])
             size = 0
-        groups[-1].append(c)
+        groups[-1].extend(unit)
         size += n
     if len(groups) == 1:
         return [Part(problem, frozenset(t.id for t in problem.tracks) | {d.id for d in problem.detections})]
@@ -85,6 +87,20 @@ def split(problem: FrameProblem, part_nodes: int = DEFAULT_PART_NODES) -> list[P
             object.__setattr__(sub, name, value)
         parts.append(Part(sub, frozenset(own_set | own_d)))
     return parts
+
+
+def _kept_together(problem: FrameProblem, comps: list[Component]) -> list[list[Component]]:
+    """The components in order, those linked by a [start_occupied] pair (a detection's start reads
+    its iou/3 fact with a track of another component) in one unit, placed at its first member: a
+    sub-problem holds only the iou/3 facts among its own nodes, so it must hold both."""
+    where = {x: k for k, c in enumerate(comps) for x in (*c.tracks, *c.detections)}
+    sets = DisjointSets(len(comps))
+    for t, d in occupying_pairs(problem, resolve_constants(problem)):
+        sets.union(where[t], where[d])
+    units: dict[int, list[Component]] = {}
+    for k, c in enumerate(comps):
+        units.setdefault(sets.find(k), []).append(c)
+    return list(units.values())
 
 
 def _first_argument(atom: str) -> str:

@@ -17,7 +17,7 @@ from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, f
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, Term
 from .common import DisjointSets, LazyTiebreak, intersection_matrix
-from .admissibility import assignment_constraints, resume_constraints, start_constraints
+from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
 from .cpsat_model import _cost, _explanations, _has_explanation, _overlapping_top_matrix
 
 # ---------------------------------------------------------------------------------------
@@ -418,8 +418,9 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     # -- solo options of the detections (priced where needed, as the halts: ``det_of``) ----------
     solo_d: list[_Option | None] = []
     high_d: list[tuple[int, ...]] = []  # the solo's cost above the event level, known at once
+    taken = occupied(problem, constants)  # [start_occupied]
     for d in dets:
-        startable = start_constraints(constants, d) and any(
+        startable = start_constraints(constants, d, taken) and any(
             spec.poss(state, constants, d.id, tracks=None) for spec in explaining("start"))
         solo_d.append(None)
         high_d.append(min(_IGNORE_DET_HIGH, _START_HIGH) if startable else _IGNORE_DET_HIGH)
@@ -432,7 +433,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
             starts = [((cost[spec.name], ev(spec.name, (d.id,))), f"{spec.name}({d.id})")
                       for spec in explaining("start")
                       if spec.poss(state, constants, d.id, tracks=None)]
-            if start_constraints(constants, d) and starts:
+            if start_constraints(constants, d, taken) and starts:
                 (c1, c0), event, tie = _cheapest(starts)
                 options.append(_Option(f"start({d.id})", event, _cost("start", event=c1, tiebreak=c0), tie))
             o = solo_d[j] = _best_solo(options)
