@@ -12,6 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.records import MAX_LINE_CHARS, RecordTooLong, bounded_lines
 from .errors import InputFormatError
 
 
@@ -29,15 +30,20 @@ MAX_DET_AREA = 20_000_000
 
 def _data_lines(fh, path: Path | str):
     """(line number, stripped text) of the non-blank lines of an open text stream, one at a time as
-    they arrive (a file or a pipe); text that is not UTF-8 or cannot be read is an error."""
+    they arrive (a file or a pipe); text that is not UTF-8 or cannot be read is an error, and so is
+    a line longer than MAX_LINE_CHARS, refused after reading that many characters of it
+    (refimpl.core.records: /dev/zero is not read whole)."""
     lineno = 0
     try:
         # a file object opened with newline=None splits only at \n, \r\n and \r (str.splitlines
         # would also split at \f, \v, \x85, U+2028 ... and so name the wrong line numbers)
-        for lineno, raw in enumerate(fh, start=1):
+        for lineno, raw in enumerate(bounded_lines(fh, MAX_LINE_CHARS), start=1):
             text = raw.strip()
             if text:
                 yield lineno, text
+    except RecordTooLong as exc:
+        raise InputFormatError(f"longer than {MAX_LINE_CHARS} characters (a data line is a few dozen): "
+                               "not a data file?", path, exc.line) from None
     except UnicodeDecodeError as exc:
         raise InputFormatError(f"not a UTF-8 text file ({exc.reason} after line {lineno})", path) from None
     except OSError as exc:

@@ -36,6 +36,7 @@ from typing import Sequence
 
 from ..core.constants import default_constants, model_dir
 from ..core.hypothesis import ACTION_TABLE
+from ..core.records import read_text
 from .certificate import CERTIFIED_STATEMENTS
 
 TIEBREAK_PREDICATES = ("tiebreak_pair", "tiebreak_event")
@@ -231,7 +232,7 @@ def certificate_preconditions(files: Sequence[str | Path]) -> tuple[str, ...]:
     or weighs at a priority of 5 or more (a term at 6..9 or above 10 would change which answers
     are optimal at levels 10 and 5 too), or at one that is not a number.  A file clingo cannot
     parse is a reason too (the solve reports the error itself)."""
-    return _preconditions(tuple((str(f), Path(f).read_text(encoding="utf-8")) for f in files))
+    return _preconditions(tuple((str(f), read_text(f)) for f in files))
 
 
 @lru_cache(maxsize=8)

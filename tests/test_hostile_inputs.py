@@ -1,0 +1,104 @@
+"""Hostile and endless input (issue 37): a record without end is refused after its cap in bounded
+memory, a read serves Ctrl-C, and each case ends in one line with its exit code."""
+
+from __future__ import annotations
+
+import io as stdio
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from refimpl.cli import main
+from refimpl.core.records import MAX_LINE_CHARS, MAX_TEXT_CHARS, RecordTooLong, bounded_lines, read_text
+from refimpl.io import InputFormatError, read_mot_detections
+
+REPO = Path(__file__).resolve().parent.parent
+DEMO = REPO / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
+ROW = "1,-1,100,100,20,40,0.9,-1,-1,-1\n"
+"""One MOTChallenge detection row of frame 1."""
+
+
+def _errors(err: str) -> list[str]:
+    return [line for line in err.splitlines() if line and not line.startswith(("refimpl: warning", "refimpl track: note"))]
+
+
+# -- bounded records -------------------------------------------------------------------------
+
+def test_a_line_of_the_cap_is_read_and_one_character_more_is_refused():
+    # MAX_LINE_CHARS characters and a newline are one line; MAX_LINE_CHARS + 1 are refused on
+    # line 2 (the first line is a short one), without reading what follows it
+    ok = "x" * MAX_LINE_CHARS
+    assert list(bounded_lines(stdio.StringIO(ok + "\n" + ok))) == [ok + "\n", ok]
+    stream = stdio.StringIO("a\n" + "y" * (MAX_LINE_CHARS + 1) + "z" * 50)
+    with pytest.raises(RecordTooLong) as info:
+        list(bounded_lines(stream))
+    assert info.value.line == 2
+    assert stream.tell() == 2 + MAX_LINE_CHARS + 1  # read up to the cap and one character, no further
+
+
+def test_a_file_without_newline_is_refused_naming_its_first_line(tmp_path, capsys):
+    path = tmp_path / "det.txt"
+    path.write_text(ROW + "9" * (MAX_LINE_CHARS + 1))
+    with pytest.raises(InputFormatError, match=rf":2: longer than {MAX_LINE_CHARS} characters"):
+        read_mot_detections(path)
+    assert main(["track", "--dets", str(path), "--out", str(tmp_path / "r.txt")]) == 2
+    assert _errors(capsys.readouterr().err) == [
+        f"refimpl track: error: {path}:2: longer than {MAX_LINE_CHARS} characters (a data line is a few dozen): "
+        "not a data file?"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["det.txt"]
+
+
+def test_dev_zero_is_refused_after_the_cap_as_a_file_and_as_a_pipe(tmp_path, capsys):
+    # /dev/zero is one line of NUL characters without end: it was read whole (~60 MB/s until the
+    # memory ran out); now its first MAX_LINE_CHARS + 1 characters are read, then one line
+    assert main(["track", "--dets", "/dev/zero", "--out", str(tmp_path / "r.txt")]) == 2
+    assert _errors(capsys.readouterr().err) == [
+        f"refimpl track: error: /dev/zero:1: longer than {MAX_LINE_CHARS} characters (a data line is a few dozen): "
+        "not a data file?"]
+    with open("/dev/zero", "rb") as zero:  # a pipe: a detector that never writes a newline
+        proc = subprocess.run([sys.executable, "-m", "refimpl", "track", "--dets", "-", "--out",
+                               str(tmp_path / "r.txt")], stdin=zero, capture_output=True, text=True, cwd=REPO,
+                              timeout=120)
+    assert proc.returncode == 2
+    assert _errors(proc.stderr) == [f"refimpl track: error: <stdin>:1: longer than {MAX_LINE_CHARS} characters "
+                                    "(a data line is a few dozen): not a data file?"]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_files_read_at_once_are_capped_too(tmp_path, capsys):
+    # a fact file (solve), a scene file (explain) and an ASP encoding are read at once: /dev/zero
+    # as any of them is refused after MAX_TEXT_CHARS + 1 characters, in one line
+    big = tmp_path / "big.txt"
+    big.write_text("a" * 11)
+    assert read_text(big, limit=11) == "a" * 11
+    with pytest.raises(RecordTooLong, match="longer than 10 characters"):
+        read_text(big, limit=10)
+    assert main(["solve", "/dev/zero"]) == 2
+    assert _errors(capsys.readouterr().err) == [
+        f"refimpl solve: error: /dev/zero: longer than {MAX_TEXT_CHARS} characters: too large for a file read "
+        "at once (not the file meant?)"]
+    assert main(["explain", "/dev/zero"]) == 2
+    assert _errors(capsys.readouterr().err)[0].startswith(
+        f"refimpl explain: error: /dev/zero: longer than {MAX_TEXT_CHARS} characters")
+
+
+def test_ctrl_c_ends_a_pipe_waiting_for_its_next_line(tmp_path):
+    # two frames written, then nothing: the reader blocks in read(); SIGINT ends it with 130 and
+    # one line, and the staged results file is removed
+    proc = subprocess.Popen([sys.executable, "-m", "refimpl", "track", "--dets", "-", "--backend", "baseline",
+                             "--out", str(tmp_path / "r.txt")], stdin=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, cwd=REPO)
+    proc.stdin.write(ROW + ROW.replace("1,", "2,", 1))
+    proc.stdin.flush()
+    # frame 1 is complete once frame 2's line is read: the warning that no image size is known
+    # comes then, so the next read is the blocking one
+    assert proc.stderr.readline().startswith("refimpl: warning: <stdin>: no --seqinfo")
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert _errors(err) == ["refimpl: interrupted"]
+    assert list(tmp_path.iterdir()) == []
