@@ -51,9 +51,10 @@ from .core.confidence import online_rule
 from .core.constants import default_constants
 from .core.spec import HistoryEvent, track_number
 from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMAT_NAMES, InputFormatWarning, KITTI,
-                 KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type,
+                 KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD, MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type,
                  SCORE_RULES, get_format)
 from .io.detections import resolve_rule, scale_confidences
+from .io.lines import too_many_detections
 from .scene import Scene, scene_from_result
 from .solvers import BACKENDS, DEFAULT_BACKEND
 from .tracking.options import TrackerOptions
@@ -237,11 +238,13 @@ class Tracker:
             a = np.asarray(dets, dtype=float)
         except (TypeError, ValueError):
             raise ValueError("dets must be a numeric (N, 5) array x1,y1,x2,y2,score") from None
-        if a.size == 0:
+        if a.size == 0 and (a.ndim < 2 or a.shape[0] == 0):  # no rows: an empty frame, (0,), (0, 4) or (0, 5)
             a = a.reshape(0, 5)
-        if a.ndim != 2 or a.shape[1] not in (5, 6):
+        if a.ndim != 2 or a.shape[1] not in (5, 6):  # (5, 0) is five rows without their columns, as (2, 4)
             raise ValueError(f"dets must be an (N, 5) array x1,y1,x2,y2,score or (N, 6) "
                              f"x1,y1,x2,y2,score,class_id; got shape {a.shape}")
+        if len(a) > MAX_DETECTIONS_PER_FRAME:
+            raise ValueError(too_many_detections(self.frame))
         ids = None
         if a.shape[1] == 6:
             if classes is not None:

@@ -10,11 +10,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from refimpl import Tracker
 from refimpl.cli import main
+from refimpl.core import geometry
 from refimpl.core.records import MAX_LINE_CHARS, MAX_TEXT_CHARS, RecordTooLong, bounded_lines, read_text
-from refimpl.io import InputFormatError, read_mot_detections
+from refimpl.io import MAX_DETECTIONS_PER_FRAME, InputFormatError, read_mot_detections, stream_mot_detections
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
@@ -102,3 +105,61 @@ def test_ctrl_c_ends_a_pipe_waiting_for_its_next_line(tmp_path):
     assert proc.returncode == 130
     assert _errors(err) == ["refimpl: interrupted"]
     assert list(tmp_path.iterdir()) == []
+
+
+# -- huge frames -----------------------------------------------------------------------------
+
+def _frame_rows(frame: int, n: int) -> str:
+    """n detections of one frame, side by side (distinct boxes: a real crowd, not one repeated)."""
+    return "".join(f"{frame},-1,{10 + 3 * (k % 1000)},{10 + 50 * (k // 1000)},20,40,0.9,-1,-1,-1\n" for k in range(n))
+
+
+def test_a_frame_beyond_the_cap_is_one_line_in_a_file_a_pipe_and_the_api(tmp_path, capsys):
+    # two frames of 100,000 boxes allocated a 20 GiB IoU matrix; a frame may now hold at most
+    # MAX_DETECTIONS_PER_FRAME detections.  Frame 1 holds the cap (accepted), frame 2 one more:
+    # the row one beyond the cap is line 5,000 + 5,001 = 10,001
+    cap = MAX_DETECTIONS_PER_FRAME
+    text = _frame_rows(1, cap) + _frame_rows(2, cap + 1)
+    path = tmp_path / "det.txt"
+    path.write_text(text)
+    message = (f"frame 2 has more than {cap} detections (refimpl's cap per frame, docs/robustness.md: the track x "
+               "detection IoU would not fit in memory)")
+    with pytest.raises(InputFormatError) as info:
+        read_mot_detections(path)
+    assert str(info.value) == f"{path}:{2 * cap + 1}: {message}"
+    path.write_text(_frame_rows(1, cap))
+    assert [len(f) for f in read_mot_detections(path).frames] == [cap]  # the cap itself is read
+    stream = stream_mot_detections(stdio.StringIO(text))
+    with pytest.raises(InputFormatError) as info:
+        list(stream.frames)
+    assert str(info.value) == f"<stdin>:{2 * cap + 1}: {message}"
+    tracker = Tracker("cpsat")
+    assert tracker.update(np.zeros((0, 5))).shape == (0, 5)
+    with pytest.raises(ValueError) as info:
+        tracker.update(np.tile([1.0, 1.0, 5.0, 5.0, 0.9], (cap + 1, 1)))
+    assert str(info.value) == message
+
+
+def test_empty_arrays_are_empty_frames_but_rows_without_columns_are_refused():
+    # (0, 4) and (0,) hold no row: an empty frame; (5, 0) holds five rows without their columns and
+    # is refused as (2, 4) is (it was taken as an empty frame)
+    tracker = Tracker("cpsat")
+    for empty in (np.zeros((0, 4)), np.zeros(0), []):
+        assert tracker.update(empty).shape == (0, 5)
+    for shape in ((5, 0), (2, 4)):
+        with pytest.raises(ValueError, match=rf"^dets must be an \(N, 5\) array .*; got shape \({shape[0]}, {shape[1]}\)$"):
+            tracker.update(np.zeros(shape))
+    assert tracker.frame == 4  # the three empty frames were tracked, the refused ones not
+
+
+def test_the_iou_matrix_in_blocks_is_the_whole_matrix_bit_for_bit(monkeypatch):
+    # iou_matrix computes a large matrix in row blocks of _IOU_BLOCK pairs (bounded temporaries);
+    # each value is computed elementwise, so a block size of 1,000 pairs (a block of 1 row of
+    # 700 boxes, then rows of 1) and one block of everything give the same bits
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0, 500, (300, 4)), rng.uniform(0, 500, (700, 4))
+    monkeypatch.setattr(geometry, "_IOU_BLOCK", 1 << 40)
+    whole = geometry.iou_matrix(a, b)
+    monkeypatch.setattr(geometry, "_IOU_BLOCK", 1000)
+    blocks = geometry.iou_matrix(a, b)
+    assert np.array_equal(whole, blocks) and (whole > 0).sum() > 1000  # real overlaps, not all zeros

@@ -14,8 +14,8 @@ import numpy as np
 from ..core.confidence import EVIDENCE, RANK, online_rule
 from .errors import InputFormatError, InputFormatWarning
 from .ground_truth import _kitti_label_num_frames
-from .lines import (MAX_DET_AREA, MIN_DET_SIZE, _check_coordinates, _check_integral, _check_max_frame,
-                    _check_min_frame, _first_bad, _object_type, _read_table, _round_half_up)
+from .lines import (MAX_DET_AREA, MIN_DET_SIZE, _check_coordinates, _check_frame_sizes, _check_integral,
+                    _check_max_frame, _check_min_frame, _first_bad, _object_type, _read_table, _round_half_up)
 from .seqinfo import _mot_frames_and_boxes, _mot_sequence_name, _resolve_seqinfo
 
 
@@ -223,6 +223,7 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     a, linenos = _read_table(path, *MOT_DET_TABLE)
     info = _resolve_seqinfo(seqinfo, path)
     rows = _mot_rows(path, linenos, a, info)
+    _check_frame_sizes(path, rows.linenos, rows.frames)
     rule = resolve_rule(scores_rule)
     conf = scale_confidences(path, linenos, rows.scores, rule)
     count = int(info["seqLength"]) if info is not None else int(rows.frames.max())
@@ -306,6 +307,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     elif num_frames < 1:
         raise ValueError("num_frames must be >= 1")
     rows = _kitti_rows(path, linenos, a, otype, num_frames, on_degenerate)
+    _check_frame_sizes(path, rows.linenos, rows.frames)
     if rows.dropped:
         _warn_dropped(path, rows.dropped)
     if num_frames is None:

@@ -20,6 +20,11 @@ OBJECT_TYPES = ("pedestrian", "car", "cyclist")
 """Object types in the paper's vocabulary."""
 MAX_FRAME = 100_000
 """Frame numbers above this are rejected as typos (sequences are built and tracked frame by frame)."""
+MAX_DETECTIONS_PER_FRAME = 5_000
+"""Detections one frame may hold (after a reader's class filter): five times the 1000 x 1000 frame
+of the scale benchmark, 25 times the densest frame of MOT17 and KITTI.  The IoU of every live track
+with every detection is a track x detection matrix (SORT's Hungarian assignment takes it dense),
+so two frames of 100,000 boxes allocated 20 GiB (docs/robustness.md, "Huge frames")."""
 MAX_COORD = 1_000_000.0
 """Box coordinates and sizes beyond this (in magnitude, pixels) are rejected as typos."""
 MIN_DET_SIZE = 0.01
@@ -197,6 +202,24 @@ def _check_max_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, las
     if bad is not None:
         raise InputFormatError(f"frame {frames[bad]} is after the last frame {last} ({what})",
                                path, linenos[bad])
+
+
+def _check_frame_sizes(path: Path, linenos: Sequence[int], frames: np.ndarray) -> None:
+    """At most MAX_DETECTIONS_PER_FRAME rows of one frame; the error names the first row beyond it."""
+    if len(frames) <= MAX_DETECTIONS_PER_FRAME:
+        return
+    order = np.argsort(frames, kind="stable")
+    f = frames[order]
+    over = _first_bad(f[MAX_DETECTIONS_PER_FRAME:] == f[:-MAX_DETECTIONS_PER_FRAME])
+    if over is not None:
+        k = int(order[over + MAX_DETECTIONS_PER_FRAME])  # the frame's row one beyond the cap, in file order
+        raise InputFormatError(too_many_detections(int(frames[k])), path, linenos[k])
+
+
+def too_many_detections(frame: int) -> str:
+    """The one line for a frame beyond MAX_DETECTIONS_PER_FRAME (a file, a pipe and the API say it alike)."""
+    return (f"frame {frame} has more than {MAX_DETECTIONS_PER_FRAME} detections (refimpl's cap per frame, "
+            "docs/robustness.md: the track x detection IoU would not fit in memory)")
 
 
 def _check_coordinates(path: Path, linenos: Sequence[int], values: np.ndarray, names: Sequence[str]) -> None:

@@ -31,7 +31,7 @@ from .detections import (DEFAULT_SCORE_RULE, KITTI_DET_TABLE, KITTI_FPS, KITTI_I
                          DetectionFrame, _kitti_rows, _mot_rows, resolve_rule, scale_confidences,
                          _Rows, _warn_dropped)
 from .errors import InputFormatError
-from .lines import _data_lines, _line_numbers, _object_type
+from .lines import MAX_DETECTIONS_PER_FRAME, _data_lines, _line_numbers, _object_type, too_many_detections
 from .seqinfo import _resolve_seqinfo
 
 STDIN_NAME = "<stdin>"
@@ -93,6 +93,8 @@ class DetectionStream:
                     yield done
                 yield from self._empty(self.first_frame if current is None else current + 1, frame)
                 current, value, block = frame, a[0, 0], []
+            if len(block) == MAX_DETECTIONS_PER_FRAME:  # before the frame's rows outgrow the cap in memory
+                raise InputFormatError(too_many_detections(current), self.path, lineno)
             block.append((lineno, a))
             previous = lineno
         if current is None:
