@@ -15,7 +15,8 @@ import pytest
 
 from refimpl import Tracker
 from refimpl.cli import main
-from refimpl.core import geometry
+from refimpl.core import confidence, geometry
+from refimpl.core.confidence import SortedWindow
 from refimpl.core.records import MAX_LINE_CHARS, MAX_TEXT_CHARS, RecordTooLong, bounded_lines, read_text
 from refimpl.io import MAX_DETECTIONS_PER_FRAME, InputFormatError, read_mot_detections, stream_mot_detections
 
@@ -163,3 +164,76 @@ def test_the_iou_matrix_in_blocks_is_the_whole_matrix_bit_for_bit(monkeypatch):
     monkeypatch.setattr(geometry, "_IOU_BLOCK", 1000)
     blocks = geometry.iou_matrix(a, b)
     assert np.array_equal(whole, blocks) and (whole > 0).sum() > 1000  # real overlaps, not all zeros
+
+
+# -- long streams ----------------------------------------------------------------------------
+
+def test_a_sorted_window_keeps_the_last_values_with_their_flags():
+    # a window of 5; a frame's values come sorted: [1, 3, 3] (flags 1, 0, 2), then [2, 3] (4, 3):
+    # equal values stay in arrival order (3: flags 0, 2, 3).  A sixth value, 0 (5), pushes out the
+    # oldest, the 1 (flag 1): left are 0 (5), 2 (4), 3 (0), 3 (2), 3 (3).  One more 3 (6) pushes
+    # out the oldest 3, the one of flag 0, not another 3
+    window = SortedWindow(5)
+    window.add(np.array([1.0, 3.0, 3.0]), np.array([1.0, 0.0, 2.0]))
+    window.add(np.array([2.0, 3.0]), np.array([4.0, 3.0]))
+    assert window.values.tolist() == [1.0, 2.0, 3.0, 3.0, 3.0] and window.flags.tolist() == [1, 4, 0, 2, 3]
+    window.add(np.array([0.0]), np.array([5.0]))
+    assert window.values.tolist() == [0.0, 2.0, 3.0, 3.0, 3.0] and window.flags.tolist() == [5, 4, 0, 2, 3]
+    window.add(np.array([3.0]), np.array([6.0]))
+    assert window.values.tolist() == [0.0, 2.0, 3.0, 3.0, 3.0] and window.flags.tolist() == [5, 4, 2, 3, 6]
+
+
+def test_the_rank_rule_over_a_window_is_the_rule_over_the_last_scores(monkeypatch):
+    # with a window of 4 scores, frame 3's confidences are ranks among its own 2 and frame 2's
+    # 2 (frame 1's scores have gone): 0.5 -> 2 of 4 at most it (0.3, 0.5) -> 50; 0.9 -> 3 of 4 -> 75
+    monkeypatch.setattr(confidence, "SCORE_WINDOW", 4)
+    rank = confidence.OnlineRank()
+    rank.confidences([0.1, 0.2])
+    rank.confidences([0.3, 0.95])
+    assert rank.confidences([0.5, 0.9]).tolist() == [50, 75]  # window 0.3, 0.5, 0.9, 0.95
+    rank.confidences([0.99])
+    assert rank._seen.values.tolist() == [0.5, 0.9, 0.95, 0.99]
+
+
+def test_without_history_update_gives_the_same_rows_and_keeps_nothing_behind():
+    # the demo sequence through Tracker() and Tracker(history=False): the rows of every update are
+    # equal; the second keeps no finished track and refuses what needs the history
+    seq = read_mot_detections(DEMO)
+    full, bounded = Tracker("cpsat", img_size=(640, 480)), Tracker("cpsat", img_size=(640, 480), history=False)
+    for frame in seq.frames:
+        dets = np.column_stack([frame.boxes[:, :2], frame.boxes[:, :2] + frame.boxes[:, 2:], frame.scores])
+        a, b = full.update(dets), bounded.update(dets)
+        assert np.array_equal(a, b)
+    assert len(full.result().rows) > 200 and full._tracker.finished  # tracks ended along the way
+    assert bounded._tracker.finished == [] and bounded._frames == [] and bounded.frame == full.frame
+    for call in (bounded.result, bounded.scene, bounded.sequence, bounded.interpolated_rows):
+        with pytest.raises(ValueError, match=r"keeps no history"):
+            call()
+
+
+def test_a_pipe_takes_frame_one_million():
+    # a detector pipe refused frame 100,001 ("after the last frame 100000": 55 minutes of a 30 fps
+    # camera); it has no last frame now, only a bound on the gap between two rows.  Rows of
+    # frames 1, 100,001, ..., 900,001 (gaps of 100,000, the bound) and 1,000,000: the reader
+    # yields every frame 1..1,000,000 (the empty ones between the rows too), the last with its row
+    rows = "".join(ROW.replace("1,", f"{f},", 1) for f in range(1, 1_000_001, 100_000)) + ROW.replace("1,", "1000000,", 1)
+    stream = stream_mot_detections(stdio.StringIO(rows))
+    last = None
+    for count, frame in enumerate(stream.frames, start=1):
+        last = frame
+    assert last.frame == 1_000_000 and len(last) == 1 and count == 1_000_000  # every frame 1..1,000,000
+
+
+def test_a_noise_factor_beyond_the_bound_is_one_line(tmp_path, capsys):
+    # --velocity-noise 1e308 made the Kalman covariance inf and the state NaN: an InvalidPrediction
+    # traceback.  The factor is bounded by NOISE_FACTOR_MAX (1e6, which tracks)
+    out = tmp_path / "r.txt"
+    assert main(["track", "--dets", str(DEMO), "--out", str(out), "--velocity-noise", "1e6", "--quiet"]) == 0
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as info:
+        main(["track", "--dets", str(DEMO), "--out", str(out), "--velocity-noise", "1e308"])
+    assert info.value.code == 2
+    assert capsys.readouterr().err.splitlines()[-1].endswith(
+        "argument --velocity-noise: velocity_noise must be a positive number up to 1e+06, got '1e308'")
+    with pytest.raises(ValueError, match=r"area_noise must be a positive number up to 1e\+06, got 1e\+308"):
+        Tracker("cpsat", area_noise=1e308)

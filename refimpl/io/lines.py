@@ -187,13 +187,16 @@ def _check_integral(path: Path, linenos: Sequence[int], values: np.ndarray, name
     return values.astype(np.int64)
 
 
-def _check_min_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, first: int) -> None:
-    """Frames >= first, and below MAX_FRAME (a typo must not make a billion-frame sequence)."""
+def _check_min_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, first: int,
+                     max_frame: int | None = MAX_FRAME) -> None:
+    """Frames >= first, and up to MAX_FRAME (a typo must not make a billion-frame sequence);
+    ``max_frame=None``: no such bound (a pipe bounds the gap between two rows instead)."""
     bad = _first_bad(frames < first)
     if bad is not None:
         raise InputFormatError(
             f"frame {frames[bad]} is before the first frame {first}", path, linenos[bad])
-    _check_max_frame(path, linenos, frames, MAX_FRAME, "implausibly large frame number")
+    if max_frame is not None:
+        _check_max_frame(path, linenos, frames, max_frame, "implausibly large frame number")
 
 
 def _check_max_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, last: int,
