@@ -51,14 +51,15 @@ from .core.confidence import online_rule
 from .core.constants import default_constants
 from .core.spec import HistoryEvent, track_number
 from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMAT_NAMES, InputFormatWarning, KITTI,
-                 KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type,
+                 KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD, MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type,
                  SCORE_RULES, get_format)
 from .io.detections import resolve_rule, scale_confidences
+from .io.lines import too_many_detections
 from .scene import Scene, scene_from_result
 from .solvers import BACKENDS, DEFAULT_BACKEND
 from .tracking.options import TrackerOptions
 from .tracking.pipeline import AUTO, new_tracker, setup_for
-from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult
+from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, ResultSink, TrackingResult
 
 API_SCORE_RULES = SCORE_RULES  # the readers' rules: the same on every format
 DEFAULT_CLASS_TYPES = COCO_CLASS_TYPES
@@ -117,6 +118,12 @@ class Tracker:
     fps: the frame rate, a finite number > 0 (default: none for "mot", as a det.txt without
         seqinfo.ini; 10 for "kitti"): the safety bound on halts (lost_after_hidden_max, 10 s of
         frames), as a seqinfo.ini's frameRate or ``refimpl track --fps``.
+    history: True (default): every frame's detections, every track's boxes and every event are
+        kept for ``result()``, ``scene()``, ``sequence()``, ``events`` and ``interpolated_rows()``,
+        so memory grows with the stream (~1.2 MB per 1,000 frames of 5 objects).  False: the
+        tracker runs in the streaming mode of ``refimpl track --dets -`` (it forgets finished
+        tracks and all but the boxes a later frame reads), so memory stays bounded on a stream of
+        any length; ``update`` returns the same rows, and those five raise ValueError.
     """
 
     def __init__(self, backend: str = DEFAULT_BACKEND, *, format: str = "mot", preset: str | None = AUTO,
@@ -125,7 +132,7 @@ class Tracker:
                  bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
                  object_type: str | None = None, first_frame: int | None = None, name: str = "sequence",
                  fps: float | None = None, scores: str = "auto",
-                 class_types: Mapping[int, str] | None = None, **options: object) -> None:
+                 class_types: Mapping[int, str] | None = None, history: bool = True, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         if format not in FORMAT_NAMES:
@@ -164,6 +171,10 @@ class Tracker:
         self.scores = resolve_rule(scores)
         """The score rule in use: ``auto`` is the format's own scale, as the file readers read it."""
         self._params = (int(min_hits), int(bridge_gap), int(bridge_conf))
+        if not isinstance(history, bool):
+            raise ValueError(f"history must be True or False, got {history!r}")
+        self.history = history
+        """Whether the whole history is kept (``result()``, ``scene()``, ...), or only what the next frame needs."""
         self.reset()
 
     def reset(self) -> None:
@@ -171,12 +182,24 @@ class Tracker:
         from the last video's images (the same results as a fresh Tracker with the same arguments)."""
         self.image_size = self._given_size or self._format_size
         """(width, height) the field-of-view border is tested with (None: not tested)."""
-        self._tracker = new_tracker(self.setup, self.image_size, self.fps, *self._params)
+        self._tracker = self._new_tracker(self.image_size)
         self._rule = online_rule(self.scores)
-        self._frames: list[DetectionFrame] = []
+        self._count = 0  # frames tracked
+        self._frames: list[DetectionFrame] = []  # with history only
         self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
         self._class_of: dict[int, int] = {}  # track number -> the class id of its latest detection
         self._size_warned = False
+
+    def _new_tracker(self, size):
+        if self.history:
+            return new_tracker(self.setup, size, self.fps, *self._params)
+        # the pipe's streaming mode: rows handed to a sink that keeps none (update reports them)
+        return new_tracker(self.setup, size, self.fps, *self._params, sink=ResultSink(), keep_records=False)
+
+    def _kept(self, what: str) -> None:
+        if not self.history:
+            raise ValueError(f"{what}: this Tracker(history=False) keeps no history (bounded memory on a long "
+                             "stream); make it with history=True (the default) to have it")
 
     def __repr__(self) -> str:
         return f"refimpl.Tracker({self.setup.describe()}, image size {self.image_size}, fps {self.fps})"
@@ -237,11 +260,13 @@ class Tracker:
             a = np.asarray(dets, dtype=float)
         except (TypeError, ValueError):
             raise ValueError("dets must be a numeric (N, 5) array x1,y1,x2,y2,score") from None
-        if a.size == 0:
+        if a.size == 0 and (a.ndim < 2 or a.shape[0] == 0):  # no rows: an empty frame, (0,), (0, 4) or (0, 5)
             a = a.reshape(0, 5)
-        if a.ndim != 2 or a.shape[1] not in (5, 6):
+        if a.ndim != 2 or a.shape[1] not in (5, 6):  # (5, 0) is five rows without their columns, as (2, 4)
             raise ValueError(f"dets must be an (N, 5) array x1,y1,x2,y2,score or (N, 6) "
                              f"x1,y1,x2,y2,score,class_id; got shape {a.shape}")
+        if len(a) > MAX_DETECTIONS_PER_FRAME:
+            raise ValueError(too_many_detections(self.frame))
         ids = None
         if a.shape[1] == 6:
             if classes is not None:
@@ -301,9 +326,9 @@ class Tracker:
         size = (int(shape[1]), int(shape[0]))
         if size == self.image_size:
             return
-        if not self._frames and self._given_size is None:
+        if not self._count and self._given_size is None:
             self.image_size = size
-            self._tracker = new_tracker(self.setup, size, self.fps, *self._params)
+            self._tracker = self._new_tracker(size)
         elif not self._size_warned:
             self._size_warned = True
             if self.image_size is None:
@@ -317,7 +342,7 @@ class Tracker:
     @property
     def frame(self) -> int:
         """The number of the next frame ``update`` will process."""
-        return self.first_frame + len(self._frames)
+        return self.first_frame + self._count
 
     def update(self, dets, img=None, *, classes: Sequence[str] | None = None):
         """Track one frame.
@@ -360,19 +385,28 @@ class Tracker:
                           f"{MIN_DET_SIZE:g} px), dets row(s) {', '.join(map(str, dropped))}", InputFormatWarning,
                           stacklevel=3)
         conf = self._confidences(boxes, scores, types)
+        ended = len(self._tracker.finished)
         self._tracker.step(frame, boxes, conf, types)
-        self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
+        self._count += 1
+        if self.history:
+            self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))
         owners = {int(kept[j]): trk for j, trk in self._tracker.owners.items()}
         if ids is not None:
             for j, trk in self._tracker.owners.items():
                 self._class_of[track_number(trk)] = ids[j]
         rows = []
-        for trk in self._everyone():
+        # a frame's rows are those of live tracks and of tracks ended in it (an ended track is one
+        # not observed, so it has none; looked at all the same), not of every track ever finished
+        for trk in [*self._tracker.tracks.values(), *self._tracker.finished[ended:]]:
             if frame in trk.confirmed:
                 x, y, w, h = trk.observed[frame]
                 rows.append((x, y, x + w, y + h, float(track_number(trk.id))))
         out = np.array(rows, dtype=float).reshape(-1, 5)
-        self._reported.update((frame, int(n)) for n in out[:, 4])
+        if self.history:
+            self._reported.update((frame, int(n)) for n in out[:, 4])
+        elif ids is not None:  # the class of live tracks only
+            live = {track_number(t) for t in self._tracker.tracks}
+            self._class_of = {n: c for n, c in self._class_of.items() if n in live}
         return out[np.argsort(out[:, 4], kind="stable")], owners
 
     def _confidences(self, boxes: np.ndarray, scores: np.ndarray, types: tuple[str, ...]) -> np.ndarray:
@@ -380,9 +414,6 @@ class Tracker:
         if self._rule is not None:
             return self._rule.confidences(boxes, scores, types)
         return scale_confidences("update", range(len(scores)), scores, self.scores)  # scores checked above
-
-    def _everyone(self):
-        return list(self._tracker.tracks.values()) + self._tracker.finished
 
     def _update_detections(self, detections):
         xyxy = np.asarray(detections.xyxy, dtype=float).reshape(-1, 4)
@@ -407,25 +438,30 @@ class Tracker:
     @property
     def events(self) -> tuple[HistoryEvent, ...]:
         """The abduced events so far, occurs_at(E, t) in time order (the paper's event sequence)."""
+        self._kept("events")
         return tuple(self._tracker.events)
 
     def result(self) -> TrackingResult:
         """Everything so far as ``refimpl.tracking.tracker.track_sequence`` returns it (rows in MOT order
         frame, id, x, y, w, h, including the interpolated rows of bridged gaps)."""
+        self._kept("result()")
         return self._tracker.result()
 
     def interpolated_rows(self) -> np.ndarray:
         """The (n, 6) MOT rows that ``update`` could not report online: bridged gaps and, with
         ``backfill`` / ``fill_hidden``, the earlier frames of a confirmation and filled occlusion episodes."""
+        self._kept("interpolated_rows()")
         rows = self._tracker.result_rows()
         keep = [(int(r[0]), int(r[1])) not in self._reported for r in rows]
         return rows[np.asarray(keep, dtype=bool)] if len(rows) else rows
 
     def sequence(self) -> DetectionSequence:
         """The detections given so far as a DetectionSequence (refimpl.io)."""
+        self._kept("sequence()")
         return DetectionSequence(self.name, tuple(self._frames), self.first_frame, self.image_size, self.fps)
 
     def scene(self) -> Scene:
         """The scene so far (refimpl.scene.Scene): tracks, events and fluent timelines, for
         refimpl.scene.query / explain and refimpl.scene.plots."""
+        self._kept("scene()")
         return scene_from_result(self.sequence(), self.result())

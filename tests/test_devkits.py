@@ -96,6 +96,26 @@ def test_mot20_non_mot_vehicle_is_a_distractor_only_for_trackeval(tmp_path, caps
     assert theirs["overall"]["MOTA"] == 1.0
 
 
+def test_trackeval_gets_dense_ids_so_a_huge_track_id_changes_no_score(tmp_path, capsys):
+    # TrackEval sizes an array by a sequence's largest id (np.ones(max(ids) + 1)): a track id of
+    # 2^40 asked for 8 TiB (issue 37).  The ids are now handed over as their ranks (0..K-1), a
+    # monotone map, so every score equals the run with small ids.  Two frames: gt tracks 1 and 2,
+    # hypotheses that follow them but swap ids in frame 2 (an id switch each: IDs = 2).
+    gt = tmp_path / "MOT20-99" / "gt" / "gt.txt"
+    gt.parent.mkdir(parents=True)
+    res = tmp_path / "res.txt"
+    scores = []
+    for a, b in ((1, 2), (2 ** 40, 2 ** 40 + 7)):
+        gt.write_text(f"1,{a},10,10,50,100,1,1,1.0\n1,{b},200,10,80,60,1,1,1.0\n"
+                      f"2,{a},12,10,50,100,1,1,1.0\n2,{b},202,10,80,60,1,1,1.0\n")
+        res.write_text(f"1,{b},10,10,50,100,1,-1,-1,-1\n1,{a},200,10,80,60,1,-1,-1,-1\n"
+                       f"2,{a},12,10,50,100,1,-1,-1,-1\n2,{b},202,10,80,60,1,-1,-1,-1\n")
+        _, theirs = _eval(capsys, [str(res), "--gt", str(gt), "--devkit", "trackeval"], tmp_path / f"{a}.json")
+        scores.append(theirs["overall"])
+    assert scores[0]["IDs"] == 2 and scores[0]["MOTA"] == 0.5  # 1 - (0 FN + 0 FP + 2 IDs) / 4
+    assert scores[1] == scores[0]
+
+
 def test_trackeval_devkit_refuses_what_kitti2dbox_cannot_score(tmp_path, capsys):
     res = tmp_path / "r.txt"
     res.write_text("0,1,100,100,100,100,1,-1,-1,-1\n")

@@ -6,6 +6,10 @@ import contextlib
 import dataclasses
 import io as io_text
 import re
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 from pathlib import Path
@@ -209,6 +213,59 @@ def test_a_bad_asp_model_folder_is_one_line_and_exit_2(tmp_path, capsys, make, m
                  "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0] and str(folder) in err[0]
+
+
+def _endless(tmp_path) -> Path:
+    folder = tmp_path / "endless"
+    folder.mkdir()
+    (folder / "a.lp").write_text("p(0). p(X+1) :- p(X).\n")  # grounds without end
+    return folder
+
+
+def test_an_encoding_that_grounds_without_end_is_one_line_at_the_time_limit(tmp_path, capsys):
+    # it ignored --time-limit, Ctrl-C and SIGTERM and ended in a MemoryError traceback (issue 37):
+    # the check now grounds in a child process, killed at the time limit
+    pytest.importorskip("clingo")
+    folder = _endless(tmp_path)
+    assert main(["diff", "--dets", str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--asp-model", str(folder),
+                 "--time-limit", "1", "--quiet"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"refimpl diff: error: --asp-model {folder}: grounding it without a frame took longer than the time limit "
+        "(1 s, --time-limit): does a rule derive atoms without end, such as p(X+1) :- p(X)?"]
+
+
+@pytest.mark.parametrize("sig, code, line", [(signal.SIGINT, 130, "refimpl: interrupted"),
+                                             (signal.SIGTERM, 143, "refimpl: terminated")])
+def test_ctrl_c_and_sigterm_end_the_grounding_of_an_encoding(tmp_path, sig, code, line):
+    pytest.importorskip("clingo")
+    folder = _endless(tmp_path)
+    proc = subprocess.Popen([sys.executable, "-m", "refimpl", "diff", "--dets",
+                             str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--asp-model", str(folder),
+                             "--time-limit", "600", "--quiet"], cwd=REPO, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not (child := _child_running(proc.pid, "refimpl.solvers.asp_model_worker")):  # grounding has begun
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.1)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == code and err.splitlines() == [line]
+    assert not (Path("/proc") / str(child)).exists()  # the child was killed and reaped
+
+
+def _child_running(pid: int, module: str) -> int | None:
+    """The id of a process started by ``pid`` that runs ``python -m module``, if one runs."""
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            cmd = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        ppid = int(stat.rpartition(")")[2].split()[1])
+        if ppid == pid and module.encode() in cmd:
+            return int(entry.name)
+    return None
 
 
 def test_asp_model_needs_clingo_among_the_backends(tmp_path, capsys):

@@ -71,6 +71,16 @@ def test_sigterm_ends_track_like_sigint_with_143(long_dets, tmp_path):
     assert os.listdir(tmp_path / "out") == []
 
 
+@pytest.mark.parametrize("sig, code", [(signal.SIGHUP, 129), (signal.SIGQUIT, 131)])
+def test_sighup_and_sigquit_end_track_like_sigterm(long_dets, tmp_path, sig, code):
+    # their default ended the process at once and left .res.txt.XXXX.tmp beside the output
+    # (issue 37); handled as SIGTERM now, exit 128 + the signal's number
+    got, _, err = _interrupt(long_dets, tmp_path / "out", "baseline", sig)
+    assert got == code, err
+    assert [line for line in err.splitlines() if not line.startswith(("refimpl: warning", "refimpl track: note:"))] == ["refimpl: terminated"]
+    assert os.listdir(tmp_path / "out") == []
+
+
 def test_an_interrupt_landing_in_a_finalizer_is_delivered_again_after_it():
     # clingo's Control.__del__ swallowed a KeyboardInterrupt raised inside it ("Exception ignored
     # in"), so 2 of ~40 Ctrl-Cs of a clingo `track` were lost and the run went on to its end.

@@ -200,8 +200,10 @@ def _rows(*frames, score=0.9) -> str:
     # bad line 3 is found before frame 3's bad line 4
     (_rows(1, 2) + "2,-1,2000000,100,20,40,0.9\n3,-1,100,100,-20,40,0.9\n", [],
      "<stdin>:3: x 2e+06 is implausibly large (box coordinates are pixels, at most 1e+06 in magnitude)"),
-    (_rows(1) + _rows(200000), [], "<stdin>:2: frame 200000 is after the last frame 100000 "
-                                   "(implausibly large frame number)"),
+    # a pipe has no last frame (issue 37: it took no frame past 100,000), but a gap of more than
+    # MAX_FRAME frames without a row is a typo, as a file's frame beyond it is
+    (_rows(1) + _rows(100_002), [], "<stdin>:2: frame 100002 after frame 1: more than 100000 frames without a "
+                                    "row (a typo?)"),
     (_rows(1) + _rows(72), ["--seqinfo", str(DEMO.parent.parent / "seqinfo.ini")],
      "<stdin>:2: frame 72 is after the last frame 71 (seqLength in seqinfo.ini)"),
     # --scores probability refuses a score outside 0..1 (auto reads any scale)

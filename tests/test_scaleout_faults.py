@@ -15,6 +15,7 @@ import os
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -190,6 +191,55 @@ def test_an_unreachable_scheduler_is_one_line_after_the_connect_timeout(tmp_path
                                       "--connect-timeout", "1", "--quiet"))
     assert f"cannot reach tcp://127.0.0.1:{port}" in _one_error_line(code, err)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture
+def silent_server():
+    """A TCP server on 127.0.0.1 that accepts every connection and never writes a byte: its
+    address.  Dask's connect waited for its handshake without a time limit (issue 37)."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(16)
+    accepted: list[socket.socket] = []
+
+    def serve() -> None:
+        while True:
+            try:
+                accepted.append(server.accept()[0])
+            except OSError:  # closed by the fixture
+                return
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    yield f"127.0.0.1:{server.getsockname()[1]}"
+    server.close()
+    for conn in accepted:
+        conn.close()
+    thread.join(timeout=10)
+
+
+@pytest.mark.parametrize("scheme", ["tcp", "ws"])
+def test_a_scheduler_that_accepts_and_never_answers_is_one_line(scheme, silent_server, tmp_path):
+    # it hung for ever (still waiting at 120 s with --connect-timeout 2): the TCP connection was
+    # bounded by the timeout, Dask's handshake read after it was not; the server saw the connection
+    address = f"{scheme}://{silent_server}"
+    code, out, err = _finish(_refimpl("track", "--dets", str(DEMO / "det" / "det.txt"), "--out",
+                                      str(tmp_path / "x.txt"), "--scheduler", address, "--connect-timeout", "2",
+                                      "--quiet"))
+    assert _one_error_line(code, err) == (f"refimpl track: error: cannot reach {address}: no Dask handshake within "
+                                          "2 s (--connect-timeout; is it a Dask scheduler?)")
+    assert out == "" and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("scheme", ["tls", "wss"])
+def test_a_tls_address_without_tls_settings_is_one_line(scheme, silent_server, tmp_path):
+    # it was a TypeError traceback from Dask ("TLS expects a `ssl_context` argument")
+    address = f"{scheme}://{silent_server}"
+    code, out, err = _finish(_refimpl("track", "--dets", str(DEMO / "det" / "det.txt"), "--out",
+                                      str(tmp_path / "x.txt"), "--scheduler", address, "--quiet"))
+    assert _one_error_line(code, err) == (
+        f"refimpl track: error: scheduler {address}: a {scheme}:// address needs Dask's TLS settings (the "
+        "certificates, distributed.comm.tls.* in Dask's configuration; docs/scale-out.md)")
+    assert out == "" and list(tmp_path.iterdir()) == []
 
 
 def test_an_absurd_number_of_local_workers_is_refused_before_any_work(tmp_path):

@@ -48,7 +48,7 @@ def _one_line_warning(message, category, filename, lineno, file=None, line=None)
 def main(argv: Sequence[str] | None = None) -> int:
     """The command line; Ctrl-C (SIGINT) anywhere ends it with exit code 130 and one line, after the
     outputs' temporary files are removed (refimpl.io.outputs), so no partial output is left (SIGTERM
-    likewise, exit 143, when the process was started by run())."""
+    likewise, exit 143, and SIGHUP, SIGQUIT: 129, 131, when the process was started by run())."""
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -56,16 +56,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         with warnings.catch_warnings():  # one-line warnings for this command only, restored after it
             warnings.showwarning = _one_line_warning
             return _run(args)
-    except Terminated:
+    except Terminated as exc:
         print("refimpl: terminated", file=sys.stderr)
-        return 143
+        return 128 + exc.signum
     except KeyboardInterrupt:
         print("refimpl: interrupted", file=sys.stderr)
         return 130
 
 
+TERMINATING = (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
+"""The signals whose default would end the process at once, leaving the outputs' temporary files
+(``.FILE.XXXX.tmp``) beside them: each is handled as Ctrl-C is (Terminated)."""
+
+
 class Terminated(KeyboardInterrupt):
-    """SIGTERM, once run() has asked for it: handled as Ctrl-C is (outputs removed, one line), exit 143."""
+    """SIGTERM (or SIGHUP, SIGQUIT), once run() has asked for it: handled as Ctrl-C is (outputs
+    removed, one line), exit 128 + the signal's number (143, 129, 131)."""
+
+    def __init__(self, signum: int = signal.SIGTERM) -> None:
+        super().__init__(signum)
+        self.signum = int(signum)
 
 
 def _in_finalizer(frame) -> bool:
@@ -87,7 +97,7 @@ def _interrupt_handler(exception: type[BaseException]):
         if _in_finalizer(frame):
             threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
             return
-        raise exception()
+        raise exception(signum) if issubclass(exception, Terminated) else exception()
     return handler
 
 
@@ -120,12 +130,13 @@ def run() -> None:
     """The process entry point (``refimpl`` and ``python -m refimpl``): main, then exit.  After an
     interrupt the process ends at once (os._exit, outputs already cleaned up, streams flushed)
     rather than spending half a second tearing down numpy, scipy and the solvers' modules."""
-    if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:  # `kill`, a job scheduler: no partial output either
-        signal.signal(signal.SIGTERM, _interrupt_handler(Terminated))
+    for signum in TERMINATING:  # `kill`, a job scheduler, a closed terminal: no partial output either
+        if signal.getsignal(signum) == signal.SIG_DFL:
+            signal.signal(signum, _interrupt_handler(Terminated))
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # Ctrl-C, never lost in a finalizer
         signal.signal(signal.SIGINT, _interrupt_handler(KeyboardInterrupt))
     code = main()
-    if code in (130, 143):
+    if code > 128:
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()

@@ -79,7 +79,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
             raise UserError(f"--asp-model runs your encoding on the {CLINGO} backend: add it to --backends "
                             f"(got {args.backends!r})")
         try:
-            asp_model = load_asp_model(args.asp_model)
+            asp_model = load_asp_model(args.asp_model, args.time_limit)  # grounding bounded too
         except AspModelError as exc:
             raise UserError(str(exc)) from None
         differences = asp_model.differences()  # printed once the inputs are known to be good

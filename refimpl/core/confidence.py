@@ -48,12 +48,53 @@ EVIDENCE_PRIOR = 50
 (n * learned + EVIDENCE_PRIOR * rank) / (n + EVIDENCE_PRIOR)."""
 
 
+SCORE_WINDOW = 2 ** 17
+"""The online rules remember the last 131,072 scores (the rank rule's scores seen, the evidence
+rule's labelled ones), so their memory is bounded on a stream of any length (~1 MB per array,
+docs/robustness.md "Long streams"): a window above the detections of the largest shared sequence
+(MOT17-04's ground truth as detections, 108,004 rows), so no sequence refimpl is measured on
+reaches it and every answer there is what "every score so far" gives."""
+
+
+class SortedWindow:
+    """The last ``size`` values added (default SCORE_WINDOW), sorted, each with an aligned flag (``flags``,
+    when every ``add`` gives them).  ``add``
+    takes one frame's values, sorted; beyond ``size`` the oldest go.  Equal values are kept in the
+    order they came (each new one to the right of its equals), so the oldest of equal values is
+    the leftmost, and going removes exactly it, with its flag."""
+
+    def __init__(self, size: int | None = None) -> None:
+        self.size = SCORE_WINDOW if size is None else int(size)
+        self.values = np.zeros(0, dtype=float)
+        self.flags = np.zeros(0, dtype=float)
+        self._arrived = np.zeros(0, dtype=float)  # the values in the order they came
+
+    def add(self, values: np.ndarray, flags: np.ndarray | None = None) -> None:
+        at = np.searchsorted(self.values, values, side="right")
+        self.values = np.insert(self.values, at, values)
+        if flags is not None:  # the rank rule's window has none
+            self.flags = np.insert(self.flags, at, flags)
+        self._arrived = np.concatenate([self._arrived, values])
+        excess = len(self._arrived) - self.size
+        if excess > 0:
+            old = np.sort(self._arrived[:excess], kind="stable")
+            self._arrived = self._arrived[excess:].copy()
+            nth = np.arange(len(old)) - np.searchsorted(old, old, side="left")  # k-th of its equals among old
+            gone = np.searchsorted(self.values, old, side="left") + nth
+            self.values = np.delete(self.values, gone)
+            if len(self.flags):
+                self.flags = np.delete(self.flags, gone)
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+
 class OnlineRank:
-    """The rank rule's state: every score seen so far, sorted.  ``confidences(scores)`` adds one
-    frame's scores and returns their confidences; memory grows by one float per detection."""
+    """The rank rule's state: the last SCORE_WINDOW scores seen, sorted.  ``confidences(scores)``
+    adds one frame's scores and returns their confidences."""
 
     def __init__(self) -> None:
-        self._seen = np.zeros(0, dtype=float)
+        self._seen = SortedWindow()
 
     def confidences(self, scores) -> np.ndarray:
         s = np.asarray(scores, dtype=float).reshape(-1)
@@ -61,13 +102,13 @@ class OnlineRank:
             return np.zeros(0, dtype=np.int64)
         if not np.isfinite(s).all():
             raise ValueError("a detection score is NaN or infinite")
-        add = np.sort(s, kind="stable")
-        self._seen = np.insert(self._seen, np.searchsorted(self._seen, add, side="left"), add)
-        at_most = np.searchsorted(self._seen, s, side="right")  # scores seen so far <= s, itself included
-        return (100 * at_most * 2 + len(self._seen)) // (2 * len(self._seen))  # floor(100 * k / n + 1/2), exact
+        self._seen.add(np.sort(s, kind="stable"))
+        seen = self._seen.values
+        at_most = np.searchsorted(seen, s, side="right")  # scores seen so far <= s, itself included
+        return (100 * at_most * 2 + len(seen)) // (2 * len(seen))  # floor(100 * k / n + 1/2), exact
 
     def reset(self) -> None:
-        self._seen = np.zeros(0, dtype=float)
+        self._seen = SortedWindow()
 
 
 class RankFrames:
@@ -127,8 +168,7 @@ class PersistenceEvidence:
 
     def reset(self) -> None:
         self._rank = OnlineRank()
-        self._scores = np.zeros(0, dtype=float)  # labelled scores, sorted
-        self._flags = np.zeros(0, dtype=float)  # 1.0 persistent, aligned with _scores
+        self._labelled = SortedWindow()  # the last SCORE_WINDOW labelled scores, sorted; flag 1.0: persistent
         self._recent: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []  # the last two frames
 
     @staticmethod
@@ -148,23 +188,21 @@ class PersistenceEvidence:
             if len(b1):
                 flags = self._overlapped(b0, t0, b1, t1) & self._overlapped(boxes, types, b1, t1)
                 order = np.argsort(s1, kind="stable")
-                at = np.searchsorted(self._scores, s1[order], side="right")
-                self._scores = np.insert(self._scores, at, s1[order])
-                self._flags = np.insert(self._flags, at, flags[order].astype(float))
+                self._labelled.add(s1[order], flags[order].astype(float))
             self._recent.pop(0)
 
     def _learned(self, scores: np.ndarray) -> np.ndarray | None:
         """The learned curve at each score, or None while too little is labelled (or nothing persisted)."""
-        n = len(self._scores)
+        n = len(self._labelled)
         if n < EVIDENCE_BINS:
             return None
         edges = (np.arange(EVIDENCE_BINS + 1) * n) // EVIDENCE_BINS
-        persistent = np.concatenate([[0.0], np.cumsum(self._flags)])
+        persistent = np.concatenate([[0.0], np.cumsum(self._labelled.flags)])
         sizes = np.diff(edges).astype(float)
         curve = _increasing((persistent[edges[1:]] - persistent[edges[:-1]]) / sizes, sizes)
         if curve[-1] <= 0.0:
             return None
-        at_most = np.searchsorted(self._scores, scores, side="right")  # labelled scores <= s
+        at_most = np.searchsorted(self._labelled.values, scores, side="right")  # labelled scores <= s
         bin_of = np.clip(np.searchsorted(edges[1:], at_most, side="left"), 0, EVIDENCE_BINS - 1)
         return curve[bin_of] / curve[-1]
 
@@ -180,7 +218,7 @@ class PersistenceEvidence:
         learned = self._learned(s)
         if learned is None:
             return prior
-        n = len(self._scores)
+        n = len(self._labelled)
         blended = (n * 100.0 * learned + EVIDENCE_PRIOR * prior) / (n + EVIDENCE_PRIOR)
         return np.floor(blended + 0.5).astype(np.int64)
 

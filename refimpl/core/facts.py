@@ -14,6 +14,7 @@ import re
 from dataclasses import dataclass
 from typing import Callable
 
+from .records import RecordTooLong, read_text
 from .spec import (ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, MAX_TERM_DEPTH, SYMBOL, TRACK_STATES, Box, Detection,
                    FrameProblem, HistoryEvent, ProblemFormatError, Term, TrackPrediction, symbol_error,
                    write_facts)
@@ -309,8 +310,9 @@ def parse_facts(text: str, source: str = "<text>") -> FrameProblem:
 def read_problem(path: str) -> FrameProblem:
     """Read a fact file; a missing or undecodable file is a ProblemFormatError too."""
     try:
-        with open(path, encoding="utf-8-sig") as fh:  # -sig: a leading BOM is not part of the text
-            text = fh.read()
+        text = read_text(path, encoding="utf-8-sig")  # -sig: a leading BOM is not part of the text
+    except RecordTooLong as exc:
+        raise ProblemFormatError(str(exc), path) from None
     except OSError as exc:
         raise ProblemFormatError(f"cannot read file: {exc.strerror or exc}", path) from None
     except UnicodeDecodeError:

@@ -23,12 +23,24 @@ def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
     return np.column_stack([b[:, 0], b[:, 1], b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]])
 
 
+_IOU_BLOCK = 1 << 20
+"""Pairs of boxes iou_matrix computes at a time: each pair's IoU is computed elementwise, the same
+operations whatever the block, so blocks change no value; they bound the temporaries (about 7
+floats a pair) to ~60 MB beside the (n, m) result (a 5,000 x 5,000 frame: 1.4 GB at once before)."""
+
+
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """IoU of every box in a (n, 4 xywh) with every box in b (m, 4 xywh): an (n, m) array in [0, 1]."""
     a = np.asarray(a, dtype=float).reshape(-1, 4)
     b = np.asarray(b, dtype=float).reshape(-1, 4)
     if len(a) == 0 or len(b) == 0:
         return np.zeros((len(a), len(b)))
+    if len(a) * len(b) > _IOU_BLOCK:  # rows in blocks: the temporaries of one block, not of the whole
+        step = max(1, _IOU_BLOCK // len(b))
+        out = np.empty((len(a), len(b)))
+        for start in range(0, len(a), step):
+            out[start:start + step] = iou_matrix(a[start:start + step], b)
+        return out
     # corners (x1, y1) and (x2, y2) = (x + w, y + h), as xywh_to_xyxy computes them; the x and y
     # coordinates go through each step together (the last axis), the same operations elementwise
     a1, b1 = a[:, :2], b[:, :2]

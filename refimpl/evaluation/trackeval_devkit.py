@@ -116,18 +116,39 @@ def _write(path: Path, lines: Sequence[str]) -> None:
     path.write_text("".join(line + "\n" for line in lines), encoding="utf-8")
 
 
+def _dense_ids(ids) -> dict[int, int]:
+    """Each id -> its rank among the non-negative ids (0..K-1); a negative id (KITTI's DontCare -1)
+    stays as it is.  TrackEval sizes an array by the largest id of a sequence (its relabelling,
+    ``np.ones(max(ids) + 1)``), so a track id of 2^40 asked for 8 TiB; the map is monotone, so
+    TrackEval's own relabelling, and every score, is what it would be on the ids given."""
+    ids = sorted({int(i) for i in ids})
+    dense = {i: k for k, i in enumerate(i for i in ids if i >= 0)}
+    return {i: dense.get(i, i) for i in ids}
+
+
+def _relabel(lines: list[str], sep: str | None) -> list[str]:
+    """Lines whose second field is an id (a ground-truth file, KITTI tracking lines) with dense ids
+    (``_dense_ids``); the lines were read and checked by refimpl's readers."""
+    rows = [line.split(sep) for line in lines]
+    ids = _dense_ids(int(float(r[1])) for r in rows)
+    glue = sep if sep is not None else " "
+    return [glue.join([r[0], str(ids[int(float(r[1]))]), *r[2:]]) for r in rows]
+
+
 def _kitti_result_lines(seq: LoadedSequence, object_class: str) -> list[str]:
-    """The results file as KITTI tracking lines: as is if it is one, else from the rows read."""
+    """The results file as KITTI tracking lines: as is if it is one (ids made dense), else from the rows read."""
     lines = _lines_or_empty(seq.results_path)
     if lines and "," not in lines[0]:
-        return lines  # KITTI tracking format (refimpl.io reads it the same way)
+        return _relabel(lines, None)  # KITTI tracking format (refimpl.io reads it the same way)
     kind = object_class.capitalize()
-    return [f"{int(f)} {int(i)} {kind} -1 -1 -10 {float(x)!r} {float(y)!r} {float(x + w)!r} {float(y + h)!r} "
+    ids = _dense_ids(seq.results[:, 1])
+    return [f"{int(f)} {ids[int(i)]} {kind} -1 -1 -10 {float(x)!r} {float(y)!r} {float(x + w)!r} {float(y + h)!r} "
             "-1 -1 -1 -1000 -1000 -1000 -10 1" for f, i, x, y, w, h in seq.results]
 
 
 def _mot_result_lines(seq: LoadedSequence) -> list[str]:
-    return [f"{int(f)},{int(i)},{float(x)!r},{float(y)!r},{float(w)!r},{float(h)!r},1,-1,-1,-1"
+    ids = _dense_ids(seq.results[:, 1])
+    return [f"{int(f)},{ids[int(i)]},{float(x)!r},{float(y)!r},{float(w)!r},{float(h)!r},1,-1,-1,-1"
             for f, i, x, y, w, h in seq.results]
 
 
@@ -166,7 +187,7 @@ def trackeval_scores(sequences: Sequence[LoadedSequence], data_format: str,
         data_dir = trackers / TRACKER / "data"
         if data_format == io.KITTI:
             for seq in sequences:
-                _write(gt_dir / "label_02" / f"{names[seq.name]}.txt", io.data_lines(seq.gt_path))
+                _write(gt_dir / "label_02" / f"{names[seq.name]}.txt", _relabel(io.data_lines(seq.gt_path), None))
                 _write(data_dir / f"{names[seq.name]}.txt", _kitti_result_lines(seq, object_class))
             _write(gt_dir / f"evaluate_tracking.seqmap.{KITTI_SPLIT}",
                    [f"{names[s.name]} empty 000000 {s.gt.num_frames:06d}" for s in sequences])
@@ -179,7 +200,7 @@ def trackeval_scores(sequences: Sequence[LoadedSequence], data_format: str,
         else:
             benchmark = {seq.name: mot_benchmark(seq) for seq in sequences}
             for seq in sequences:
-                _write(gt_dir / names[seq.name] / "gt" / "gt.txt", io.data_lines(seq.gt_path))
+                _write(gt_dir / names[seq.name] / "gt" / "gt.txt", _relabel(io.data_lines(seq.gt_path), ","))
                 _write(data_dir / f"{names[seq.name]}.txt", _mot_result_lines(seq))
             datasets = {bm: trackeval.datasets.MotChallenge2DBox({
                 "GT_FOLDER": str(gt_dir), "TRACKERS_FOLDER": str(trackers), "OUTPUT_FOLDER": str(out),

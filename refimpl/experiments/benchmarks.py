@@ -39,6 +39,7 @@ from typing import Callable, Iterable, Sequence
 from .. import io
 from ..core import bigint
 from ..core.errors import UserFacingError
+from ..core.records import RecordTooLong, read_text
 from ..io.datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS, benchmark_sequences
 from ..io.outputs import OutputSet, section_text, write_atomic, write_section  # noqa: F401  (section_text, write_section: re-exported for the report writers)
 from ..solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BACKEND, REFERENCE_BACKEND, TRACKERS, get_solver
@@ -509,10 +510,10 @@ def _build(cls, data, where: str):
 def load_json(path: str | os.PathLike) -> ScaleResult | ThroughputResult:
     """A file written by save_json; anything else is a BenchmarkFileError naming the file."""
     try:
-        data = bigint.loads(Path(path).read_text(encoding="utf-8"))
+        data = bigint.loads(read_text(path))
     except FileNotFoundError:
         raise BenchmarkFileError(f"{path}: file not found") from None
-    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError, RecordTooLong) as exc:
         raise BenchmarkFileError(f"{path}: not a benchmark JSON file ({str(exc).splitlines()[0][:80]})") from None
     except OSError as exc:
         raise BenchmarkFileError(f"{path}: cannot read ({exc.strerror or exc})") from None

@@ -263,9 +263,11 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
 
 def user_solver(asp_model: AspModel) -> Solver:
     """The clingo backend on a user's encoding: the whole frame, the checker's costs, its own label,
-    its own constants (refimpl.solvers.asp_model)."""
+    its own constants (refimpl.solvers.asp_model); every solve in clingo's worker process
+    (``inline_solves=0``), which is killed at the time limit: grounding cannot be stopped in this
+    process, and a user's rule may ground without end on a frame's facts."""
     return get_solver(CLINGO, model_files=asp_model.files, decompose=False, checked_costs=True,
-                      name=asp_model.label, own_constants=asp_model.defined)
+                      name=asp_model.label, own_constants=asp_model.defined, inline_solves=0)
 
 
 # ---------------------------------------------------------------------------------------

@@ -395,6 +395,39 @@ def _quietly(call: Callable, *args, **kwargs) -> None:
         pass
 
 
+SECURE_SCHEMES = ("tls", "wss")
+"""Schemes whose connection needs Dask's TLS settings (certificates: ``distributed.comm.tls.*``)."""
+
+
+def _handshake(address: str, seconds: float) -> None:
+    """Connect to the scheduler at ``address`` and exchange Dask's handshake, all of it within
+    ``seconds``, then close; ClusterError when that fails.  Dask's own ``connect`` bounds the TCP
+    connection by its timeout but then waits for the handshake without one (distributed 2024.x,
+    ``comm/core.py``), so ``Client()`` hung for ever on a server that accepts and never answers;
+    and a ``tls://`` or ``wss://`` address without TLS settings was a TypeError there."""
+    import asyncio
+    from distributed.comm import connect
+    from distributed.security import Security
+    scheme = address.partition("://")[0]
+    args = Security().get_connection_args("client")  # what Client() uses: Dask's configuration
+    if scheme in SECURE_SCHEMES and args.get("ssl_context") is None:
+        raise ClusterError(f"scheduler {address}: a {scheme}:// address needs Dask's TLS settings (the "
+                           "certificates, distributed.comm.tls.* in Dask's configuration; docs/scale-out.md)")
+
+    async def attempt() -> None:
+        comm = await connect(address, timeout=seconds, **args)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(attempt(), seconds))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise ClusterError(f"cannot reach {address}: no Dask handshake within {seconds:g} s (--connect-timeout; "
+                           "is it a Dask scheduler?)") from None
+    except (OSError, ValueError, TypeError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ClusterError(f"cannot reach {address}: {reason}") from None
+
+
 class _client:
     """A distributed.Client for the plan, with its embedded LocalCluster when there is one; Dask's
     own log lines are silenced while it lives (a fault is reported once, as a ClusterError)."""
@@ -416,7 +449,9 @@ class _client:
             self.config = dask.config.set(LOCAL_CLUSTER_CONFIG)  # for this cluster's lifetime, then undone
         try:
             if self.plan.scheduler is not None:
-                self.client = Client(check_address(self.plan.scheduler), timeout=self.plan.connect_seconds)
+                address = check_address(self.plan.scheduler)
+                _handshake(address, self.plan.connect_seconds)  # Client() itself may wait for ever
+                self.client = Client(address, timeout=self.plan.connect_seconds)
             else:
                 # silence_logs: workers log connection errors while the cluster shuts down (a task's
                 # own error reaches us as its exception); no dashboard, and the scheduler's HTTP

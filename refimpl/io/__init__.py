@@ -102,8 +102,8 @@ zero-area box) in KITTI files: the trackers' boxes could not be written back.
 from __future__ import annotations
 
 from .errors import InputFormatError, InputFormatWarning
-from .lines import (MAX_COORD, MAX_DET_AREA, MAX_FRAME, MIN_DET_SIZE, OBJECT_TYPES, data_line_numbers,
-                    data_lines)
+from .lines import (MAX_COORD, MAX_DET_AREA, MAX_DETECTIONS_PER_FRAME, MAX_FRAME, MIN_DET_SIZE, OBJECT_TYPES,
+                    data_line_numbers, data_lines)
 from .seqinfo import read_seqinfo
 from .ground_truth import GroundTruth, read_kitti_ground_truth, read_mot_ground_truth
 from .detections import (DEFAULT_SCORE_RULE, KITTI_FPS, KITTI_IMAGE_SIZE, SCORE_RULES, DetectionFrame, DetectionSequence,
@@ -121,7 +121,8 @@ from .catalogue import (KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_ACF, MOT15_SORT6, M
 
 __all__ = [
     "InputFormatError", "InputFormatWarning",
-    "MAX_COORD", "MAX_DET_AREA", "MAX_FRAME", "MIN_DET_SIZE", "OBJECT_TYPES", "data_line_numbers", "data_lines",
+    "MAX_COORD", "MAX_DET_AREA", "MAX_DETECTIONS_PER_FRAME", "MAX_FRAME", "MIN_DET_SIZE", "OBJECT_TYPES",
+    "data_line_numbers", "data_lines",
     "read_seqinfo",
     "COCO_CLASS_TYPES", "COCO_NAMES", "class_id_type", "class_type",
     "GroundTruth", "read_kitti_ground_truth", "read_mot_ground_truth",

@@ -14,8 +14,8 @@ import numpy as np
 from ..core.confidence import EVIDENCE, RANK, online_rule
 from .errors import InputFormatError, InputFormatWarning
 from .ground_truth import _kitti_label_num_frames
-from .lines import (MAX_DET_AREA, MIN_DET_SIZE, _check_coordinates, _check_integral, _check_max_frame,
-                    _check_min_frame, _first_bad, _object_type, _read_table, _round_half_up)
+from .lines import (MAX_DET_AREA, MAX_FRAME, MIN_DET_SIZE, _check_coordinates, _check_frame_sizes, _check_integral,
+                    _check_max_frame, _check_min_frame, _first_bad, _object_type, _read_table, _round_half_up)
 from .seqinfo import _mot_frames_and_boxes, _mot_sequence_name, _resolve_seqinfo
 
 
@@ -202,11 +202,12 @@ def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray
                                "(the solvers compute 100 * area in 32-bit integers)", path, linenos[bad])
 
 
-def _mot_rows(path, linenos: Sequence[int], a: np.ndarray, info: dict | None) -> _Rows:
+def _mot_rows(path, linenos: Sequence[int], a: np.ndarray, info: dict | None,
+              max_frame: int | None = MAX_FRAME) -> _Rows:
     """Every check of MOTChallenge detection rows (MOT_DET_TABLE columns, as floats): integral
     frames from 1 (to seqLength with a seqinfo), plausible boxes at least MIN_DET_SIZE wide and
     high, areas the solvers can compute."""
-    frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
+    frames, boxes = _mot_frames_and_boxes(path, linenos, a, info, max_frame)
     tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
     if tiny is not None:
         raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
@@ -223,6 +224,7 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
     a, linenos = _read_table(path, *MOT_DET_TABLE)
     info = _resolve_seqinfo(seqinfo, path)
     rows = _mot_rows(path, linenos, a, info)
+    _check_frame_sizes(path, rows.linenos, rows.frames)
     rule = resolve_rule(scores_rule)
     conf = scale_confidences(path, linenos, rows.scores, rule)
     count = int(info["seqLength"]) if info is not None else int(rows.frames.max())
@@ -237,14 +239,14 @@ def read_mot_detections(path: str | os.PathLike, seqinfo=None,
 
 
 def _kitti_rows(path, linenos: Sequence[int], a: np.ndarray, otype: str, num_frames: int | None,
-                on_degenerate: str) -> _Rows:
+                on_degenerate: str, max_frame: int | None = MAX_FRAME) -> _Rows:
     """Every check of KITTI PointRCNN detection rows (KITTI_DET_TABLE columns, as floats), and the
     rows kept: integral frames from 0 (below num_frames if given), a known class type, plausible
     boxes of non-negative size, areas the solvers can compute; only rows of ``otype``, its
     degenerate boxes dropped and recorded (``on_degenerate="drop"``) or refused (``"error"``)."""
     frames = _check_integral(path, linenos, a[:, 0], "frame")
     types = _check_integral(path, linenos, a[:, 1], "type")
-    _check_min_frame(path, linenos, frames, 0)
+    _check_min_frame(path, linenos, frames, 0, max_frame)
     bad = _first_bad(~np.isin(types, list(_KITTI_DET_TYPE.values())))
     if bad is not None:
         raise InputFormatError(
@@ -306,6 +308,7 @@ def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames
     elif num_frames < 1:
         raise ValueError("num_frames must be >= 1")
     rows = _kitti_rows(path, linenos, a, otype, num_frames, on_degenerate)
+    _check_frame_sizes(path, rows.linenos, rows.frames)
     if rows.dropped:
         _warn_dropped(path, rows.dropped)
     if num_frames is None:

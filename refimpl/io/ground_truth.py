@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputFormatError
-from .lines import (_check_coordinates, _check_integral, _check_min_frame, _check_positive_size, _check_unique,
-                    _first_bad, _numbers, _object_type, _read_lines, _split)
+from .lines import (_check_coordinates, _check_frame_sizes, _check_integral, _check_min_frame, _check_positive_size,
+                    _check_unique, _first_bad, _numbers, _object_type, _read_lines, _split)
 from .seqinfo import _mot_frames_and_boxes, _mot_sequence_name, _resolve_seqinfo
 
 
@@ -89,6 +89,7 @@ def read_mot_ground_truth(path: str | os.PathLike, seqinfo=None) -> GroundTruth:
     frames, boxes = _mot_frames_and_boxes(path, linenos, a, info)
     ids = _check_integral(path, linenos, a[:, 1], "id")
     _check_unique(path, linenos, frames, ids)
+    _check_frame_sizes(path, linenos, frames)
     flag = a[:, 6] != 0
     if mot15:
         considered = flag
@@ -160,6 +161,7 @@ def read_kitti_ground_truth(path: str | os.PathLike, object_class: str) -> Groun
     objects = ~is_dc
     obj_idx = np.flatnonzero(objects)
     _check_unique(path, [linenos[i] for i in obj_idx], frames[obj_idx], ids[obj_idx])
+    _check_frame_sizes(path, [linenos[i] for i in obj_idx], frames[obj_idx])
     targets, distractors = _KITTI_TARGETS[otype]
     is_target = np.isin(types_arr, list(targets))
     is_distr = np.isin(types_arr, list(distractors)) if distractors else np.zeros(len(types), bool)

@@ -12,6 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..core.records import MAX_LINE_CHARS, RecordTooLong, bounded_lines
 from .errors import InputFormatError
 
 
@@ -19,6 +20,11 @@ OBJECT_TYPES = ("pedestrian", "car", "cyclist")
 """Object types in the paper's vocabulary."""
 MAX_FRAME = 100_000
 """Frame numbers above this are rejected as typos (sequences are built and tracked frame by frame)."""
+MAX_DETECTIONS_PER_FRAME = 5_000
+"""Detections one frame may hold (after a reader's class filter): five times the 1000 x 1000 frame
+of the scale benchmark, 25 times the densest frame of MOT17 and KITTI.  The IoU of every live track
+with every detection is a track x detection matrix (SORT's Hungarian assignment takes it dense),
+so two frames of 100,000 boxes allocated 20 GiB (docs/robustness.md, "Huge frames")."""
 MAX_COORD = 1_000_000.0
 """Box coordinates and sizes beyond this (in magnitude, pixels) are rejected as typos."""
 MIN_DET_SIZE = 0.01
@@ -29,15 +35,20 @@ MAX_DET_AREA = 20_000_000
 
 def _data_lines(fh, path: Path | str):
     """(line number, stripped text) of the non-blank lines of an open text stream, one at a time as
-    they arrive (a file or a pipe); text that is not UTF-8 or cannot be read is an error."""
+    they arrive (a file or a pipe); text that is not UTF-8 or cannot be read is an error, and so is
+    a line longer than MAX_LINE_CHARS, refused after reading that many characters of it
+    (refimpl.core.records: /dev/zero is not read whole)."""
     lineno = 0
     try:
         # a file object opened with newline=None splits only at \n, \r\n and \r (str.splitlines
         # would also split at \f, \v, \x85, U+2028 ... and so name the wrong line numbers)
-        for lineno, raw in enumerate(fh, start=1):
+        for lineno, raw in enumerate(bounded_lines(fh, MAX_LINE_CHARS), start=1):
             text = raw.strip()
             if text:
                 yield lineno, text
+    except RecordTooLong as exc:
+        raise InputFormatError(f"longer than {MAX_LINE_CHARS} characters (a data line is a few dozen): "
+                               "not a data file?", path, exc.line) from None
     except UnicodeDecodeError as exc:
         raise InputFormatError(f"not a UTF-8 text file ({exc.reason} after line {lineno})", path) from None
     except OSError as exc:
@@ -176,13 +187,16 @@ def _check_integral(path: Path, linenos: Sequence[int], values: np.ndarray, name
     return values.astype(np.int64)
 
 
-def _check_min_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, first: int) -> None:
-    """Frames >= first, and below MAX_FRAME (a typo must not make a billion-frame sequence)."""
+def _check_min_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, first: int,
+                     max_frame: int | None = MAX_FRAME) -> None:
+    """Frames >= first, and up to MAX_FRAME (a typo must not make a billion-frame sequence);
+    ``max_frame=None``: no such bound (a pipe bounds the gap between two rows instead)."""
     bad = _first_bad(frames < first)
     if bad is not None:
         raise InputFormatError(
             f"frame {frames[bad]} is before the first frame {first}", path, linenos[bad])
-    _check_max_frame(path, linenos, frames, MAX_FRAME, "implausibly large frame number")
+    if max_frame is not None:
+        _check_max_frame(path, linenos, frames, max_frame, "implausibly large frame number")
 
 
 def _check_max_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, last: int,
@@ -191,6 +205,24 @@ def _check_max_frame(path: Path, linenos: Sequence[int], frames: np.ndarray, las
     if bad is not None:
         raise InputFormatError(f"frame {frames[bad]} is after the last frame {last} ({what})",
                                path, linenos[bad])
+
+
+def _check_frame_sizes(path: Path, linenos: Sequence[int], frames: np.ndarray) -> None:
+    """At most MAX_DETECTIONS_PER_FRAME rows of one frame; the error names the first row beyond it."""
+    if len(frames) <= MAX_DETECTIONS_PER_FRAME:
+        return
+    order = np.argsort(frames, kind="stable")
+    f = frames[order]
+    over = _first_bad(f[MAX_DETECTIONS_PER_FRAME:] == f[:-MAX_DETECTIONS_PER_FRAME])
+    if over is not None:
+        k = int(order[over + MAX_DETECTIONS_PER_FRAME])  # the frame's row one beyond the cap, in file order
+        raise InputFormatError(too_many_detections(int(frames[k])), path, linenos[k])
+
+
+def too_many_detections(frame: int) -> str:
+    """The one line for a frame beyond MAX_DETECTIONS_PER_FRAME (a file, a pipe and the API say it alike)."""
+    return (f"frame {frame} has more than {MAX_DETECTIONS_PER_FRAME} detections (refimpl's cap per frame, "
+            "docs/robustness.md: the track x detection IoU would not fit in memory)")
 
 
 def _check_coordinates(path: Path, linenos: Sequence[int], values: np.ndarray, names: Sequence[str]) -> None:

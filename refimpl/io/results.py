@@ -11,8 +11,8 @@ import numpy as np
 from .errors import InputFormatError
 from .event_logs import event_json_line, event_line
 from .ground_truth import _KITTI_LABEL_TYPES
-from .lines import (_check_coordinates, _check_integral, _check_min_frame, _check_positive_size, _check_unique,
-                    _first_bad, _numbers, _object_type, _read_lines, _split, _table)
+from .lines import (_check_coordinates, _check_frame_sizes, _check_integral, _check_min_frame, _check_positive_size,
+                    _check_unique, _first_bad, _numbers, _object_type, _read_lines, _split, _table)
 from .outputs import write_atomic
 
 
@@ -28,6 +28,7 @@ def _results_array(path: Path, lines: list[tuple[int, str]], first_frame: int) -
     _check_coordinates(path, linenos, a[:, 2:6], ("x", "y", "w", "h"))
     _check_positive_size(path, linenos, a[:, 2:6])
     _check_unique(path, linenos, frames, ids)
+    _check_frame_sizes(path, linenos, frames)
     return a
 
 
@@ -175,6 +176,7 @@ def read_kitti_results(path: str | os.PathLike, object_class: str, allow_empty: 
     boxes = np.column_stack([a[:, 2], a[:, 3], a[:, 4] - a[:, 2], a[:, 5] - a[:, 3]])
     _check_positive_size(path, linenos, boxes)
     _check_unique(path, linenos, frames, ids)
+    _check_frame_sizes(path, linenos, frames)
     return np.column_stack([frames.astype(float), ids.astype(float), boxes])
 
 

@@ -78,10 +78,11 @@ def _mot_sequence_name(path: Path, info: dict | None) -> str:
     return path.stem
 
 
-def _mot_frames_and_boxes(path: Path, linenos: Sequence[int], a: np.ndarray, info: dict | None):
+def _mot_frames_and_boxes(path: Path, linenos: Sequence[int], a: np.ndarray, info: dict | None,
+                          max_frame: int | None = MAX_FRAME):
     """The frame column (integral, 1..seqLength) and the xywh boxes (plausible, positive) of a MOT file."""
     frames = _check_integral(path, linenos, a[:, 0], "frame")
-    _check_min_frame(path, linenos, frames, 1)
+    _check_min_frame(path, linenos, frames, 1, max_frame)
     if info is not None:
         _check_max_frame(path, linenos, frames, info["seqLength"], "seqLength in seqinfo.ini")
     boxes = a[:, 2:6]

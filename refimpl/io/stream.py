@@ -5,8 +5,10 @@ A :class:`DetectionStream` yields the same DetectionFrames as the file readers o
 :mod:`.detections` give for the same text (each line goes through the same row checks,
 ``_mot_rows`` / ``_kitti_rows``, and each frame through the same confidence rule), one frame at a
 time: a frame is complete when a line of a later frame arrives, or at the end of the stream.  Its
-memory is one frame's rows, plus two floats per detection under an online rule (evidence, rank: their state is every
-score seen so far) and the line numbers of dropped KITTI boxes (a handful per sequence).
+memory is one frame's rows (at most MAX_DETECTIONS_PER_FRAME), plus a few floats per detection under an online rule
+(evidence, rank: their state is the last refimpl.core.confidence.SCORE_WINDOW scores) and the line numbers of
+dropped KITTI boxes (a handful per sequence).  A stream has no last frame (a file has MAX_FRAME); a gap of
+more than MAX_FRAME frames between two rows is refused as a typo.
 
 What differs from a file, because a stream cannot be read twice:
 
@@ -31,7 +33,7 @@ from .detections import (DEFAULT_SCORE_RULE, KITTI_DET_TABLE, KITTI_FPS, KITTI_I
                          DetectionFrame, _kitti_rows, _mot_rows, resolve_rule, scale_confidences,
                          _Rows, _warn_dropped)
 from .errors import InputFormatError
-from .lines import _data_lines, _line_numbers, _object_type
+from .lines import MAX_DETECTIONS_PER_FRAME, MAX_FRAME, _data_lines, _line_numbers, _object_type, too_many_detections
 from .seqinfo import _resolve_seqinfo
 
 STDIN_NAME = "<stdin>"
@@ -89,10 +91,17 @@ class DetectionStream:
                     raise InputFormatError(f"frame {frame} after frame {current} (line {previous}): a stream is "
                                            "read frame by frame, so its frame numbers must not decrease",
                                            self.path, lineno)
+                before = self.first_frame - 1 if current is None else current
+                if frame - before > MAX_FRAME:  # a stream has no last frame, but a typo must not make a
+                    # billion empty frames: the gap is bounded as a file's frame numbers are
+                    raise InputFormatError(f"frame {frame} after frame {before}: more than {MAX_FRAME} frames "
+                                           "without a row (a typo?)", self.path, lineno)
                 if done is not None:
                     yield done
                 yield from self._empty(self.first_frame if current is None else current + 1, frame)
                 current, value, block = frame, a[0, 0], []
+            if len(block) == MAX_DETECTIONS_PER_FRAME:  # before the frame's rows outgrow the cap in memory
+                raise InputFormatError(too_many_detections(current), self.path, lineno)
             block.append((lineno, a))
             previous = lineno
         if current is None:
@@ -138,7 +147,7 @@ def stream_mot_detections(fh: IO[str], seqinfo=None, object_type: str = "pedestr
     otype = _object_type(object_type, path)
     info = _resolve_seqinfo(seqinfo, Path(path)) if seqinfo is not None else None
     size = (int(info["imWidth"]), int(info["imHeight"])) if info is not None else None
-    return DetectionStream(fh, path, MOT_DET_TABLE, lambda linenos, a: _mot_rows(path, linenos, a, info),
+    return DetectionStream(fh, path, MOT_DET_TABLE, lambda linenos, a: _mot_rows(path, linenos, a, info, None),
                            _Scores(path, scores_rule), otype, 1,
                            int(info["seqLength"]) if info is not None else None,
                            str(info["name"]) if info is not None else path, image_size or size,
@@ -153,6 +162,6 @@ def stream_kitti_detections(fh: IO[str], object_class: str, scores_rule: str = D
     if on_degenerate not in ("drop", "error"):
         raise ValueError("on_degenerate must be 'drop' or 'error'")
     return DetectionStream(fh, path, KITTI_DET_TABLE,
-                           lambda linenos, a: _kitti_rows(path, linenos, a, otype, None, on_degenerate),
+                           lambda linenos, a: _kitti_rows(path, linenos, a, otype, None, on_degenerate, None),
                            _Scores(path, scores_rule), otype, 0, None, path,
                            image_size or KITTI_IMAGE_SIZE, KITTI_FPS)

@@ -13,6 +13,7 @@ import os
 from ..core import bigint
 from ..core.spec import HistoryEvent, ProblemFormatError
 from ..core.facts import parse_term
+from ..core.records import RecordTooLong, read_text
 from ..io import write_text_atomic
 from ..knowledge.events import EFFECTS
 from .model import Box, Scene, SceneError, SceneTrack
@@ -187,8 +188,9 @@ def load_scene(path: str | os.PathLike) -> Scene:
     """Read a scene file; a missing, unreadable or malformed file is a SceneError naming the file."""
     path = os.fspath(path)
     try:
-        with open(path, encoding="utf-8") as fh:
-            data = json.loads(fh.read(), parse_int=_scene_int)
+        data = json.loads(read_text(path), parse_int=_scene_int)
+    except RecordTooLong as exc:
+        raise SceneError(f"{path}: {exc}") from None
     except FileNotFoundError:
         raise SceneError(f"{path}: no such scene file") from None
     except UnicodeDecodeError:

@@ -36,7 +36,9 @@ from typing import Sequence
 
 from ..core.constants import default_constants, model_dir
 from ..core.hypothesis import ACTION_TABLE
+from ..core.records import read_text
 from .certificate import CERTIFIED_STATEMENTS
+from .clingo_process import kill_child, start_child, wait_reply
 
 TIEBREAK_PREDICATES = ("tiebreak_pair", "tiebreak_event")
 
@@ -107,9 +109,12 @@ class AspModel:
         return f"{self.label} against model/: " + "; ".join(parts)
 
 
-def load_asp_model(folder: str | Path) -> AspModel:
+def load_asp_model(folder: str | Path, time_limit: float | None = None) -> AspModel:
     """The encoding in ``folder``, checked (module docstring); AspModelError if it is unusable,
-    RuntimeError-free: every clingo complaint becomes that one line."""
+    RuntimeError-free: every clingo complaint becomes that one line.  The check grounds the
+    encoding in a child process (``_read_encoding_in_child``): one that grounds longer than
+    ``time_limit`` seconds (None: no limit) or beyond ENCODING_MEMORY is refused, and a Ctrl-C
+    meanwhile ends it."""
     root = Path(folder)
     if not root.exists():
         raise AspModelError(f"--asp-model {folder}: no such folder")
@@ -118,8 +123,64 @@ def load_asp_model(folder: str | Path) -> AspModel:
     files = tuple(sorted(p for p in root.glob("*.lp") if p.is_file()))
     if not files:
         raise AspModelError(f"--asp-model {folder}: no .lp files in it")
-    tiebreak, vocabulary = _read_encoding(files, f"--asp-model {folder}")
+    tiebreak, vocabulary = _read_encoding_in_child(files, f"--asp-model {folder}", time_limit)
     return AspModel(root, files, tiebreak, vocabulary)
+
+
+CHECK_MODULE = "refimpl.solvers.asp_model_worker"
+"""The child program that checks a user's encoding (``python -m CHECK_MODULE FD``)."""
+ENCODING_MEMORY = 2 * 2 ** 30
+"""Bytes of address space the check of a user's encoding may use (the reference encoding's
+check: ~0.3 GB with Python and clingo loaded): grounding without end is refused here rather than
+by the machine's OOM killer."""
+CHILD_START = 120.0
+"""Seconds the checking process may take to start (Python and clingo imported) before it is given up."""
+
+
+def _read_encoding_in_child(files: Sequence[Path], where: str, time_limit: float | None) -> tuple[bool, Vocabulary]:
+    """``_read_encoding`` in a child process (refimpl.solvers.asp_model_worker), killed when it
+    grounds longer than ``time_limit`` seconds after clingo's import, or when this process is
+    interrupted (KeyboardInterrupt, the command line's SIGTERM); AspModelError naming the limit."""
+    proc, conn = start_child(CHECK_MODULE)
+    try:
+        conn.send((tuple(str(f) for f in files), where, ENCODING_MEMORY))
+        reply = wait_reply(proc, conn, CHILD_START)
+        if reply is None:
+            raise AspModelError(f"{where}: the clingo process that checks it did not start within {CHILD_START:g} s")
+        if reply[0] == "ready":
+            reply = wait_reply(proc, conn, time_limit)
+    except RuntimeError:  # it ended without a word: clingo aborts when an allocation fails
+        raise AspModelError(f"{where}: grounding it without a frame ended the clingo process (exit code "
+                            f"{proc.returncode}), likely beyond its memory cap of {ENCODING_MEMORY / 2 ** 30:g} GiB: "
+                            "does a rule derive atoms without end, such as p(X+1) :- p(X)?") from None
+    finally:
+        kill_child(proc, conn)
+    if reply is None:
+        raise AspModelError(f"{where}: grounding it without a frame took longer than the time limit "
+                            f"({time_limit:g} s, --time-limit): does a rule derive atoms without end, such as "
+                            "p(X+1) :- p(X)?")
+    if reply[0] == "memory":
+        raise AspModelError(f"{where}: grounding it without a frame went beyond the memory cap of "
+                            f"{ENCODING_MEMORY / 2 ** 30:g} GiB: does a rule derive atoms without end, such as "
+                            "p(X+1) :- p(X)?")
+    if reply[0] == "error":
+        raise AspModelError(reply[1])
+    return reply[1]
+
+
+def clingo_module(where: str):
+    """clingo, imported (AspModelError naming ``where`` without it)."""
+    try:
+        import clingo
+        import clingo.ast  # noqa: F401
+    except ImportError:
+        raise AspModelError("--asp-model needs clingo: pip install 'refimpl[asp]'") from None
+    return clingo
+
+
+def read_encoding(files: Sequence[str | Path], where: str) -> tuple[bool, Vocabulary]:
+    """``_read_encoding`` for the child process (refimpl.solvers.asp_model_worker)."""
+    return _read_encoding(tuple(Path(f) for f in files), where)
 
 
 @lru_cache(maxsize=1)
@@ -133,11 +194,7 @@ def _read_encoding(files: Sequence[Path], where: str) -> tuple[bool, Vocabulary]
     parsed, then the whole grounded once without a problem, with the constants it does not define
     from refimpl (clingo reports unsafe variables and the like only then); AspModelError naming
     ``where`` on any clingo complaint."""
-    try:
-        import clingo
-        import clingo.ast
-    except ImportError:
-        raise AspModelError("--asp-model needs clingo: pip install 'refimpl[asp]'") from None
+    clingo = clingo_module(where)
     messages: list[str] = []
 
     def logger(code, message: str) -> None:
@@ -231,7 +288,7 @@ def certificate_preconditions(files: Sequence[str | Path]) -> tuple[str, ...]:
     or weighs at a priority of 5 or more (a term at 6..9 or above 10 would change which answers
     are optimal at levels 10 and 5 too), or at one that is not a number.  A file clingo cannot
     parse is a reason too (the solve reports the error itself)."""
-    return _preconditions(tuple((str(f), Path(f).read_text(encoding="utf-8")) for f in files))
+    return _preconditions(tuple((str(f), read_text(f)) for f in files))
 
 
 @lru_cache(maxsize=8)

@@ -38,6 +38,38 @@ DEFAULT_RECYCLE = 1000
 """Solves per child process before it is replaced."""
 
 
+def start_child(module: str) -> tuple[subprocess.Popen, Any]:
+    """``python -m module FD`` in a session of its own (a terminal's Ctrl-C reaches the parent
+    only), this refimpl on its path, and the parent's end of the Connection it talks over."""
+    parent, child = multiprocessing.Pipe()
+    env = dict(os.environ)
+    root = str(Path(__file__).resolve().parents[2])  # this refimpl, also when not installed
+    env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    proc = subprocess.Popen([sys.executable, "-m", module, str(child.fileno())], pass_fds=(child.fileno(),),
+                            env=env, start_new_session=True, stdin=subprocess.DEVNULL)
+    child.close()
+    return proc, parent
+
+
+def wait_reply(proc: subprocess.Popen, conn, seconds: float | None) -> Any:
+    """The child's next message, or None when none came within ``seconds`` (None: no limit);
+    polled every POLL seconds, so a Ctrl-C or SIGTERM of the parent is served meanwhile (the
+    caller kills the child then).  A child that ended without a message is a RuntimeError."""
+    deadline = None if seconds is None else time.perf_counter() + seconds
+    while not conn.poll(POLL):
+        if deadline is not None and time.perf_counter() > deadline:
+            return None
+        if proc.poll() is not None:
+            raise RuntimeError(f"the clingo worker process ended (exit code {proc.returncode})")
+    return conn.recv()
+
+
+def kill_child(proc: subprocess.Popen, conn) -> None:
+    proc.kill()
+    proc.wait()
+    conn.close()
+
+
 class ClingoWorker:
     """One child process at a time, started on demand and replaced after ``recycle`` solves."""
 
@@ -53,16 +85,8 @@ class ClingoWorker:
         """CPU time the children spent in the solves they answered."""
 
     def _start(self) -> None:
-        parent, child = multiprocessing.Pipe()
-        env = dict(os.environ)
-        root = str(Path(__file__).resolve().parents[2])  # this refimpl, also when not installed
-        env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-        self._proc = subprocess.Popen([sys.executable, "-m", CHILD_MODULE, str(child.fileno())],
-                                      pass_fds=(child.fileno(),), env=env, start_new_session=True,
-                                      stdin=subprocess.DEVNULL)
-        child.close()
-        parent.send(self.options)
-        self._conn = parent
+        self._proc, self._conn = start_child(CHILD_MODULE)
+        self._conn.send(self.options)
         self._served = 0
         self.started += 1
 

@@ -40,6 +40,12 @@ DEFAULT_WRITTEN_BOX = WrittenBox.FILTERED
 _TRUE, _FALSE = ("yes", "true", "1", "on"), ("no", "false", "0", "off")
 
 
+NOISE_FACTOR_MAX = 1e6
+"""The largest factor on the Kalman filter's process noise: far beyond any use (the presets hold
+1..100), and small enough that the filter's covariance stays finite (``--velocity-noise 1e308``
+made it inf, the state NaN, and the run a traceback)."""
+
+
 def _positive(name: str) -> Callable[[object], float]:
     def parse(value: object) -> float:
         v = value
@@ -48,8 +54,8 @@ def _positive(name: str) -> Callable[[object], float]:
                 v = float(v)
             except ValueError:
                 pass
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < float(v) < float("inf")):
-            raise ValueError(f"{name} must be a positive number, got {value!r}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < float(v) <= NOISE_FACTOR_MAX):
+            raise ValueError(f"{name} must be a positive number up to {NOISE_FACTOR_MAX:g}, got {value!r}")
         return float(v)
     return parse
 
