@@ -117,6 +117,15 @@ class Tracker:
     fps: the frame rate, a finite number > 0 (default: none for "mot", as a det.txt without
         seqinfo.ini; 10 for "kitti"): the safety bound on halts (lost_after_hidden_max, 10 s of
         frames), as a seqinfo.ini's frameRate or ``refimpl track --fps``.
+    frame_budget: milliseconds an ``update`` may take for its frame problem and its solve
+        (wall-clock), as ``refimpl track --frame-budget``: "auto" (default: 25 ms,
+        refimpl.tracking.pipeline.DEFAULT_FRAME_BUDGET_MS, for the real-time backend ``cpsat``;
+        none for the oracles), None (no budget) or a number >= 0.  A frame that reaches it gets
+        the best answer found so far, flagged not proven optimal; ``result().budget_hits`` counts
+        them, ``result().over_budget`` the frames that took longer (the fast path, exact and
+        never interrupted, answers however late).  A caller with a deadline per frame may also
+        want ``gc.freeze()`` after its set-up: a full garbage collection walks every object the
+        process keeps (docs/benchmarks.md, "The slowest frames").
     """
 
     def __init__(self, backend: str = DEFAULT_BACKEND, *, format: str = "mot", preset: str | None = AUTO,
@@ -125,7 +134,8 @@ class Tracker:
                  bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
                  object_type: str | None = None, first_frame: int | None = None, name: str = "sequence",
                  fps: float | None = None, scores: str = "auto",
-                 class_types: Mapping[int, str] | None = None, **options: object) -> None:
+                 class_types: Mapping[int, str] | None = None, frame_budget: float | None | str = AUTO,
+                 **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         if format not in FORMAT_NAMES:
@@ -155,7 +165,8 @@ class Tracker:
         if time_limit is not None and not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
         TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
-        self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit)
+        self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit,
+                               frame_budget)  # ValueError for a bad budget
         """What this tracker runs with (refimpl.tracking.pipeline.Setup): backend, constants, options, preset."""
         LOG.info("refimpl.Tracker: %s", self.setup.describe())
         self.backend = backend
@@ -367,7 +378,9 @@ class Tracker:
             for j, trk in self._tracker.owners.items():
                 self._class_of[track_number(trk)] = ids[j]
         rows = []
-        for trk in self._everyone():
+        # a frame is written only for a track observed in it, which a detection was assigned to,
+        # resumed or started this frame (the owners): not every track the sequence ever had
+        for trk in map(self._tracker.tracks.__getitem__, set(self._tracker.owners.values())):
             if frame in trk.confirmed:
                 x, y, w, h = trk.observed[frame]
                 rows.append((x, y, x + w, y + h, float(track_number(trk.id))))
@@ -380,9 +393,6 @@ class Tracker:
         if self._rule is not None:
             return self._rule.confidences(boxes, scores, types)
         return scale_confidences("update", range(len(scores)), scores, self.scores)  # scores checked above
-
-    def _everyone(self):
-        return list(self._tracker.tracks.values()) + self._tracker.finished
 
     def _update_detections(self, detections):
         xyxy = np.asarray(detections.xyxy, dtype=float).reshape(-1, 4)

@@ -13,6 +13,7 @@ from ..experiments.shifts import SHIFTS
 from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES, shipped_examples
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
+from ..tracking.pipeline import DEFAULT_FRAME_BUDGET_MS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_fps, _parse_img_size, _time_limit)
 
@@ -218,6 +219,12 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
                    help="per-frame solver limit; the best answer found in time is used and counted")
+    t.add_argument("--frame-budget", default="auto", metavar="MS",
+                   help="milliseconds a frame may take (wall-clock, building its problem and solving it): a "
+                        "frame that reaches it gets the best answer found so far, flagged not proven optimal and "
+                        "counted in the summary; the fast path's answer, exact and never interrupted, is kept "
+                        f"however late. 'auto' (default): {DEFAULT_FRAME_BUDGET_MS:g} ms for the "
+                        "real-time backend (cpsat), none for cpsat-full and clingo; 'none': no budget")
     t.add_argument("--check", action="store_true",
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
