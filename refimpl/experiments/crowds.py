@@ -187,21 +187,28 @@ def crowd_table(result: CrowdResult) -> str:
     """Markdown: a row per tracker, a column per size (CPU fps / p99 ms), the fitted exponent and
     the frames flagged not proven optimal."""
     head = ("| tracker | " + " | ".join(f"{n} objects" for n in result.sizes)
-            + " | exponent k (cost ~ N^k) | frames not proven optimal | frames over the budget |")
-    lines = [head, "|---|" + "---:|" * (len(result.sizes) + 3)]
+            + " | exponent k (cost ~ N^k) | k over the two largest | frames not proven optimal "
+            "| frames over the budget |")
+    lines = [head, "|---|" + "---:|" * (len(result.sizes) + 4)]
     dets = " | ".join(f"{result.cell(result.trackers[0], n).detections:.0f}" for n in result.sizes)
-    lines.append(f"| detections per frame | {dets} | | | |")
+    lines.append(f"| detections per frame | {dets} | | | | |")
     for tracker in result.trackers:
         cells = [result.cell(tracker, n) for n in result.sizes]
         k = exponent(result.sizes, [c.mean_ms for c in cells]) if len(cells) > 1 else float("nan")
+        tail = exponent(result.sizes[-2:], [c.mean_ms for c in cells[-2:]]) if len(cells) > 1 else float("nan")
         flagged = "-" if cells[0].flagged is None else str(sum(c.flagged for c in cells))
         hits = sum(c.budget_hits or 0 for c in cells)
         if hits:
             flagged += f" ({hits} by the frame budget)"
         over = "-" if cells[0].over_budget is None else str(sum(c.over_budget for c in cells))
-        row = " | ".join(f"{c.fps:.3g} / {c.p99_ms:.3g}" for c in cells)
-        lines.append(f"| {_label(tracker)} | {row} | {k:.2f} | {flagged} | {over} |")
+        row = " | ".join(f"{_num(c.fps)} / {_num(c.p99_ms)}" for c in cells)
+        lines.append(f"| {_label(tracker)} | {row} | {k:.2f} | {tail:.2f} | {flagged} | {over} |")
     return "\n".join(lines) + "\n"
+
+
+def _num(x: float) -> str:
+    """A figure for the table: whole above 100, three significant digits below."""
+    return f"{x:.0f}" if x >= 100 else f"{x:.3g}"
 
 
 def crowd_report(result: CrowdResult, command: str, machine: str) -> str:
@@ -211,6 +218,7 @@ def crowd_report(result: CrowdResult, command: str, machine: str) -> str:
             f"{result.seconds / 60:.1f} min.  \nMachine: {machine}.\n\n{crowd_table(result)}\n"
             "Cells: CPU frames per second / 99th-percentile CPU ms per frame (time.process_time around each "
             "frame's update: refimpl's whole step, the peers' `update` call; refimpl.experiments.latency). "
-            "Exponent: least-squares slope of log(mean CPU ms per frame) against log(objects). Frames not "
+            "Exponent: least-squares slope of log(mean CPU ms per frame) against log(objects), over every "
+            "size and over the two largest (where fixed costs no longer weigh). Frames not "
             "proven optimal: by a time limit or the frame budget (a frame the fast path answers is proven, "
             "however long it took); over the budget: frames whose step took longer than it, wall-clock.\n")
