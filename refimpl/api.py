@@ -124,6 +124,15 @@ class Tracker:
         tracker runs in the streaming mode of ``refimpl track --dets -`` (it forgets finished
         tracks and all but the boxes a later frame reads), so memory stays bounded on a stream of
         any length; ``update`` returns the same rows, and those five raise ValueError.
+    frame_budget: milliseconds an ``update`` may take for its frame problem and its solve
+        (wall-clock), as ``refimpl track --frame-budget``: "auto" (default: 25 ms,
+        refimpl.tracking.pipeline.DEFAULT_FRAME_BUDGET_MS, for the real-time backend ``cpsat``;
+        none for the oracles), None (no budget) or a number >= 0.  A frame that reaches it gets
+        the best answer found so far, flagged not proven optimal; ``result().budget_hits`` counts
+        them, ``result().over_budget`` the frames that took longer (the fast path, exact and
+        never interrupted, answers however late).  A caller with a deadline per frame may also
+        want ``gc.freeze()`` after its set-up: a full garbage collection walks every object the
+        process keeps (docs/benchmarks.md, "The slowest frames").
     """
 
     def __init__(self, backend: str = DEFAULT_BACKEND, *, format: str = "mot", preset: str | None = AUTO,
@@ -132,7 +141,8 @@ class Tracker:
                  bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
                  object_type: str | None = None, first_frame: int | None = None, name: str = "sequence",
                  fps: float | None = None, scores: str = "auto",
-                 class_types: Mapping[int, str] | None = None, history: bool = True, **options: object) -> None:
+                 class_types: Mapping[int, str] | None = None, history: bool = True,
+                 frame_budget: float | None | str = AUTO, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         if format not in FORMAT_NAMES:
@@ -162,7 +172,8 @@ class Tracker:
         if time_limit is not None and not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
         TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
-        self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit)
+        self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit,
+                               frame_budget)  # ValueError for a bad budget
         """What this tracker runs with (refimpl.tracking.pipeline.Setup): backend, constants, options, preset."""
         LOG.info("refimpl.Tracker: %s", self.setup.describe())
         self.backend = backend

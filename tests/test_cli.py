@@ -129,3 +129,18 @@ def test_demo_speed_line_is_frames_over_cpu_seconds():
     # 5 frames of 2 ms: 5 / 0.010 s = 500 frames/s
     assert speed_line("cpsat", [0.002] * 5, 3).startswith("### cpsat: 500 frames/s (CPU of a second run")
     assert speed_line("baseline", [], 0).startswith("### baseline: - frames/s")
+
+
+def test_bench_latency_crowds_prints_its_table_and_refuses_bad_lists(capsys):
+    assert main(["bench-latency", "--crowds", "--sizes", "3,6", "--frames", "3", "--trackers", "baseline",
+                 "--peers", "none", "--out", "-", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "| refimpl baseline (SORT) |" in out and "3 objects | 6 objects" in out
+    for argv, fragment in ((["--sizes", "a"], "--sizes takes comma-separated integers"),
+                           (["--trackers", "bogus"], "--trackers takes a comma-separated list"),
+                           (["--frames", "0"], "--frames >= 1")):
+        assert main(["bench-latency", "--crowds", "--out", "-", *argv]) == 2
+        err = capsys.readouterr().err.strip()
+        assert fragment in err and "\n" not in err
+    assert main(["bench-latency", "--datasets", "nope", "--out", "-"]) == 2
+    assert "--datasets takes" in capsys.readouterr().err

@@ -10,6 +10,7 @@ from refimpl.core.constants import resolve_constants
 from refimpl.knowledge.events import (
     EFFECTS,
     EventState,
+    _fluent_key,
     fluent_key,
     poss,
     poss_hides_behind,
@@ -262,6 +263,14 @@ def test_fluent_key_validation():
         fluent_key("hidden_by(trk_1)")
     with pytest.raises(ValueError):
         fluent_key(("speed", "trk_1"))
+    # a tuple of text of the right arity is its own key (issue 38: the memo thrashed on the 160,000
+    # hidden_by pairs of a 400-track crowd); anything else is converted or refused as before
+    key = ("hidden_by", "trk_1", "trk_2")
+    assert fluent_key(key) == key and _fluent_key(key) is key
+    assert _fluent_key(("hidden_by", "trk_1", 2)) == ("hidden_by", "trk_1", "2")
+    for bad in (("hidden_by", "trk_1"), ("visibility", "trk_1", "trk_2"), ("speed", "trk_1"), ()):
+        with pytest.raises(ValueError):
+            _fluent_key(bad)
 
 
 def test_unknown_events_and_wrong_arity_have_no_effect():

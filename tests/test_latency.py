@@ -26,3 +26,50 @@ def test_run_sequence_times_every_frame(backend):
     times: list[float] = []
     run_sequence(seq, setup_for("mot", None, backend), frame_times=times)
     assert len(times) == len(seq.frames) and all(t >= 0 for t in times) and sum(times) > 0
+
+
+def test_measure_latency_times_every_frame_with_each_heap_and_hands_the_heap_back(shared_data):
+    import gc
+    from refimpl.experiments.latency import latency_table, measure_latency
+    from refimpl.io.datasets import load_dataset
+    frames = sum(len(d.frames) for _, d, _ in load_dataset("mot15-sort6", shared_data))
+    runs = measure_latency(["mot15-sort6"], shared_data)
+    assert [r.heap for r in runs] == ["as is", "frozen"]
+    for r in runs:
+        assert r.latency.frames == frames  # every frame of the six sequences, once per heap
+        assert r.latency.median_ms <= r.latency.p99_ms <= r.latency.worst_ms
+        assert r.frame_budget == 25.0 and r.budget_hits == 0  # the defaults; the fast path answers every frame
+    assert gc.get_freeze_count() == 0 and gc.isenabled()
+    assert not [c for c in gc.callbacks if type(c).__name__ == "_FullCollections"]
+    table = latency_table(runs)
+    assert table.count("\n") == 4 and f"| frozen | {frames} |" in table
+
+
+def test_a_crowd_has_its_objects_in_every_frame_inside_the_image():
+    import numpy as np
+    from refimpl.experiments.crowds import IMAGE, crowd_truth
+    gt = crowd_truth(50, 40, seed=3)
+    assert np.bincount(gt.frames.astype(int))[1:].tolist() == [50] * 40
+    x, y, w, h = gt.boxes.T
+    assert x.min() >= 0 and y.min() >= 0 and (x + w).max() <= IMAGE[0] and (y + h).max() <= IMAGE[1]
+    # an object keeps its size; it moves by at most its speed (a reflection only shortens a step)
+    first, last = gt.boxes[gt.frames == 1], gt.boxes[gt.frames == 2]
+    assert np.array_equal(first[:, 2:], last[:, 2:])
+    assert crowd_truth(50, 40, seed=3).boxes.tobytes() == gt.boxes.tobytes()  # seeded
+
+
+def test_the_exponent_of_a_power_law():
+    from refimpl.experiments.crowds import exponent
+    # cost 0.5 N^2 at N = 10, 100, 1000: slope of log cost against log N is 2; constant cost: 0
+    assert exponent([10, 100, 1000], [50.0, 5000.0, 500000.0]) == pytest.approx(2.0)
+    assert exponent([10, 50], [3.0, 3.0]) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_crowd_bench_times_every_tracker_on_every_size():
+    from refimpl.experiments.crowds import bench_crowds, crowd_table
+    result = bench_crowds([4, 8], frames=5, trackers=["baseline", "cpsat"], peers=[])
+    assert [(c.tracker, c.objects, len(c.times)) for c in result.cells] == [
+        ("baseline", 4, 5), ("cpsat", 4, 5), ("baseline", 8, 5), ("cpsat", 8, 5)]
+    assert result.cell("cpsat", 8).flagged == 0 and result.cell("baseline", 8).flagged is None
+    table = crowd_table(result)
+    assert "| refimpl cpsat (frame budget 25 ms) |" in table and "| refimpl baseline (SORT) |" in table

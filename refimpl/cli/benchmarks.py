@@ -11,7 +11,7 @@ from pathlib import Path
 
 from .. import io
 from ..evaluation.evaluate import format_table
-from ..experiments import benchmarks as bm, detector_sweep as sw, detectors as dt
+from ..experiments import benchmarks as bm, crowds as cr, detector_sweep as sw, detectors as dt, latency as lt
 from ..experiments.benchmarks import format_command, machine_note, write_section
 from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, calibration_report, check_tunable,
                                      chosen_preset, default_preset, parse_grid, refuse_held_out, robust_default,
@@ -28,7 +28,7 @@ from ..experiments.benchmark_tasks import RunRequest, run_requests
 from ..io import InputFormatError, write_text_atomic
 from ..io.datasets import DATASETS, TABLE6_DATASETS, TITLES, dataset_kind, load_dataset
 from ..io.outputs import OutputSet, check_outputs
-from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
+from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, TRACKERS
 from ..tracking.options import option_flags
 from ..tracking.presets import startable_share
 from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
@@ -279,6 +279,58 @@ def cmd_bench_scale(args: argparse.Namespace) -> int:
         out=None if args.out == "-" else args.out, plot=args.plot, json_path=args.json,
         from_json=args.from_json, throughput=args.throughput, trackers=trackers, data=args.data,
         command=bm.format_command(sys.argv[1:]), progress=progress, dense=args.dense))
+    return EXIT_OK
+
+
+def cmd_bench_latency(args: argparse.Namespace) -> int:
+    out = None if args.out == "-" else args.out
+    check_outputs({"--out": out}, {})
+    command = bm.format_command(sys.argv[1:])
+    if args.crowds:
+        return _bench_crowds(args, out, command)
+    datasets = bm.parse_list(args.datasets, str)
+    unknown = [d for d in datasets if d not in DATASETS]
+    if unknown or not datasets:
+        raise UserError(f"--datasets takes a comma-separated list out of {', '.join(DATASETS)}, got {args.datasets!r}")
+    if args.backend not in BACKENDS:
+        raise UserError(f"--backend takes one of {', '.join(BACKENDS)}, got {args.backend!r}")
+    progress = Progress(None, "latency", enabled=not args.quiet)
+    runs = lt.measure_latency(datasets, args.data, args.backend, step=progress.step)
+    progress.close()
+    report = lt.latency_report(runs, command, machine_note(), args.backend)
+    print(report)
+    if out:
+        write_section(out, lt.LATENCY_BEGIN, lt.LATENCY_END, report)
+        print(f"written: {out}")
+    return EXIT_OK
+
+
+def _bench_crowds(args: argparse.Namespace, out: str | None, command: str) -> int:
+    try:
+        sizes = bm.parse_list(args.sizes, int)
+    except ValueError:
+        raise UserError(f"--sizes takes comma-separated integers, got {args.sizes!r}") from None
+    trackers = bm.parse_list(args.trackers, str)
+    peers = [] if args.peers.strip().lower() == "none" else bm.parse_list(args.peers, str)
+    unknown = [t for t in trackers if t not in TRACKERS]
+    if unknown or not trackers:
+        raise UserError(f"--trackers takes a comma-separated list out of {', '.join(TRACKERS)}, got {args.trackers!r}")
+    if not sizes or min(sizes) < 1 or args.frames < 1:
+        raise UserError("--sizes must be objects per frame >= 1, --frames >= 1")
+    try:
+        peers = list(parse_peers(",".join(peers))) if peers else []
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    for p in peers:
+        peer_class(p)  # a missing package: one line before anything runs
+    progress = Progress(len(sizes) * (len(trackers) + len(peers)), "crowds", enabled=not args.quiet)
+    result = cr.bench_crowds(sizes, args.frames, trackers, peers, args.time_limit, args.seed, step=progress.step)
+    progress.close()
+    report = cr.crowd_report(result, command, machine_note())
+    print(report)
+    if out:
+        write_section(out, cr.CROWDS_BEGIN, cr.CROWDS_END, report)
+        print(f"written: {out}")
     return EXIT_OK
 
 

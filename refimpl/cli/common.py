@@ -4,7 +4,9 @@ one-line user error, and the argument types and helpers used by more than one co
 from __future__ import annotations
 
 import argparse
+import gc
 import math
+from contextlib import contextmanager
 
 from .. import io
 from ..core.errors import UserFacingError
@@ -20,6 +22,23 @@ CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 class UserError(UserFacingError):
     """A mistake in the command line or its inputs: reported in one line, exit code 2."""
+
+
+@contextmanager
+def frozen_heap():
+    """What exists before a command tracks (the interpreter's and refimpl's modules and tables, the
+    detections read) kept out of the garbage collector's full collections while it tracks, handed
+    back afterwards (gc.freeze / gc.unfreeze).  A full collection walks every object the
+    collector tracks, ~0.5-1 us each here: with the ~25,000 of a `refimpl track` process one took
+    15-20 ms in the middle of whichever frame triggered it, the slowest frame of a run
+    (docs/benchmarks.md, "The slowest frames").  Objects made while tracking are collected as
+    before; nothing changes what is computed."""
+    gc.collect()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        gc.unfreeze()
 
 
 def _parse_const(text: str) -> tuple[str, int]:
@@ -40,6 +59,24 @@ def _positive_finite(text: str, unit: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a number of {unit}, got {text!r}") from None
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a positive finite number of {unit}, got {text!r}")
+    return value
+
+
+def _frame_budget(text: str | None) -> float | str | None:
+    """--frame-budget: milliseconds >= 0, ``auto`` (the default budget of a real-time backend,
+    refimpl.tracking.pipeline.DEFAULT_FRAME_BUDGET_MS) or ``none``; a command without the option
+    (None): no budget.  A UserError (one line) otherwise."""
+    if text is None:
+        return None
+    word = text.strip().lower()
+    if word in (AUTO, NONE):
+        return AUTO if word == AUTO else None
+    try:
+        value = float(word)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0):
+        raise UserError(f"--frame-budget takes milliseconds >= 0, 'auto' or 'none', got {text!r}")
     return value
 
 
@@ -86,7 +123,8 @@ def _setup(args: argparse.Namespace, fmt: str, cls: str | None, constants=None):
     preset = NONE if getattr(args, "no_preset", False) else (asked or AUTO)
     try:
         return setup_for(fmt, cls, args.backend, constants if constants is not None else dict(args.const or []),
-                         _option_overrides(args), preset, getattr(args, "time_limit", None))
+                         _option_overrides(args), preset, getattr(args, "time_limit", None),
+                         _frame_budget(getattr(args, "frame_budget", None)))
     except ValueError as exc:
         raise UserError(str(exc)) from None
 

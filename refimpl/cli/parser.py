@@ -13,6 +13,7 @@ from ..experiments.shifts import SHIFTS
 from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES, shipped_examples
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
 from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
+from ..tracking.pipeline import DEFAULT_FRAME_BUDGET_MS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_fps, _parse_img_size, _time_limit)
 
@@ -218,6 +219,12 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
                    help="per-frame solver limit; the best answer found in time is used and counted")
+    t.add_argument("--frame-budget", default="auto", metavar="MS",
+                   help="milliseconds a frame may take (wall-clock, building its problem and solving it): a "
+                        "frame that reaches it gets the best answer found so far, flagged not proven optimal and "
+                        "counted in the summary; the fast path's answer, exact and never interrupted, is kept "
+                        f"however late. 'auto' (default): {DEFAULT_FRAME_BUDGET_MS:g} ms for the "
+                        "real-time backend (cpsat), none for cpsat-full and clingo; 'none': no budget")
     t.add_argument("--check", action="store_true",
                    help="verify every frame's answer with the independent checker; exit 1 on any violation")
     t.add_argument("--scene", metavar="SCENE.json", help="write the scene (tracks, events, fluent timelines) "
@@ -384,6 +391,31 @@ def _add_bench_scale(sub: "argparse._SubParsersAction") -> None:
     sc.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _add_bench_latency(sub: "argparse._SubParsersAction") -> None:
+    la = sub.add_parser("bench-latency", help="CPU per frame (p50, p99, worst) with the defaults a user gets on "
+                                              "KITTI Car val and MOT15, or (--crowds) against the objects per "
+                                              "frame; writes docs/benchmarks.md")
+    la.add_argument("--crowds", action="store_true",
+                    help="instead: simulated crowds of --sizes objects per frame (refimpl.experiments.crowds), every "
+                         "--trackers and --peers on each, and the exponent of cost ~ objects^k")
+    la.add_argument("--datasets", default="kitti-car-val,mot15", help="datasets (default kitti-car-val,mot15)")
+    la.add_argument("--backend", default=DEFAULT_BACKEND, help=f"abduction backend (default {DEFAULT_BACKEND})")
+    la.add_argument("--sizes", default="10,50,100,200,400", help="--crowds: objects per frame (default "
+                                                                 "10,50,100,200,400)")
+    la.add_argument("--frames", type=int, default=15, help="--crowds: frames per size (default 15)")
+    la.add_argument("--trackers", default=",".join(TRACKERS),
+                    help=f"--crowds: refimpl's trackers (default {','.join(TRACKERS)})")
+    la.add_argument("--peers", default="sort,bytetrack,ocsort",
+                    help="--crowds: peer trackers, or none (default sort,bytetrack,ocsort)")
+    la.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",
+                    help="--crowds: per-frame limit of the abduction backends (default none)")
+    la.add_argument("--seed", type=int, default=0, help="--crowds: simulation seed (default 0)")
+    la.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    la.add_argument("--out", default="docs/benchmarks.md",
+                    help="markdown file whose generated section is replaced (default docs/benchmarks.md; - for none)")
+    la.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def _add_detectors(sub: "argparse._SubParsersAction") -> None:
     dt = sub.add_parser("detectors", help="which detector, and how much abduction helps it: real detectors side "
                                           "by side, or (--sweep) a simulated detector-quality grid")
@@ -492,6 +524,7 @@ _COMMANDS = (
     _add_sweep,
     _add_demo,
     _add_bench_scale,
+    _add_bench_latency,
     _add_detectors,
     _add_occlusion_suite,
     _add_bench_occlusion,
@@ -515,6 +548,7 @@ COMMANDS: dict[str, str] = {
     "sweep": "refimpl.cli.benchmarks:cmd_sweep",
     "demo": "refimpl.cli.demo:cmd_demo",
     "bench-scale": "refimpl.cli.benchmarks:cmd_bench_scale",
+    "bench-latency": "refimpl.cli.benchmarks:cmd_bench_latency",
     "detectors": "refimpl.cli.benchmarks:cmd_detectors",
     "occlusion-suite": "refimpl.cli.benchmarks:cmd_occlusion_suite",
     "bench-occlusion": "refimpl.cli.benchmarks:cmd_bench_occlusion",

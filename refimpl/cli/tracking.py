@@ -21,9 +21,9 @@ from ..io import ResultWriter, results_formatter
 from ..io.outputs import OutputSet, STDOUT, check_outputs
 from ..solvers import BACKENDS, BASELINE, get_solver
 from ..tracking.options import option_flags
-from ..tracking.pipeline import run_sequence
+from ..tracking.pipeline import AUTO, run_sequence
 from ..tracking.presets import preset_named, score_warning
-from .common import CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup
+from .common import CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup, frozen_heap
 
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
@@ -77,8 +77,9 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise UserError(f"--out-format {out_fmt.name} writes {out_fmt.title} results ({out_fmt.first_frame}-based "
                         f"frames, a class): it needs --format {out_fmt.name}")
     if args.backend == BASELINE and (args.check or args.time_limit is not None or args.scene or args.const
-                                       or args.img_size or args.fps or _option_flags_given(args)):
-        raise UserError(f"{option_flags('--check', '--time-limit', '--scene', '--const', '--img-size', '--fps')} "
+                                       or args.img_size or args.fps or _option_flags_given(args)
+                                       or args.frame_budget.strip().lower() != AUTO):
+        raise UserError(f"{option_flags('--check', '--time-limit', '--frame-budget', '--scene', '--const', '--img-size', '--fps')} "
                         f"need an abduction backend ({', '.join(BACKENDS)}); the baseline abduces no events")
     if STDIN in args.dets:
         return _track_pipe(args)
@@ -103,14 +104,14 @@ def cmd_track(args: argparse.Namespace) -> int:
         _track_streaming(seqs[0], args, outs[0], setup, summary)
         return EXIT_OK
     jobs = [TrackJob(seq, setup, args.check, out_format=args.out_format, object_class=args.cls) for seq in seqs]
-    results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet, describe=lambda job: job.seq.name,
-                        steps=lambda job: len(job.seq.frames))
+    with frozen_heap():
+        results = run_tasks(track_job, jobs, plan, label="track", quiet=args.quiet,
+                            describe=lambda job: job.seq.name, steps=lambda job: len(job.seq.frames))
     failed = 0
     with OutputSet() as files:  # every results file lands together, after the last sequence
         for seq, out, path in zip(seqs, results, outs):  # input order: the same bytes however tasks ran
-            if out.not_optimal_frames:
-                print(f"refimpl track: {_prefix(seqs, seq)}{out.not_optimal_frames} of {out.frames} frames not "
-                      f"proven optimal within the time limit (best answer found used)", file=sys.stderr)
+            for line in _limit_lines(out.frames, out.not_optimal_frames, out.budget_hits, out.over_budget, setup):
+                print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
             for line in out.violations:
                 print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
             if args.check:
@@ -126,6 +127,21 @@ def cmd_track(args: argparse.Namespace) -> int:
     if failed:
         raise CheckFailed(f"{failed} answers break a rule of the model")
     return EXIT_OK
+
+
+def _limit_lines(frames: int, not_optimal: int, budget_hits: int, over_budget: int, setup) -> list[str]:
+    """What the time limit and the frame budget did to a run, one line each (none when nothing)."""
+    lines = []
+    if not_optimal - budget_hits:
+        lines.append(f"{not_optimal - budget_hits} of {frames} frames not proven optimal within the time limit "
+                     "(best answer found used)")
+    if budget_hits:
+        lines.append(f"{budget_hits} of {frames} frames hit the frame budget of {setup.frame_budget:g} ms (best "
+                     "answer found so far used, not proven optimal)")
+    if over_budget > budget_hits:
+        lines.append(f"{over_budget - budget_hits} of {frames} frames took longer than the frame budget of "
+                     f"{setup.frame_budget:g} ms with a proven answer (the fast path is not interrupted)")
+    return lines
 
 
 def _warn_unknown_image_size(seq, setup, why: str) -> None:
@@ -185,12 +201,13 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, li
             if args.check and not setup.baseline else None
         # a pipe's rows on standard output would mix with a progress bar on the same terminal
         bar_ok = not args.quiet and not (live and STDOUT in (out_path, args.events, args.events_json))
-        with Progress(None if live else len(seq.frames), seq.name, enabled=bar_ok, unit="frame") as bar:
+        with Progress(None if live else len(seq.frames), seq.name, enabled=bar_ok, unit="frame") as bar, \
+                frozen_heap():
             result = run_sequence(seq, setup, observer=check, sink=sink, keep_records=bool(args.scene),
                                   on_frame=bar.step, solver=solver)
-        if result.not_optimal_frames:
-            print(f"refimpl track: {result.not_optimal_frames} of {result.frames} frames not proven optimal "
-                  f"within the time limit (best answer found used)", file=sys.stderr)
+        for line in _limit_lines(result.frames, result.not_optimal_frames, result.budget_hits, result.over_budget,
+                                 setup):
+            print(f"refimpl track: {line}", file=sys.stderr)
         if check is not None:
             print(f"check: {check.checked} answers checked, {len(check.violations)} with violations", file=summary)
             if check.violations:

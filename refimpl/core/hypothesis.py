@@ -9,6 +9,7 @@ pairs, highest priority first, maximise statements counted negatively.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 from . import bigint
 from .spec import event_of, parse_atom
@@ -148,7 +149,12 @@ class Hypothesis:
         return bigint.dumps(self.to_json_dict())
 
 
+@lru_cache(maxsize=1 << 12)
 def parse_action(atom: str) -> tuple[str, tuple[str, ...]]:
-    """'assign(trk_1,det_2)' -> ('assign', ('trk_1', 'det_2')) (refimpl.core.spec.parse_atom)."""
-    term = parse_atom(atom)
+    """'assign(trk_1,det_2)' -> ('assign', ('trk_1', 'det_2')) (refimpl.core.spec.parse_atom).
+
+    Memoised as strings: a tuple of strings is no object the garbage collector walks (CPython
+    stops tracking it), where parse_atom's memo keeps Terms, which it walks on every full
+    collection (docs/benchmarks.md, "The slowest frames")."""
+    term = parse_atom(atom, memo=False)
     return term.name, term.arg_names

@@ -86,13 +86,25 @@ _ATOM_TOKEN = re.compile(r"[(),]|[^(),\s]+")
 _FLAT_ARG = re.compile(r"[^(),\s]+")
 
 
-@lru_cache(maxsize=1 << 16)
-def parse_atom(text: str) -> Term:
+def parse_atom(text: str, *, memo: bool = True) -> Term:
     """A solver's ground atom as a Term: 'occurs_at(hides_behind(trk_13,trk_12),235)',
     'assign(trk_1,det_2)', 'halt(trk_3)'.  The one parser of the atoms a backend, a hypothesis or
-    the checker hands on (memoised: answers repeat their atoms); unlike :func:`parse_term` it does
-    not validate symbols or integer ranges, which the solvers' own output always meets, but a
-    malformed atom is still a ValueError."""
+    the checker hands on; unlike :func:`parse_term` it does not validate symbols or integer
+    ranges, which the solvers' own output always meets, but a malformed atom is still a ValueError.
+
+    Memoised, except an event at its time point ('occurs_at(E,T)'): actions come back frame after
+    frame, an event's atom names its frame and is asked for once.  Kept, those Terms only grew the
+    heap that every full garbage collection walks (MOT15: 6,924 distinct of 7,069 asked, each
+    entry half a dozen objects; the collections it caused were the slowest frames of a run,
+    docs/benchmarks.md "The slowest frames"), and so does a larger memo: 4,096 atoms hold every
+    track x detection pair a frame of a few hundred objects asks again.  ``memo=False``: parsed
+    afresh, not kept (for a caller that keeps what it needs of the Term in a memo of its own)."""
+    if not memo or text.startswith("occurs_at("):
+        return _parse_atom(text)
+    return _parse_atom_memo(text)
+
+
+def _parse_atom(text: str) -> Term:
     head, paren, rest = text.partition("(")
     if not paren and _FLAT_ARG.fullmatch(head):  # a constant
         return Term(head)
@@ -126,6 +138,9 @@ def parse_atom(text: str) -> Term:
     if pos != len(tokens):
         raise ValueError(f"not an atom: {text!r}")
     return out
+
+
+_parse_atom_memo = lru_cache(maxsize=1 << 12)(_parse_atom)
 
 
 def event_of(atom: str) -> Term:

@@ -151,6 +151,10 @@ class TrackOutput:
     scene: object | None = None
     text: str | None = None
     """The rows as a results file's text, when the job gave an ``out_format``."""
+    budget_hits: int = 0
+    """Frames the frame budget stopped (refimpl.tracking.tracker.TrackingResult)."""
+    over_budget: int = 0
+    """Frames that took longer than the frame budget."""
 
 
 class AnswerCheck:
@@ -184,7 +188,8 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
         text = results_formatter(job.out_format, job.seq.first_frame, job.object_class)(result.rows)
     return TrackOutput(job.seq.name, result.rows, result.events if job.events else (), result.frames,
                        result.not_optimal_frames,
-                       check.checked if check else 0, tuple(check.violations) if check else (), scene, text)
+                       check.checked if check else 0, tuple(check.violations) if check else (), scene, text,
+                       result.budget_hits, result.over_budget)
 
 
 def constants_tuple(constants: Mapping[str, int] | None) -> tuple[tuple[str, int], ...]:

@@ -30,6 +30,15 @@ raises ``SolveTimeout`` (one exception; the CLI prints one line and exits 2).  A
 any admissible answer raises ``NoAdmissibleHypothesis``.  ``time_limit=0`` therefore returns the
 obvious answer at once.
 
+The frame budget (``solve(problem, time_limit=None, budget=None)``): ``budget`` is None or the
+seconds of a frame's budget still left (>= 0; the tracker's ``frame_budget``, refimpl.tracking.tracker):
+a soft limit.  The search stops there as at a time limit (CP-SAT's and clingo's: their best answer
+so far, flagged ``optimal=False``, or the obvious answer), but an answer the backend has already
+*proven* is kept however late it comes: the fast path's (exact, and not interrupted: it returns
+or declines), so a frame the fast path answers gets the same answer with any budget.  A time
+limit stays hard: a fast answer after it is replaced by the obvious answer (above).  A solver
+without a ``budget`` argument is never passed one unless the tracker is given a budget.
+
 Interrupts: a SIGINT during a solve raises KeyboardInterrupt in the caller within a second:
 CP-SAT runs with ``catch_sigint_signal=False`` (it does not swallow the signal), clingo's search
 runs asynchronously and is polled every 0.1 s, then cancelled.
@@ -63,11 +72,15 @@ class BackendEntry:
     """Its colour in benchmark plots."""
     library: str
     """The Python module it needs (``SolverUnavailable`` without it)."""
+    real_time: bool = False
+    """Whether a tracker built without a frame budget of its own gets the default one
+    (refimpl.tracking.pipeline.DEFAULT_FRAME_BUDGET_MS): the default backend, whose fast path answers
+    within it; the oracles are there to prove every frame, however long it takes."""
 
 
 _REGISTRY: dict[str, BackendEntry] = {e.name: e for e in (
     BackendEntry(CPSAT, "refimpl.solvers.cpsat", "CpSatSolver", {},
-                 "exact fast path, the full CP-SAT model where it declines", "tab:blue", "ortools"),
+                 "exact fast path, the full CP-SAT model where it declines", "tab:blue", "ortools", real_time=True),
     BackendEntry(CPSAT_FULL, "refimpl.solvers.cpsat", "CpSatSolver", {"fast_path": False},
                  "the full CP-SAT model on every frame", "tab:green", "ortools"),
     BackendEntry(CLINGO, "refimpl.solvers.clingo_backend", "ClingoSolver", {},
@@ -80,6 +93,8 @@ BACKENDS: tuple[str, ...] = tuple(_REGISTRY)
 DESCRIPTIONS: dict[str, str] = {name: entry.description for name, entry in _REGISTRY.items()}
 COLOURS: dict[str, str] = {name: entry.colour for name, entry in _REGISTRY.items()}
 LIBRARIES: dict[str, str] = {name: entry.library for name, entry in _REGISTRY.items()}
+REAL_TIME: frozenset[str] = frozenset(name for name, entry in _REGISTRY.items() if entry.real_time)
+"""The backends a default frame budget applies to (BackendEntry.real_time)."""
 
 DEFAULT_BACKEND = CPSAT
 """The backend a tracker runs with unless told otherwise."""
@@ -110,7 +125,8 @@ class Solver(Protocol):
     name: str
 
     def solve(self, problem: FrameProblem, time_limit: float | None = None) -> Hypothesis:
-        """The best hypothesis for the problem; ``optimal`` says whether every level was proven optimal."""
+        """The best hypothesis for the problem; ``optimal`` says whether every level was proven
+        optimal.  refimpl's backends also take ``budget=`` (the frame budget, above)."""
         ...
 
 
@@ -122,6 +138,14 @@ def check_time_limit(time_limit: float | None) -> float | None:
     if not math.isfinite(value) or value < 0:
         raise ValueError(f"a time limit must be a finite number of seconds >= 0, got {time_limit!r}")
     return value
+
+
+def effective_limit(time_limit: float | None, budget: float | None) -> float | None:
+    """The sooner of a time limit and a frame budget's time left (both checked: check_time_limit)."""
+    time_limit, budget = check_time_limit(time_limit), check_time_limit(budget)
+    if budget is None:
+        return time_limit
+    return budget if time_limit is None else min(time_limit, budget)
 
 
 def get_solver(backend: str, /, **options) -> Solver:

@@ -39,7 +39,7 @@ from ..core.constants import model_dir, resolve_constants
 from ..core.ranges import OutOfClingoRange, clingo_overflow
 from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, event_of, parse_atom
-from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, check_time_limit
+from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, effective_limit
 from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
 from .asp_model import certificate_preconditions
 from .certificate import certificate, certificate_facts
@@ -221,12 +221,14 @@ class ClingoSolver:
             raise RuntimeError(f"clingo could not parse the model: {'; '.join(messages) or exc}") from None
         return ctl, messages
 
-    def solve(self, problem: FrameProblem, time_limit: float | None = None) -> Hypothesis:
+    def solve(self, problem: FrameProblem, time_limit: float | None = None,
+              budget: float | None = None) -> Hypothesis:
         """The optimal hypothesis, or with ``time_limit`` (seconds) the best found in time (the
-        time-out contract of refimpl.solvers).  The frame is solved per sub-problem of independent
-        components (refimpl.solvers.decompose) unless ``decompose=False``."""
+        time-out contract of refimpl.solvers; ``budget``, the frame budget's seconds left, ends the
+        search the same way).  The frame is solved per sub-problem of independent components
+        (refimpl.solvers.decompose) unless ``decompose=False``."""
         started = time.perf_counter()
-        time_limit = check_time_limit(time_limit)
+        time_limit = effective_limit(time_limit, budget)
         deadline = None if time_limit is None else started + time_limit
         parts = split(problem, self.part_nodes) if self.decompose else [Part(problem, frozenset())]
         check_representable(problem, parts)

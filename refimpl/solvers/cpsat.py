@@ -37,7 +37,7 @@ from ..core.constants import resolve_constants
 from ..knowledge.events import EventState
 from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..core.spec import FrameProblem
-from . import CPSAT, CPSAT_FULL, NoAdmissibleHypothesis, SolveTimeout, check_time_limit  # noqa: F401
+from . import CPSAT, CPSAT_FULL, NoAdmissibleHypothesis, SolveTimeout, check_time_limit, effective_limit  # noqa: F401
 from .common import tiebreak_level
 from .cpsat_model import (  # noqa: F401  (re-exported: refimpl.solvers.cpsat is the public name)
     _EVENT_AT,
@@ -130,11 +130,15 @@ class CpSatSolver:
         return h
 
     def solve(self, problem: FrameProblem, time_limit: float | None = None,
-              state: EventState | None = None) -> Hypothesis:
-        """The best hypothesis; ``state`` (optional) replaces folding problem.history."""
+              state: EventState | None = None, budget: float | None = None) -> Hypothesis:
+        """The best hypothesis; ``state`` (optional) replaces folding problem.history; ``budget``:
+        the frame budget's seconds left (refimpl.solvers: the full model stops there, the fast
+        path's answer is kept however late)."""
         start = time.perf_counter()
         time_limit = check_time_limit(time_limit)
-        deadline = None if time_limit is None else start + time_limit
+        limit = effective_limit(time_limit, budget)
+        hard = None if time_limit is None else start + time_limit  # a fast answer after it is not used
+        deadline = None if limit is None else start + limit  # where the search stops
         if time_limit is not None and time_limit <= 0:
             return self._fallback(problem, start, time_limit)
         constants = resolve_constants(problem)
@@ -148,7 +152,7 @@ class CpSatSolver:
             except FastPathDeclined as exc:
                 self.stats[f"declined: {exc.reason}"] += 1
             else:
-                if deadline is not None and time.perf_counter() > deadline:
+                if hard is not None and time.perf_counter() > hard:
                     return self._fallback(problem, start, time_limit)
                 self.stats["fast"] += 1
                 return Hypothesis(time=t, actions=tuple(fast.actions), events=tuple(fast.events),
@@ -164,7 +168,7 @@ class CpSatSolver:
         for n, part in enumerate(parts):
             now = time.perf_counter()
             if deadline is not None and now >= deadline:
-                return self._fallback(problem, start, time_limit)
+                return self._fallback(problem, start, limit)
             am = build_model(part.problem, state, constants)
             prune(am, part.problem)  # the level-10/5 certificate where it checks (cpsat_certificate)
             # all that is left after building the model (a dense crowd's takes seconds, and it

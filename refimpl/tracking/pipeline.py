@@ -23,17 +23,22 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..solvers import BASELINE, DEFAULT_BACKEND, get_solver
+from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
 from .tracker import (AbductionTracker, DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult,
-                      sequence_constants)
+                      check_frame_budget, sequence_constants)
 
 AUTO = "auto"
 """Pick the preset by (format, class), falling back to the robust default."""
 NONE = "none"
 """No preset: model/constants.lp and the tracker's default options."""
+DEFAULT_FRAME_BUDGET_MS = 25.0
+"""The frame budget a real-time backend (refimpl.solvers.REAL_TIME: ``cpsat``) gets unless told
+otherwise: a 30 fps camera's 33 ms less room for applying the answer and a garbage collection.  On
+the 81 shared sequences no frame reaches it (the fast path answers every frame in a few ms), so the
+answers are those without a budget (docs/benchmarks.md, "The frame budget")."""
 
 
 @dataclass(frozen=True)
@@ -47,6 +52,9 @@ class Setup:
     time_limit: float | None = None
     preset: str = NONE
     """The preset the constants and options came from ("kitti/car", "default", or "none")."""
+    frame_budget: float | None = None
+    """Milliseconds a frame may take (refimpl.tracking.tracker.AbductionTracker), None: no budget.
+    setup_for gives a real-time backend DEFAULT_FRAME_BUDGET_MS unless told otherwise."""
 
     @property
     def baseline(self) -> bool:
@@ -56,20 +64,24 @@ class Setup:
         """One line for a user: which tracker and preset ran."""
         if self.baseline:
             return "baseline (SORT)"
+        budget = "" if self.frame_budget is None else f", frame budget {self.frame_budget:g} ms"
         if self.preset == NONE:
-            return f"{self.backend}, no preset (model/constants.lp, default tracker options)"
-        return f"{self.backend}, preset {self.preset}"
+            return f"{self.backend}, no preset (model/constants.lp, default tracker options){budget}"
+        return f"{self.backend}, preset {self.preset}{budget}"
 
 
 def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND,
               constants: Mapping[str, int] | None = None, options: Mapping[str, object] | None = None,
-              preset: str | None = AUTO, time_limit: float | None = None) -> Setup:
+              preset: str | None = AUTO, time_limit: float | None = None,
+              frame_budget: float | None | str = AUTO) -> Setup:
     """The Setup for a sequence of this format and class.
 
     ``preset``: AUTO (the preset of (format, class), or the robust default where there is none),
     NONE or None (no preset), or a preset's name (``kitti/car``, ``default``).  ``constants`` and
-    ``options`` ({name: value}) override the preset's.  ValueError (one sentence) for an unknown
-    preset, constant or option, or for constants/options given to the baseline."""
+    ``options`` ({name: value}) override the preset's.  ``frame_budget``: milliseconds per frame,
+    None (no budget) or AUTO (DEFAULT_FRAME_BUDGET_MS for a real-time backend,
+    refimpl.solvers.REAL_TIME, none for the oracles).  ValueError (one sentence) for an unknown
+    preset, constant or option, a bad budget, or for constants/options given to the baseline."""
     if backend == BASELINE:
         if constants or options:
             raise ValueError("model constants and tracker options need an abduction backend; the baseline is SORT")
@@ -82,7 +94,10 @@ def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND
         chosen = preset_named(preset)
     merged = merge_constants(chosen, constants)
     opts = merge_options(chosen, options)
-    return Setup(backend, tuple(merged.items()), opts, time_limit, chosen.name if chosen else NONE)
+    if isinstance(frame_budget, str) and frame_budget == AUTO:
+        frame_budget = DEFAULT_FRAME_BUDGET_MS if backend in REAL_TIME else None
+    return Setup(backend, tuple(merged.items()), opts, time_limit, chosen.name if chosen else NONE,
+                 check_frame_budget(frame_budget))
 
 
 FrameCallback = Callable[[], None]
@@ -101,7 +116,8 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
                             DEFAULT_MIN_HITS if min_hits is None else min_hits, setup.time_limit,
                             DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                             DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf,
-                            sink=sink, keep_records=keep_records, **setup.options.kwargs())
+                            sink=sink, keep_records=keep_records, frame_budget=setup.frame_budget,
+                            **setup.options.kwargs())
 
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,
@@ -147,7 +163,7 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
         return tracker.result()
     return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
                           tracker.track_records() if keep_records else (), tracker.frames, tracker.not_optimal,
-                          tracker.solve_ms)
+                          tracker.solve_ms, tracker.budget_hits, tracker.over_budget)
 
 
 def _timed(frames, frame_times: list | None):

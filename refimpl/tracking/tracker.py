@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from time import perf_counter
 from typing import Callable, Mapping
 
 import numpy as np
@@ -73,6 +74,21 @@ def _all_symbols(types) -> bool:
     except TypeError:  # unhashable: not a str; the constructor names it
         return False
     return all(map(is_symbol, kinds))
+
+
+def column_medians(values: np.ndarray) -> np.ndarray:
+    """``np.median(values, axis=0)`` of an (n, k) float array, n >= 1, bit for bit: the middle
+    value of each sorted column, or the mean of the two middle ones as np.mean takes it (their sum
+    from 0.0, divided by 2).  np.median's first call imports numpy.ma for its NaN check (~14 ms, once per
+    process, in the middle of a run: the slowest frame of a short run); a column with a NaN goes
+    to np.median, which then answers NaN as before."""
+    if not np.isfinite(values).all():
+        return np.median(values, axis=0)
+    s = np.sort(values, axis=0)
+    half = len(s) // 2
+    if len(s) % 2:  # np.mean's sum starts at 0.0: a lone -0.0 becomes 0.0
+        return (0.0 + s[half]) / 1
+    return (0.0 + s[half - 1] + s[half]) / 2
 
 
 class ResultSink:
@@ -131,6 +147,12 @@ class TrackingResult:
     frames: int
     not_optimal_frames: int
     solve_ms: float
+    budget_hits: int = 0
+    """Frames whose search the frame budget stopped (their best answer found so far, not proven
+    optimal; counted in not_optimal_frames too)."""
+    over_budget: int = 0
+    """Frames whose step took longer than the frame budget, whatever their answer (wall-clock; the
+    fast path and the tracker's own work are not interrupted)."""
 
 
 def _det_id(i: int) -> str:
@@ -148,7 +170,7 @@ class AbductionTracker:
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True,
-                 **options: object):
+                 frame_budget: float | None = None, **options: object):
         """``**options``: the tracker options by name (refimpl.tracking.options.TRACKER_OPTIONS; the module
         docstring says what the writing ones write; docs/tracking.md measures them); ValueError for
         an unknown name or a bad value.
@@ -158,7 +180,14 @@ class AbductionTracker:
         ``bridge_gap`` frames, a backfilled confirmation min_hits; ``delay``), instead of being kept; with ``keep_records=False`` as well, the
         tracker forgets everything a later frame does not need (finished tracks, all but the last
         observed box of a live one), so its memory does not grow with the sequence; then
-        :meth:`track_records` is empty.  :meth:`finish` hands over the rest."""
+        :meth:`track_records` is empty.  :meth:`finish` hands over the rest.
+
+        ``frame_budget``: milliseconds a frame may take (wall-clock, from building its problem to
+        the solver's answer; None: no budget).  The solver gets what is left of it as its
+        ``budget`` (refimpl.solvers: the search stops there with its best answer so far, flagged
+        not proven optimal; the fast path's answer, exact and not interrupted, is kept however
+        late), so a frame the fast path answers gets the same answer with any budget.  Counted:
+        ``budget_hits`` (frames the budget stopped), ``over_budget`` (frames that took longer)."""
         self.solver = solver
         chosen = TrackerOptions.from_mapping(options)  # ValueError if unknown or bad
         self.written_box = chosen.written_box
@@ -185,6 +214,9 @@ class AbductionTracker:
         self.frames = 0
         self.not_optimal = 0
         self.solve_ms = 0.0
+        self.frame_budget = check_frame_budget(frame_budget)
+        self.budget_hits = 0
+        self.over_budget = 0
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
@@ -277,16 +309,25 @@ class AbductionTracker:
     # -- steps 2-3 and the update ------------------------------------------------------------
     def step(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
              observer: FrameObserver | None = None) -> Hypothesis:
+        started = perf_counter()
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         problem = self.frame_problem(frame, boxes, confidences, types)
         check_ranges(problem, f"frame {frame}")
-        hyp = self.solver.solve(problem, time_limit=self.time_limit)
+        if self.frame_budget is None:
+            hyp = self.solver.solve(problem, time_limit=self.time_limit)
+        else:
+            left = max(0.0, self.frame_budget / 1000.0 - (perf_counter() - started))
+            hyp = self.solver.solve(problem, time_limit=self.time_limit, budget=left)  # type: ignore[call-arg]
+            # the budget stopped the search where it came before the time limit
+            self.budget_hits += not hyp.optimal and (self.time_limit is None or left < self.time_limit)
         if observer is not None:
             observer(problem, hyp)
         self.frames += 1
         self.not_optimal += not hyp.optimal
         self.solve_ms += hyp.solve_ms
         self._apply(frame, boxes, np.asarray(confidences), types, hyp)
+        if self.frame_budget is not None:
+            self.over_budget += (perf_counter() - started) * 1000.0 > self.frame_budget
         if self.sink is not None:
             self._flush(frame - self.delay)
             if not self.keep_records:
@@ -413,7 +454,7 @@ class AbductionTracker:
         rest, as in SORT) with fewer than two such tracks."""
         moving = [t.kalman.velocity for t in self.tracks.values()
                   if t.state == "active" and frame - 1 in t.observed and t.streak >= 1]
-        return np.median(np.array(moving), axis=0) if len(moving) >= 2 else None
+        return column_medians(np.array(moving)) if len(moving) >= 2 else None
 
     def _observe(self, trk: _Track, frame: int, box: np.ndarray, resumed: bool = False) -> None:
         """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
@@ -494,7 +535,18 @@ class AbductionTracker:
 
     def result(self) -> TrackingResult:
         return TrackingResult(self.result_rows(), tuple(self.events), self.track_records(), self.frames,
-                              self.not_optimal, self.solve_ms)
+                              self.not_optimal, self.solve_ms, self.budget_hits, self.over_budget)
+
+
+def check_frame_budget(ms: object) -> float | None:
+    """None, or a frame budget in milliseconds: a finite number >= 0 (ValueError, one sentence)."""
+    if ms is None:
+        return None
+    ok = not isinstance(ms, bool) and isinstance(ms, (int, float, np.integer, np.floating))
+    if not ok or not math.isfinite(ms) or ms < 0:
+        raise ValueError(f"a frame budget must be a finite number of milliseconds >= 0 (or None: no budget), "
+                         f"got {ms!r}")
+    return float(ms)
 
 
 def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,
@@ -516,7 +568,7 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
                    observer: FrameObserver | None = None, solver: Solver | None = None,
                    bridge_gap: int | None = None, bridge_conf: int | None = None,
                    compact_history: bool = True, sink: ResultSink | None = None,
-                   keep_records: bool = True, **options: object) -> TrackingResult:
+                   keep_records: bool = True, frame_budget: float | None = None, **options: object) -> TrackingResult:
     """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
     the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
 
@@ -527,13 +579,14 @@ def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, 
     tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
                                DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                                DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
-                               sink=sink, keep_records=keep_records, **options)
+                               sink=sink, keep_records=keep_records, frame_budget=frame_budget, **options)
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
     tracker.finish()
     if sink is not None:
         return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
                               tracker.track_records() if keep_records else (),
-                              tracker.frames, tracker.not_optimal, tracker.solve_ms)
+                              tracker.frames, tracker.not_optimal, tracker.solve_ms, tracker.budget_hits,
+                              tracker.over_budget)
     return tracker.result()
 
