@@ -196,19 +196,24 @@ def test_the_rank_rule_over_a_window_is_the_rule_over_the_last_scores(monkeypatc
 
 
 def test_without_history_update_gives_the_same_rows_and_keeps_nothing_behind():
-    # the demo sequence through Tracker() and Tracker(history=False): the rows of every update are
-    # equal; the second keeps no finished track and refuses what needs the history
+    # the demo sequence through Tracker(history=True) and Tracker() (the default, history=False):
+    # the rows of every update are equal; the second keeps no finished track and refuses what needs
+    # the history, saying how to have it
     seq = read_mot_detections(DEMO)
-    full, bounded = Tracker("cpsat", img_size=(640, 480)), Tracker("cpsat", img_size=(640, 480), history=False)
+    full, bounded = Tracker("cpsat", img_size=(640, 480), history=True), Tracker("cpsat", img_size=(640, 480))
+    assert (full.history, bounded.history) == (True, False)
     for frame in seq.frames:
         dets = np.column_stack([frame.boxes[:, :2], frame.boxes[:, :2] + frame.boxes[:, 2:], frame.scores])
         a, b = full.update(dets), bounded.update(dets)
         assert np.array_equal(a, b)
     assert len(full.result().rows) > 200 and full._tracker.finished  # tracks ended along the way
     assert bounded._tracker.finished == [] and bounded._frames == [] and bounded.frame == full.frame
-    for call in (bounded.result, bounded.scene, bounded.sequence, bounded.interpolated_rows):
-        with pytest.raises(ValueError, match=r"keeps no history"):
-            call()
+    for name in ("result", "scene", "sequence", "interpolated_rows", "events"):
+        with pytest.raises(ValueError) as info:
+            getattr(bounded, name)() if name != "events" else bounded.events
+        what = name if name == "events" else f"{name}()"
+        assert str(info.value) == (f"{what}: this Tracker keeps no history (the default, for bounded memory on "
+                                   "an endless stream); make it with Tracker(..., history=True) to have it")
 
 
 def test_a_pipe_takes_frame_one_million():
@@ -237,3 +242,4 @@ def test_a_noise_factor_beyond_the_bound_is_one_line(tmp_path, capsys):
         "argument --velocity-noise: velocity_noise must be a positive number up to 1e+06, got '1e308'")
     with pytest.raises(ValueError, match=r"area_noise must be a positive number up to 1e\+06, got 1e\+308"):
         Tracker("cpsat", area_noise=1e308)
+
