@@ -26,6 +26,9 @@ the whole history grew by 100 MB).  ``Tracker(..., history=True)`` keeps every f
 detections, track and event for ``result()``, ``scene()``, ``sequence()``, ``events`` and
 ``interpolated_rows()``; ``update`` returns the same rows either way.
 
+A Tracker of every backend pickles (``pickle``, ``copy.deepcopy``, a process pool), also
+mid-stream; the copy goes on as the original would (clingo's copy starts its own worker process).
+
 Class ids are object types by ``class_types`` (default COCO's 80 classes, refimpl.io.classes):
 0 person and 1 bicycle are the model's pedestrian and cyclist, 2 car, and every other class is a
 type of its own (a bus is tracked as ``bus``, never in one track with a car); an id the map does
