@@ -17,7 +17,17 @@ track resumed after at most ``bridge_gap`` hidden frames) are only known once th
 so an online caller never gets them, nor (with the tracker options ``backfill`` and
 ``fill_hidden``) the earlier frames a confirmation writes and the filled frames of an occlusion
 episode; ``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has
-them after the fact.
+them after the fact, on a tracker made with ``history=True``.
+
+The history is opt-in: by default a Tracker keeps only what the next frame needs (the streaming
+mode of ``refimpl track --dets -``), so its memory stays bounded on a camera stream of any length
+(docs/robustness.md, "Long streams": +7 to +10 MB from frame 10,000 to 40,000 of 5 objects, where
+the whole history grew by 100 MB).  ``Tracker(..., history=True)`` keeps every frame's
+detections, track and event for ``result()``, ``scene()``, ``sequence()``, ``events`` and
+``interpolated_rows()``; ``update`` returns the same rows either way.
+
+A Tracker of every backend pickles (``pickle``, ``copy.deepcopy``, a process pool), also
+mid-stream; the copy goes on as the original would (clingo's copy starts its own worker process).
 
 Class ids are object types by ``class_types`` (default COCO's 80 classes, refimpl.io.classes):
 0 person and 1 bicycle are the model's pedestrian and cyclist, 2 car, and every other class is a
@@ -118,12 +128,13 @@ class Tracker:
     fps: the frame rate, a finite number > 0 (default: none for "mot", as a det.txt without
         seqinfo.ini; 10 for "kitti"): the safety bound on halts (lost_after_hidden_max, 10 s of
         frames), as a seqinfo.ini's frameRate or ``refimpl track --fps``.
-    history: True (default): every frame's detections, every track's boxes and every event are
-        kept for ``result()``, ``scene()``, ``sequence()``, ``events`` and ``interpolated_rows()``,
-        so memory grows with the stream (~1.2 MB per 1,000 frames of 5 objects).  False: the
-        tracker runs in the streaming mode of ``refimpl track --dets -`` (it forgets finished
-        tracks and all but the boxes a later frame reads), so memory stays bounded on a stream of
-        any length; ``update`` returns the same rows, and those five raise ValueError.
+    history: False (default): the tracker runs in the streaming mode of ``refimpl track --dets -``
+        (it forgets finished tracks and all but the boxes a later frame reads), so memory stays
+        bounded on a stream of any length, and ``result()``, ``scene()``, ``sequence()``,
+        ``events`` and ``interpolated_rows()`` raise ValueError.  True: every frame's detections,
+        every track's boxes and every event are kept for those five, so memory grows with the
+        stream (1.2-3.3 MB per 1,000 frames of 5 objects): ask for it to look back at a video.
+        ``update`` returns the same rows either way.
     frame_budget: milliseconds an ``update`` may take for its frame problem and its solve
         (wall-clock), as ``refimpl track --frame-budget``: "auto" (default: 25 ms,
         refimpl.tracking.pipeline.DEFAULT_FRAME_BUDGET_MS, for the real-time backend ``cpsat``;
@@ -141,7 +152,7 @@ class Tracker:
                  bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
                  object_type: str | None = None, first_frame: int | None = None, name: str = "sequence",
                  fps: float | None = None, scores: str = "auto",
-                 class_types: Mapping[int, str] | None = None, history: bool = True,
+                 class_types: Mapping[int, str] | None = None, history: bool = False,
                  frame_budget: float | None | str = AUTO, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
@@ -209,8 +220,8 @@ class Tracker:
 
     def _kept(self, what: str) -> None:
         if not self.history:
-            raise ValueError(f"{what}: this Tracker(history=False) keeps no history (bounded memory on a long "
-                             "stream); make it with history=True (the default) to have it")
+            raise ValueError(f"{what}: this Tracker keeps no history (the default, for bounded memory on an "
+                             "endless stream); make it with Tracker(..., history=True) to have it")
 
     def __repr__(self) -> str:
         return f"refimpl.Tracker({self.setup.describe()}, image size {self.image_size}, fps {self.fps})"
@@ -448,31 +459,33 @@ class Tracker:
 
     @property
     def events(self) -> tuple[HistoryEvent, ...]:
-        """The abduced events so far, occurs_at(E, t) in time order (the paper's event sequence)."""
+        """The abduced events so far, occurs_at(E, t) in time order (the paper's event sequence);
+        ``history=True`` only."""
         self._kept("events")
         return tuple(self._tracker.events)
 
     def result(self) -> TrackingResult:
         """Everything so far as ``refimpl.tracking.tracker.track_sequence`` returns it (rows in MOT order
-        frame, id, x, y, w, h, including the interpolated rows of bridged gaps)."""
+        frame, id, x, y, w, h, including the interpolated rows of bridged gaps); ``history=True`` only."""
         self._kept("result()")
         return self._tracker.result()
 
     def interpolated_rows(self) -> np.ndarray:
         """The (n, 6) MOT rows that ``update`` could not report online: bridged gaps and, with
-        ``backfill`` / ``fill_hidden``, the earlier frames of a confirmation and filled occlusion episodes."""
+        ``backfill`` / ``fill_hidden``, the earlier frames of a confirmation and filled occlusion episodes;
+        ``history=True`` only."""
         self._kept("interpolated_rows()")
         rows = self._tracker.result_rows()
         keep = [(int(r[0]), int(r[1])) not in self._reported for r in rows]
         return rows[np.asarray(keep, dtype=bool)] if len(rows) else rows
 
     def sequence(self) -> DetectionSequence:
-        """The detections given so far as a DetectionSequence (refimpl.io)."""
+        """The detections given so far as a DetectionSequence (refimpl.io); ``history=True`` only."""
         self._kept("sequence()")
         return DetectionSequence(self.name, tuple(self._frames), self.first_frame, self.image_size, self.fps)
 
     def scene(self) -> Scene:
         """The scene so far (refimpl.scene.Scene): tracks, events and fluent timelines, for
-        refimpl.scene.query / explain and refimpl.scene.plots."""
+        refimpl.scene.query / explain and refimpl.scene.plots; ``history=True`` only."""
         self._kept("scene()")
         return scene_from_result(self.sequence(), self.result())

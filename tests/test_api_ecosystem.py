@@ -82,7 +82,10 @@ def test_boxmot_calls_on_kitti_give_the_rows_track_writes(shared_data, tmp_path,
         warnings.simplefilter("ignore")
         expected = _track_file(tmp_path, ["--dets", str(path), "--format", "kitti", "--class", "Car"])
         frames = io.read_kitti_detections(path, "car").num_frames  # the video's frames (label_02's count)
-    tracker = refimpl.Tracker(format="kitti", object_type="car")  # as BoxMOT: one tracker, then update per frame
+    # as BoxMOT: one tracker, then update per frame; the user's own, with its defaults (no history),
+    # and one that keeps the history, for the rows written after the fact
+    user = refimpl.Tracker(format="kitti", object_type="car")
+    tracker = refimpl.Tracker(format="kitti", object_type="car", history=True)
     image = np.zeros((375, 1242, 3), dtype=np.uint8)  # KITTI's image_02 size, as `track` assumes for a KITTI file
     dropped = []
     with warnings.catch_warnings(record=True) as caught:
@@ -90,11 +93,14 @@ def test_boxmot_calls_on_kitti_give_the_rows_track_writes(shared_data, tmp_path,
         for dets in _kitti_frames(path, frames):
             out = tracker.update(dets, image)
             assert out.shape[1] == 6 and set(out[:, 5]) <= {2.0}  # the car's class id comes back as it came
+            assert user.update(dets, image).tobytes() == out.tobytes()  # the history changes no row
         dropped = [str(w.message) for w in caught if issubclass(w.category, io.InputFormatWarning)]
     assert tracker.setup.preset == "kitti/car" and tracker.image_size == (1242, 375)
     assert _written(tmp_path, tracker, 0) == expected and len(expected) > 1000
-    # 0000's zero-width box (x1 == x2 at the image's right border) is dropped with one warning, as by the reader
-    assert len(dropped) == (1 if seq == "0000" else 0)
+    assert user.history is False and user._tracker.finished == []  # the default kept no finished track
+    # 0000's zero-width box (x1 == x2 at the image's right border) is dropped with one warning per
+    # tracker (two here), as by the reader
+    assert len(dropped) == (2 if seq == "0000" else 0)
 
 
 def _sv_detections(sv, dets: np.ndarray, class_id: int):
@@ -106,12 +112,15 @@ def test_trackers_calls_on_tud_campus_give_the_rows_track_writes(tmp_path):
     sv = pytest.importorskip("supervision")
     frames = _mot_frames(DEMO, 71)  # seqinfo.ini: 71 frames, 640 x 480, 25 fps
     expected = _track_file(tmp_path, ["--dets", str(_as_detector_wrote_it(tmp_path, frames))])
-    # roboflow trackers' user: SORTTracker(frame_rate=25).update(detections) -> Detections with tracker_id
-    tracker = refimpl.Tracker(fps=25, img_size=(640, 480))
+    # roboflow trackers' user: SORTTracker(frame_rate=25).update(detections) -> Detections with tracker_id;
+    # the user's tracker has the defaults (no history), the other keeps it for the rows after the fact
+    user = refimpl.Tracker(fps=25, img_size=(640, 480))
+    tracker = refimpl.Tracker(fps=25, img_size=(640, 480), history=True)
     seen: dict[int, set[int]] = {}
     for frame, dets in enumerate(frames, start=1):
         given = _sv_detections(sv, dets, 0)  # COCO 0: person
         out = tracker.update(given)
+        assert user.update(given).tracker_id.tobytes() == out.tracker_id.tobytes()  # the history changes no id
         assert out is not given and given.tracker_id is None  # the caller's Detections are left as they are
         assert list(out.class_id) == [0] * len(dets) and len(out.tracker_id) == len(dets)
         seen[frame] = {int(i) for i in out.tracker_id if i >= 0}
@@ -128,7 +137,7 @@ def test_trackers_calls_on_tud_campus_give_the_rows_track_writes(tmp_path):
 def test_boxmot_calls_on_tud_campus_take_the_image_size_from_the_image(tmp_path):
     frames = _mot_frames(DEMO, 71)
     expected = _track_file(tmp_path, ["--dets", str(_as_detector_wrote_it(tmp_path, frames))])
-    tracker = refimpl.Tracker(fps=25)  # no img_size: BoxMOT's user hands over each frame's image
+    tracker = refimpl.Tracker(fps=25, history=True)  # no img_size: BoxMOT's user hands over each frame's image
     image = np.zeros((480, 640, 3), dtype=np.uint8)
     for dets in frames:
         out = tracker.update(np.column_stack([dets, np.zeros(len(dets))]), image)
@@ -138,7 +147,7 @@ def test_boxmot_calls_on_tud_campus_take_the_image_size_from_the_image(tmp_path)
     _same_rows_to_a_rounding(expected, _track_file(tmp_path, ["--dets", str(DEMO)]))
     # the image's size is the field-of-view border: track 3 walks out at the right edge (x = 640) at
     # frame 28; without an image the border is not tested and the same track is only lost at 37
-    blind = refimpl.Tracker(fps=25)
+    blind = refimpl.Tracker(fps=25, history=True)
     for dets in frames:
         blind.update(dets)
     said, unsaid = {str(e) for e in tracker.events}, {str(e) for e in blind.events}
@@ -152,7 +161,7 @@ def test_a_coco_bus_is_tracked_as_its_own_type_with_its_class_id():
     # A bus (COCO 5) in frames 1-3, then a car (COCO 2) on exactly the same box in frames 4-6.
     # Confidence 90 > conf_thresh_new_track 40 (model/constants.lp) starts a track; min_hits=1 writes it at once.
     # Same box, IoU 1: only the type match keeps the car out of the bus's track, so the car starts track 2.
-    t = refimpl.Tracker(preset="none", min_hits=1)
+    t = refimpl.Tracker(preset="none", min_hits=1, history=True)
     box = [100.0, 50.0, 300.0, 150.0]
     out = [t.update(np.array([[*box, 0.9, 5.0 if k < 3 else 2.0]])) for k in range(6)]
     assert [o[:, 4:].tolist() for o in out[:3]] == [[[1.0, 5.0]]] * 3  # track 1, class id 5 in column 6
@@ -170,7 +179,7 @@ def test_the_class_id_comes_back_as_it_came_when_two_ids_name_one_type():
 
 
 def test_an_id_without_a_name_is_a_type_of_its_own():
-    t = refimpl.Tracker(preset="none", min_hits=1, class_types={2: "car"})
+    t = refimpl.Tracker(preset="none", min_hits=1, class_types={2: "car"}, history=True)
     out = t.update(np.array([[0, 0, 50, 50, 0.9, 2.0], [100, 0, 150, 50, 0.9, 80.0]]))
     assert out[:, 4:].tolist() == [[1.0, 2.0], [2.0, 80.0]]
     assert [r.type for r in t.result().tracks] == ["car", "class_80"]

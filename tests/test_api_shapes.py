@@ -54,12 +54,12 @@ def test_supervision_detections_get_the_ids_of_their_tracks(shared_data):
 def test_reset_gives_the_results_of_a_fresh_tracker(shared_data):
     car = _kitti(shared_data, "car")
     ped = _kitti(shared_data, "pedestrian", "0013")
-    t = refimpl.Tracker(format="kitti", object_type="car")
+    t = refimpl.Tracker(format="kitti", object_type="car", history=True)
     for fr in ped.frames:  # another video first: its tracks, events and scores must all be forgotten
         t.update(_xyxys(fr))
     t.reset()
     again = [t.update(_xyxys(fr)) for fr in car.frames]
-    u = refimpl.Tracker(format="kitti", object_type="car")
+    u = refimpl.Tracker(format="kitti", object_type="car", history=True)
     fresh = [u.update(_xyxys(fr)) for fr in car.frames]
     assert sum(len(r) for r in fresh) > 100
     assert all(np.array_equal(a, b) for a, b in zip(again, fresh))
@@ -71,7 +71,7 @@ def test_classes_in_one_stream_never_share_a_track(shared_data):
     # KITTI 0013's Car and Pedestrian detections as one (N, 6) stream (COCO ids: 2 car, 0 person):
     # every track holds detections of one class only (the type match of both encodings)
     car, ped = _kitti(shared_data, "car", "0013"), _kitti(shared_data, "pedestrian", "0013")
-    t = refimpl.Tracker(format="kitti", object_type="car")
+    t = refimpl.Tracker(format="kitti", object_type="car", history=True)
     owner_class: dict[int, set] = {}
     for fc, fp in zip(car.frames, ped.frames):
         dets = np.vstack([np.column_stack([_xyxys(fc), np.full(len(fc), 2.0)]),

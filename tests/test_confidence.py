@@ -131,7 +131,7 @@ def test_track_and_the_api_write_the_same_rows_whatever_the_score_scale(name, ru
     original = (tmp_path / "orig.txt").read_bytes()
     assert original and (tmp_path / "new.txt").read_bytes() == original
     seq = io.read_kitti_detections(rescaled, "pedestrian", scores_rule=rule)
-    tracker = refimpl.Tracker(format="kitti", object_type="pedestrian", scores=rule)
+    tracker = refimpl.Tracker(format="kitti", object_type="pedestrian", scores=rule, history=True)
     for fr in seq.frames:
         b = fr.boxes
         tracker.update(np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores]))

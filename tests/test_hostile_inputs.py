@@ -3,8 +3,11 @@ memory, a read serves Ctrl-C, and each case ends in one line with its exit code.
 
 from __future__ import annotations
 
+import html
 import io as stdio
+import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -196,19 +199,24 @@ def test_the_rank_rule_over_a_window_is_the_rule_over_the_last_scores(monkeypatc
 
 
 def test_without_history_update_gives_the_same_rows_and_keeps_nothing_behind():
-    # the demo sequence through Tracker() and Tracker(history=False): the rows of every update are
-    # equal; the second keeps no finished track and refuses what needs the history
+    # the demo sequence through Tracker(history=True) and Tracker() (the default, history=False):
+    # the rows of every update are equal; the second keeps no finished track and refuses what needs
+    # the history, saying how to have it
     seq = read_mot_detections(DEMO)
-    full, bounded = Tracker("cpsat", img_size=(640, 480)), Tracker("cpsat", img_size=(640, 480), history=False)
+    full, bounded = Tracker("cpsat", img_size=(640, 480), history=True), Tracker("cpsat", img_size=(640, 480))
+    assert (full.history, bounded.history) == (True, False)
     for frame in seq.frames:
         dets = np.column_stack([frame.boxes[:, :2], frame.boxes[:, :2] + frame.boxes[:, 2:], frame.scores])
         a, b = full.update(dets), bounded.update(dets)
         assert np.array_equal(a, b)
     assert len(full.result().rows) > 200 and full._tracker.finished  # tracks ended along the way
     assert bounded._tracker.finished == [] and bounded._frames == [] and bounded.frame == full.frame
-    for call in (bounded.result, bounded.scene, bounded.sequence, bounded.interpolated_rows):
-        with pytest.raises(ValueError, match=r"keeps no history"):
-            call()
+    for name in ("result", "scene", "sequence", "interpolated_rows", "events"):
+        with pytest.raises(ValueError) as info:
+            getattr(bounded, name)() if name != "events" else bounded.events
+        what = name if name == "events" else f"{name}()"
+        assert str(info.value) == (f"{what}: this Tracker keeps no history (the default, for bounded memory on "
+                                   "an endless stream); make it with Tracker(..., history=True) to have it")
 
 
 def test_a_pipe_takes_frame_one_million():
@@ -237,3 +245,90 @@ def test_a_noise_factor_beyond_the_bound_is_one_line(tmp_path, capsys):
         "argument --velocity-noise: velocity_noise must be a positive number up to 1e+06, got '1e308'")
     with pytest.raises(ValueError, match=r"area_noise must be a positive number up to 1e\+06, got 1e\+308"):
         Tracker("cpsat", area_noise=1e308)
+
+
+# -- control characters in what a command prints ----------------------------------------------
+
+HOSTILE = "\x1b[2J\x1b]0;owned\x07\r\x9b\u202e\x7f"
+"""Clear the screen, set the window title, return to the line's start, a C1 CSI, right-to-left, DEL."""
+SHOWN = r"\x1b[2J\x1b]0;owned\x07\r\x9b\u202e\x7f"
+"""The same as refimpl prints it: each control character as a Python string literal writes it."""
+
+
+def _controls(text: str) -> set[str]:
+    """The control characters (C0 but the newline, DEL, C1, the bidirectional ones) in text."""
+    return {c for c in text if (ord(c) < 32 and c != "\n") or 0x7F <= ord(c) < 0xA0 or 0x202A <= ord(c) <= 0x202E}
+
+
+@pytest.fixture(scope="module")
+def hostile_scene(tmp_path_factory):
+    """The demo's scene with the control characters in its name, in track 2's id (and the timeline
+    keys naming it) and in track 1's type."""
+    folder = tmp_path_factory.mktemp("hostile-scene")
+    scene = folder / "scene.json"
+    assert main(["track", "--dets", str(DEMO), "--out", str(folder / "r.txt"), "--scene", str(scene), "--quiet"]) == 0
+    data = json.loads(scene.read_text())
+    assert [t["id"] for t in data["tracks"][:2]] == ["trk_1", "trk_2"] and data["tracks"][1]["observed"]
+    data["name"] = "TUD" + HOSTILE
+    data["tracks"][0]["type"] = "pedestrian" + HOSTILE
+    data["tracks"][1]["id"] = "trk_2" + HOSTILE
+    data["timelines"] = {k.replace("(trk_2)", f"(trk_2{HOSTILE})"): v for k, v in data["timelines"].items()}
+    hostile = folder / "hostile.json"
+    hostile.write_text(json.dumps(data))
+    return hostile
+
+
+def test_control_characters_of_a_scene_are_escaped_on_the_terminal(hostile_scene, tmp_path, capsys):
+    # they reached the terminal raw through explain, query and report (the screen cleared, the
+    # title set); each is printed as its escape now, and the lines stay the lines they were
+    assert main(["explain", str(hostile_scene)]) == 0
+    out = capsys.readouterr().out
+    assert f"Track 1 (pedestrian{SHOWN}) entered the field of view at frame 1." in out.splitlines()
+    assert not _controls(out)
+    assert main(["query", str(hostile_scene), "tracks"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"trk_1 (pedestrian{SHOWN}): frames 1-")
+    assert lines[1].startswith(f"trk_2{SHOWN} (pedestrian): frames 1-") and not _controls("\n".join(lines))
+    # --json stays exact: JSON escapes them itself (\u001b), and the answer reads back as the file's id
+    assert main(["query", str(hostile_scene), "tracks", "--json"]) == 0
+    text = capsys.readouterr().out
+    answer = json.loads(text)["answer"]
+    assert not _controls(text) and answer[0]["type"] == f"pedestrian{HOSTILE}" and answer[1]["track"] == f"trk_2{HOSTILE}"
+    assert main(["report", str(hostile_scene), "--out", str(tmp_path / "r.html")]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"TUD{SHOWN}: ") and not _controls(out)
+    # a user's mistake naming the scene: its one error line too
+    assert main(["explain", str(hostile_scene), "--track", "trk_99"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"refimpl explain: error: no track trk_99 in scene TUD{SHOWN} (") and err.count("\n") == 1
+    assert not _controls(err)
+
+
+def test_the_html_report_holds_no_control_character_and_its_filter_still_matches(hostile_scene, tmp_path):
+    # html.escape left them in the page (raw on a terminal with --out -); the page shows them as
+    # their escapes, in its text, its attributes and the script's data alike, so the script's track
+    # ids are still the data-track attributes its filter compares them with
+    page = tmp_path / "r.html"
+    assert main(["report", str(hostile_scene), "--out", str(page)]) == 0
+    text = page.read_text(encoding="utf-8")
+    assert not _controls(text)
+    assert f"<h1>TUD{html.escape(SHOWN)} <small>" in text
+    data = json.loads(re.search(r'<script type="application/json" id="report-data">(.*?)</script>', text).group(1))
+    ids = {t[0] for t in data["tracks"]}
+    assert f"trk_2{SHOWN}" in ids and ["trk_1", 1, f"pedestrian{SHOWN}"] in data["tracks"]
+    attributes = {html.unescape(v) for v in re.findall(r'data-track="([^"]*)"', text) if "esc(" not in v}
+    assert f"trk_2{SHOWN}" in attributes and attributes <= ids
+
+
+def test_a_dollar_sign_in_a_scene_is_not_mathtext(hostile_scene, tmp_path, capsys):
+    # matplotlib read "a$\x$" (a type, a track id) as mathtext: a ParseFatalException traceback
+    pytest.importorskip("matplotlib")
+    data = json.loads(hostile_scene.read_text())
+    data["tracks"][0]["type"], data["name"] = "ped$\\frac$", "a$\\x$"
+    data["tracks"][1]["id"] = "trk_2$\\sqrt{$"
+    scene = tmp_path / "dollars.json"
+    scene.write_text(json.dumps(data))
+    assert main(["plot", str(scene), "--out", str(tmp_path / "a.png")]) == 0
+    assert main(["plot", str(scene), "--out", str(tmp_path / "b.png"), "--frame", "5"]) == 0
+    assert capsys.readouterr().out.splitlines() == [f"a$\\x$ frames 1-71: 9 tracks -> {tmp_path / 'a.png'}",
+                                                    f"a$\\x$ frame 5: 3 boxes -> {tmp_path / 'b.png'}"]

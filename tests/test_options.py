@@ -168,7 +168,7 @@ def test_a_new_track_starts_with_the_median_velocity_of_the_tracks_seen_last_fra
 
 def test_the_api_takes_options_by_name_and_hands_backfilled_rows_over_afterwards():
     from refimpl.api import Tracker
-    tracker = Tracker("cpsat", img_size=(1000, 600), backfill=True, preset="none")
+    tracker = Tracker("cpsat", img_size=(1000, 600), backfill=True, preset="none", history=True)
     reported = {}
     for fr in _late_pedestrian().frames:
         b = fr.boxes

@@ -18,6 +18,7 @@ import threading
 import warnings
 from typing import Sequence
 
+from ..core.display import visible
 from ..core.errors import UserFacingError
 from ..core.loader import load
 from ..experiments.progress import Progress  # noqa: F401  (re-exported, as refimpl/cli.py had it)
@@ -42,7 +43,7 @@ answer), and a Dask cluster that cannot be reached or used (refimpl.experiments.
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"refimpl: warning: {message}", file=sys.stderr)
+    print(f"refimpl: warning: {visible(str(message))}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -150,15 +151,15 @@ def _run(args: argparse.Namespace) -> int:
     try:
         return load(COMMANDS[args.command])(args)
     except USER_ERRORS as exc:
-        print(f"refimpl {args.command}: error: {exc}", file=sys.stderr)
+        print(f"refimpl {args.command}: error: {visible(str(exc))}", file=sys.stderr)
         return EXIT_USAGE
     except BrokenPipeError:
         sys.stderr.close()  # the reader went away (e.g. `| head`): not an error of ours
         return EXIT_OK
     except OSError as exc:
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        print(f"refimpl {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        print(visible(f"refimpl {args.command}: error: {where}{exc.strerror or exc}"), file=sys.stderr)
         return EXIT_USAGE
     except CheckFailed as exc:
-        print(f"refimpl {args.command}: check failed: {exc}", file=sys.stderr)
+        print(f"refimpl {args.command}: check failed: {visible(str(exc))}", file=sys.stderr)
         return EXIT_FAILURE

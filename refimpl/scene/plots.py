@@ -18,6 +18,7 @@ import os
 
 from . import EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, load_scene
 from ..knowledge.events import EVENT_TABLE
+from ..core.display import visible
 from ..core.spec import natural_key
 from ..io.outputs import atomic_file, check_outputs
 
@@ -90,8 +91,15 @@ def _range(scene: Scene, frames: str | None) -> tuple[int, int]:
     return lo, hi
 
 
+def _shown(text: str) -> str:
+    """A scene's string as a picture shows it: its control characters escaped (refimpl.core.display),
+    and a dollar sign as itself, not the start of matplotlib's mathtext (a track type "a$\\x$" was
+    a ParseFatalException traceback)."""
+    return visible(text).replace("$", r"\$")
+
+
 def _label(t: SceneTrack) -> str:
-    return f"{t.number} {t.type}"
+    return _shown(f"{t.number} {t.type}")
 
 
 def halted_spans(scene: Scene, t: SceneTrack) -> list[tuple[int, int, bool]]:
@@ -148,7 +156,7 @@ def plot_timeline(scene: Scene, out: str, tracks: list[SceneTrack] | None = None
     ax.set_xlabel("frame")
     ax.set_ylabel("track (number, type), by first frame")
     ax.grid(axis="x", linestyle=":", linewidth=0.5)
-    ax.set_title(f"{scene.name}: space-time picture of {n} tracks, frames {lo}-{hi}")
+    ax.set_title(_shown(f"{scene.name}: space-time picture of {n} tracks, frames {lo}-{hi}"))
     handles = [Patch(color=OBSERVED_COLOUR, label="observed"),
                Patch(color=RESUMED_COLOUR, label="halted, then resumed (hidden / missing)"),
                Patch(color=ENDED_COLOUR, label="halted, then ended (or still halted)")]
@@ -233,11 +241,11 @@ def plot_frame(scene: Scene, frame: int, out: str, tracks: list[SceneTrack] | No
                 break
             y = min(y + lh, height - lh)
         placed.append((x, y, lw, lh))
-        ax.text(x + 0.02 * per_in, y + lh / 2, str(t.number), color="white", fontsize=8, zorder=3, va="center",
+        ax.text(x + 0.02 * per_in, y + lh / 2, _shown(str(t.number)), color="white", fontsize=8, zorder=3, va="center",
                 bbox=dict(facecolor=colour, edgecolor="none", pad=1.0, alpha=0.9))
     ax.set_xlabel("x (px)")
     ax.set_ylabel("y (px)")
-    ax.set_title(f"{scene.name}, frame {frame}: {len(boxes)} tracks")
+    ax.set_title(_shown(f"{scene.name}, frame {frame}: {len(boxes)} tracks"))
     legend = [Line2D([], [], color="#444444", linewidth=1.8, label="observed"),
               Line2D([], [], color="#444444", linewidth=1.8, linestyle="--", label="halted (predicted box)")]
     if size:
@@ -245,10 +253,10 @@ def plot_frame(scene: Scene, frame: int, out: str, tracks: list[SceneTrack] | No
                                 label="ego region (in front)"))
     ax.legend(handles=legend, loc="upper right", ncol=3, fontsize=8, framealpha=0.85)
     text.axis("off")
-    text.text(0, 1, title, va="top", ha="left", fontsize=9, weight="bold", transform=text.transAxes)
+    text.text(0, 1, _shown(title), va="top", ha="left", fontsize=9, weight="bold", transform=text.transAxes)
     for i, col in enumerate(columns):
         text.text(i / max(len(columns), 1), 1 - 0.3 / (text.get_position().height * fig_h),
-                  "\n".join(col or (["(none)"] if i == 0 else [])), va="top", ha="left", family="monospace",
+                  "\n".join(map(_shown, col or (["(none)"] if i == 0 else []))), va="top", ha="left", family="monospace",
                   fontsize=8, transform=text.transAxes)
     fig.savefig(out, format="png")
     return len(boxes)

@@ -25,6 +25,7 @@ import html
 import json
 
 from ..core.constants import default_constants
+from ..core.display import visible
 from ..knowledge.events import EVENT_TABLE, explaining
 from ..knowledge.relations import RELATION_CODES
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
@@ -47,7 +48,9 @@ LABEL_W, PLOT_W, ROW_H, AXIS_H = 110.0, 1060.0, 14.0, 22.0
 
 
 def _e(text) -> str:
-    return html.escape(str(text), quote=True)
+    """Text of the page: its control characters written out (refimpl.core.display: a scene file's
+    ``\x1b`` shows as such, on a terminal too with ``--out -``), then HTML-escaped."""
+    return html.escape(visible(str(text)), quote=True)
 
 
 def _marker(code: str, x: float, y: float, colour: str) -> str:
@@ -199,11 +202,15 @@ def frame_data(report: Report) -> dict:
     index = {t.track: i for i, t in enumerate(report.tracks)}
     frames = [[[index[b.track], *b.box, STATES.index(b.state), index.get(b.hidden_by, -1) if b.hidden_by else -1]
                for b in states] for states in report.frames]
-    return {"name": report.name, "first": report.first_frame, "last": report.last_frame, "frame": report.frame,
-            "canvas": list(report.canvas), "ego": list(report.ego_region) if report.ego_region else None,
-            "tracks": [[t.track, t.number, t.type] for t in report.tracks], "states": list(STATES),
+    # the scene's strings as the page's text shows them (_e), so that the script's track ids are the
+    # data-track attributes it compares them with
+    return {"name": visible(report.name), "first": report.first_frame, "last": report.last_frame,
+            "frame": report.frame, "canvas": list(report.canvas),
+            "ego": list(report.ego_region) if report.ego_region else None,
+            "tracks": [[visible(t.track), visible(str(t.number)) if isinstance(t.number, str) else t.number,
+                        visible(t.type)] for t in report.tracks], "states": list(STATES),
             "stateText": [STATE_TEXT[s] for s in STATES], "stateColours": [STATE_COLOURS[s] for s in STATES],
-            "frames": frames, "relations": [list(r) for r in report.relations],
+            "frames": frames, "relations": [[visible(line) for line in r] for r in report.relations],
             "explanations": len(report.explanations)}
 
 

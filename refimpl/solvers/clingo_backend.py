@@ -118,6 +118,15 @@ def check_representable(problem: FrameProblem, parts: Sequence[Part] | None = No
                                "backends solve it (64-bit sums)", f"t={problem.time}", len(bad))
 
 
+def _clingo_module():
+    """The clingo module; SolverUnavailable (one line) without the 'asp' extra."""
+    try:
+        import clingo
+    except ImportError:
+        raise SolverUnavailable(_INSTALL_HINT) from None
+    return clingo
+
+
 class _Best:
     """Keeps a copy of the last model clingo reports (the best so far); called from clingo's thread."""
 
@@ -154,13 +163,9 @@ class ClingoSolver:
                  decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
                  recycle: int | None = None, inline_solves: int = INLINE_SOLVES, checked_costs: bool = False,
                  name: str = CLINGO, certify: bool | None = None, own_constants: Sequence[str] = ()):
-        try:
-            import clingo
-        except ImportError:
-            raise SolverUnavailable(_INSTALL_HINT) from None
         if int(threads) < 1:
             raise ValueError(f"threads must be >= 1, got {threads}")
-        self._clingo = clingo
+        self._clingo = _clingo_module()
         self.name = name
         """The registry name it answers under (``get_solver`` passes its entry's)."""
         self.threads = int(threads)
@@ -188,6 +193,19 @@ class ClingoSolver:
             self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files,
                                          "certify": self.certify, "own_constants": self.own_constants},
                                         DEFAULT_RECYCLE if recycle is None else recycle)
+
+    def __getstate__(self) -> dict:
+        """Pickled (``pickle``, ``copy.deepcopy``, a Dask task) without the clingo module and the
+        worker's child process, which cannot be pickled: the copy imports clingo again on
+        unpickling and starts a child of its own when it first needs one (ClingoWorker's state).
+        clingo keeps nothing between two solves, so the copy answers as the original does."""
+        state = dict(self.__dict__)
+        del state["_clingo"]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._clingo = _clingo_module()
 
     @property
     def child_cpu_seconds(self) -> float:

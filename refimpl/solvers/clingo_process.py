@@ -84,6 +84,13 @@ class ClingoWorker:
         self.cpu_seconds = 0.0
         """CPU time the children spent in the solves they answered."""
 
+    def __getstate__(self) -> dict:
+        """Pickled without its child process (a process and a pipe cannot be pickled): the copy
+        starts a child of its own at its first solve, and the original's child stays the original's."""
+        state = dict(self.__dict__)
+        state.update(_proc=None, _conn=None, _served=0)
+        return state
+
     def _start(self) -> None:
         self._proc, self._conn = start_child(CHILD_MODULE)
         self._conn.send(self.options)

@@ -1,8 +1,10 @@
 """The user's path on every shared real sequence: single-input ``refimpl track`` with its defaults
 must run on all 53 (MOT15 11 with SORT's detections, KITTI Car 21, KITTI Pedestrian 21) and write
 exactly the bytes that ``track --out-dir`` and ``benchmark --results-dir`` write, and the library's
-``refimpl.Tracker`` with its defaults must give the same rows (``result().rows``; byte for byte
-for KITTI, to the files' 0.01 px for MOTChallenge, whose x, y, w, h the API takes as x1..y2).
+``refimpl.Tracker`` with its defaults and ``history=True`` must give the same rows (``result().rows``;
+byte for byte for KITTI, to the files' 0.01 px for MOTChallenge, whose x, y, w, h the API takes as
+x1..y2), and every frame's ``update`` must return the same bytes with its defaults (no history,
+bounded memory) as with ``history=True``.
 
     python tests/tools/check_user_path.py [--data ../shared/data] [--work DIR]
 
@@ -41,8 +43,10 @@ def sequence_name(path: Path) -> str:
     return path.parent.parent.name if path.parent.name == "det" else path.stem
 
 
-def api_rows(path: Path, fmt: str, cls: str) -> bytes:
-    """The library with its defaults, fed the file's boxes and raw scores frame by frame."""
+def api_rows(path: Path, fmt: str, cls: str) -> tuple[bytes, bool]:
+    """The library with its defaults and history=True, fed the file's boxes and raw scores frame by
+    frame: its rows as a results file, and whether every update returned the bytes a tracker with
+    the defaults only (no history) returned."""
     import numpy as np
 
     import refimpl
@@ -50,11 +54,14 @@ def api_rows(path: Path, fmt: str, cls: str) -> bytes:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         seq = io.get_format(fmt).read_detections(path, object_class=cls)
-    tracker = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps)
+    tracker = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps, history=True)
+    user = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps)
+    online = True
     for fr in seq.frames:
         b = fr.boxes
-        tracker.update(np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores]))
-    return io.results_formatter(io.MOT, seq.first_frame, cls)(tracker.result().rows).encode()
+        dets = np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores])
+        online &= tracker.update(dets).tobytes() == user.update(dets).tobytes()
+    return io.results_formatter(io.MOT, seq.first_frame, cls)(tracker.result().rows).encode(), online
 
 
 def close(a: bytes, b: bytes) -> bool:
@@ -99,14 +106,15 @@ def main() -> int:
                 print(f"{group}/{name}: FAILED (exit {one.returncode}): {one.stderr.strip().splitlines()[-1:]}")
                 continue
             mine = single.read_bytes()
-            api = api_rows(path, fmt, cls)
+            api, online = api_rows(path, fmt, cls)
             same = {"out-dir": mine == (work / group / f"{name}.txt").read_bytes(),
                     "benchmark": mine == (work / "benchmark" / group / f"{name}.txt").read_bytes(),
-                    "api": mine == api or close(mine, api)}
+                    "api": mine == api or close(mine, api), "api-update": online}
             rows = mine.count(b"\n")
             verdict = "equal" if all(same.values()) else "DIFFERS: " + ", ".join(k for k, v in same.items() if not v)
             bad += not all(same.values())
-            print(f"{group}/{name}: {rows} rows; track --out == --out-dir == benchmark == API: {verdict}")
+            print(f"{group}/{name}: {rows} rows; track --out == --out-dir == benchmark == API, API update() "
+                  f"with == without history: {verdict}")
     print(f"{total} sequences, {total - bad} equal, {bad} failing ({time.perf_counter() - started:.0f} s; "
           f"files in {work})")
     return 1 if bad or total != 53 else 0
