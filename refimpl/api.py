@@ -52,6 +52,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
+from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -88,6 +89,19 @@ def _is_detections(obj) -> bool:
 def confidences_from_scores(scores: ArrayLike) -> np.ndarray:
     """Scores in [0, 1] as the paper's integer confidences 0..100 (round half up, as refimpl.io)."""
     return np.floor(100.0 * np.asarray(scores, dtype=float) + 0.5).astype(np.int64)
+
+
+@dataclass(frozen=True)
+class FrameCounts:
+    """How the frames so far were answered (``Tracker.counts``, kept with or without history)."""
+
+    frames: int
+    not_optimal_frames: int
+    """Frames whose answer is not proven optimal (out of time or out of budget)."""
+    budget_hits: int
+    """Frames the frame budget stopped (best answer found so far)."""
+    over_budget: int
+    """Frames that took longer than the budget (a proven answer is kept however late)."""
 
 
 class Tracker:
@@ -139,8 +153,8 @@ class Tracker:
         (wall-clock), as ``refimpl track --frame-budget``: "auto" (default: 25 ms,
         refimpl.tracking.pipeline.DEFAULT_FRAME_BUDGET_MS, for the real-time backend ``cpsat``;
         none for the oracles), None (no budget) or a number >= 0.  A frame that reaches it gets
-        the best answer found so far, flagged not proven optimal; ``result().budget_hits`` counts
-        them, ``result().over_budget`` the frames that took longer (the fast path, exact and
+        the best answer found so far, flagged not proven optimal; ``counts.budget_hits`` counts
+        them, ``counts.over_budget`` the frames that took longer (the fast path, exact and
         never interrupted, answers however late).  A caller with a deadline per frame may also
         want ``gc.freeze()`` after its set-up: a full garbage collection walks every object the
         process keeps (docs/benchmarks.md, "The slowest frames").
@@ -463,6 +477,13 @@ class Tracker:
         ``history=True`` only."""
         self._kept("events")
         return tuple(self._tracker.events)
+
+    @property
+    def counts(self) -> FrameCounts:
+        """Frames so far, and how many were not proven optimal or hit the frame budget: what
+        ``refimpl track`` says on stderr; kept without history too."""
+        t = self._tracker
+        return FrameCounts(t.frames, t.not_optimal, t.budget_hits, t.over_budget)
 
     def result(self) -> TrackingResult:
         """Everything so far as ``refimpl.tracking.tracker.track_sequence`` returns it (rows in MOT order

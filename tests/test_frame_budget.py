@@ -113,12 +113,18 @@ def test_a_bad_budget_is_one_sentence(bad):
 
 def test_the_library_counts_the_frames_over_budget_in_its_result():
     seq = crowd_sequence()
-    tracker = refimpl.Tracker("cpsat", img_size=(1920, 1080), fps=30.0, scores="probability", frame_budget=5.0)
-    for fr in seq.frames:
-        b = fr.boxes
-        tracker.update(np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores]))
-    result = tracker.result()
-    assert result.budget_hits == 1 == result.not_optimal_frames and result.frames == 7
+    # the default tracker keeps no history: its counts say it; with history, result() says the same
+    for history in (False, True):
+        tracker = refimpl.Tracker("cpsat", img_size=(1920, 1080), fps=30.0, scores="probability", frame_budget=5.0,
+                                  history=history)
+        for fr in seq.frames:
+            b = fr.boxes
+            tracker.update(np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], fr.scores]))
+        counts = tracker.counts
+        assert counts.budget_hits == 1 == counts.not_optimal_frames and counts.frames == 7
+        if history:
+            result = tracker.result()
+            assert (result.budget_hits, result.not_optimal_frames, result.frames) == (1, 1, 7)
 
 
 def _write_mot(seq: DetectionSequence, path) -> None:
