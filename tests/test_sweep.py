@@ -112,4 +112,4 @@ def test_progress_goes_to_a_terminal_stderr_only(tmp_path):
     assert run_cli(["track", "--backend", "cpsat", "--dets", det, "--out", str(tmp_path / "b.txt"), "--quiet"],
                    stderr=_Terminal())[2] == ""
     assert run_cli(["track", "--backend", "cpsat", "--dets", det, "--out", str(tmp_path / "c.txt")])[2] == \
-        "refimpl track: note: cpsat, preset mot/pedestrian\n"
+        "refimpl track: note: cpsat, preset mot/pedestrian, frame budget 25 ms\n"

@@ -45,7 +45,7 @@ def test_every_block_runs_and_the_four_ways_agree(tmp_path, monkeypatch):
                     _sh(line, tmp_path)
     out = printed.getvalue()
     # the array way ran the preset `track` runs on a det.txt, with the image's size
-    assert "cpsat, preset mot/pedestrian (640, 480)" in out
+    assert "cpsat, preset mot/pedestrian, frame budget 25 ms (640, 480)" in out
     # the Detections way: every detection of the last frame has an id or -1, its class as it came (0)
     assert set(scope["tracked"].class_id) == {0} and len(scope["tracked"].tracker_id) == len(scope["tracked"])
     # the file the page writes holds the detector's floats bit for bit, so `track` on it writes the
