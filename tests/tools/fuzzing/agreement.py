@@ -29,7 +29,7 @@ Input ``i`` comes from ``random.Random(f"{seed}/{i}")`` (``--only i`` regenerate
   again (up to 20 times; counted as ``refused``).
 * **sequence** (1 in 5): a short detection sequence (3-14 frames, 1-6 walking objects or 10-16, misses,
   crossings, confidences at the edges, a small image or none) tracked with the first backend
-  while every frame is solved again by the others (refimpl.experiments.diff.diff_sequence: same history).
+  while every frame is solved again by the others (refimpl.runs.diff.diff_sequence: same history).
 
 Outcomes: ``agree`` (all proven optimal, equal), ``infeasible`` (every backend: no admissible
 answer), ``not-proven`` (some backend hit the time limit: answers checked, not compared),
@@ -352,7 +352,7 @@ def run_one(index: int, seed: int, solvers: Sequence, time_limit: float = TIME_L
                               draws_refused=refused)
             outcome, detail = judge_frame(problem, solvers, time_limit)
             return Result(index, target, outcome, detail, problem, time.perf_counter() - t0, refused)
-        from refimpl.experiments.diff import diff_sequence
+        from refimpl.runs.diff import diff_sequence
         seq = random_sequence(rng)
         rep = diff_sequence(seq, _names(solvers), solvers=solvers, time_limit=time_limit)
         if rep.first_divergence is not None:
