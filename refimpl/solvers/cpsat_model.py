@@ -19,7 +19,8 @@ import numpy as np
 if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
-from ..knowledge.events import EVENT_TABLE, EventState, EventType, anticipated_unhide, explaining, reexplained
+from ..knowledge.events import EventState
+from ..knowledge.event_table import EVENT_TABLE, EventType, anticipated_unhide, explaining, reexplained
 from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..core.spec import Detection, FrameProblem, TrackPrediction, parse_atom
 from ..knowledge.relations import area

@@ -17,7 +17,8 @@ from typing import Mapping
 
 from .check import check_answer  # the checker decides admissibility and the cost
 from ..core.constants import resolve_constants
-from ..knowledge.events import EventState, explaining, poss, reexplained
+from ..knowledge.events import EventState, poss
+from ..knowledge.event_table import explaining, reexplained
 from ..core.hypothesis import Hypothesis
 from ..core.spec import FrameProblem
 

@@ -43,7 +43,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ..core.geometry import integer_box, integer_boxes, iou_matrix, scale_iou
-from ..knowledge.events import explaining
+from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman
 from .options import TrackerOptions, WrittenBox

@@ -20,7 +20,7 @@ Input ``i`` comes from ``random.Random(f"{seed}/{i}")`` (``--only i`` regenerate
   across the image border) or at the accepted limits (coordinates at +-2^28, widths and heights
   up to the area limits, 1x1 boxes); IoU facts from the boxes or at the edges (0, 1, the
   thresholds +-1, 100000); confidences 0, 100, the thresholds +-1; an event history from
-  refimpl.knowledge.events.EVENT_TABLE (every event, right arity, on current and gone tracks, times at
+  refimpl.knowledge.event_table.EVENT_TABLE (every event, right arity, on current and gone tracks, times at
   curr_time-1, mintime, +-2^30, repeated), plus now and then an unknown event; curr_time at 0,
   1, +-2^30; ``#const`` overrides at their edge values (0, +-1, the default +-1, +-2^30, the
   32-bit limits), each kept only when ``refimpl.core.ranges.check_constant`` accepts it.  An input
@@ -53,7 +53,7 @@ import numpy as np
 
 from refimpl.solvers.check import check_answer
 from refimpl.core.constants import default_constants
-from refimpl.knowledge.events import EVENT_TABLE, explaining
+from refimpl.knowledge.event_table import EVENT_TABLE, explaining
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.hypothesis import Hypothesis
 from refimpl.core.ranges import BOX_LIMIT, TIME_LIMIT, check_constant, check_ranges
