@@ -237,7 +237,7 @@ def test_run_requests_regroups_tasks_per_request():
     from refimpl.evaluation.evaluate import evaluate_many
     from refimpl.runs.scaleout import Plan
     from refimpl.experiments.benchmark_tasks import RunRequest, run_requests
-    from refimpl.tracking.tracker import track_sequence
+    from refimpl.tracking.pipeline import track_sequence
 
     seq = io.demo_sequence_paths()
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)
