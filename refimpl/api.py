@@ -123,7 +123,7 @@ class Tracker:
         field-of-view border).  Without it the first frame's image (``update(dets, img)``) gives
         it; without either the border is not tested, as for a det.txt without seqinfo.ini
         (format "kitti": 1242 x 375 until an image says otherwise).
-    min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracking.tracker.track_sequence``.
+    min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracking.pipeline.track_sequence``.
     **options: tracker option overrides by name (refimpl.tracking.options.TRACKER_OPTIONS), e.g.
         ``written_box="detection"``, on top of the preset.
     scores: how a score becomes the model's confidence, as the file readers do it (refimpl.io.SCORE_RULES,
@@ -486,7 +486,7 @@ class Tracker:
         return FrameCounts(t.frames, t.not_optimal, t.budget_hits, t.over_budget)
 
     def result(self) -> TrackingResult:
-        """Everything so far as ``refimpl.tracking.tracker.track_sequence`` returns it (rows in MOT order
+        """Everything so far as ``refimpl.tracking.pipeline.track_sequence`` returns it (rows in MOT order
         frame, id, x, y, w, h, including the interpolated rows of bridged gaps); ``history=True`` only."""
         self._kept("result()")
         return self._tracker.result()

@@ -20,7 +20,7 @@ import numpy as np
 
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
-from refimpl.knowledge.events import explaining
+from refimpl.knowledge.event_table import explaining
 
 CURR_TIME = 50
 

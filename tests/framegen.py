@@ -8,7 +8,7 @@ import numpy as np
 
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
-from refimpl.knowledge.events import EVENT_TABLE, EventType, explaining
+from refimpl.knowledge.event_table import EVENT_TABLE, EventType, explaining
 
 TYPES = ("car", "person")
 CURR_TIME = 40

@@ -11,7 +11,7 @@ from refimpl.core.spec import FrameProblem, natural_key
 def plain_tiebreak(problem: FrameProblem):
     """The canonical tie-break (refimpl/solvers/common.py docstring) written out the slow way:
     components by repeated flooding over the admissible pairs, indices by a plain sort."""
-    from refimpl.knowledge.events import EFFECTS, EVENT_NAMES
+    from refimpl.knowledge.event_table import EFFECTS, EVENT_NAMES
     from refimpl.solvers.cpsat import assignment_constraints, resume_constraints
 
     consts = resolve_constants(problem)
@@ -75,13 +75,13 @@ def plain_level0(problem: FrameProblem, actions, events) -> int:
 
 # --- the explanation part's numbers for hand-derived expectations ----------------------------
 # A test that derives a level-0 value by hand names the events and counts the nodes; these read
-# the rest from the event table (refimpl.knowledge.events.EVENT_TABLE), so that a new event does not reopen
+# the rest from the event table (refimpl.knowledge.event_table.EVENT_TABLE), so that a new event does not reopen
 # the derivation: a node's indices are its arity-1 events in table order (0, 1, ...), then, for
 # each arity-2 event in table order, one per other track of its candidate list; E is the bit
 # length of the sum over the nodes of each node's largest index (refimpl/solvers/common.py).
 
 def _names(arity: int) -> list[str]:
-    from refimpl.knowledge.events import EVENT_TABLE
+    from refimpl.knowledge.event_table import EVENT_TABLE
     return [name for name, e in EVENT_TABLE.items() if e.arity == arity]
 
 

@@ -11,7 +11,8 @@ import refimpl
 from refimpl import io
 from refimpl.api import confidences_from_scores
 from refimpl.cli import main
-from refimpl.tracking.tracker import DEFAULT_BRIDGE_GAP, track_sequence
+from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.tracker import DEFAULT_BRIDGE_GAP
 from refimpl.solvers import BACKENDS, LIBRARIES
 
 

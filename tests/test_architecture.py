@@ -4,10 +4,12 @@ exactly one layer, and imports refimpl modules only from its own layer or the la
 from __future__ import annotations
 
 import ast
+import re
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
-import re
-from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 PACKAGE = REPO / "refimpl"
@@ -120,7 +122,7 @@ def test_the_checker_can_tell_a_bad_import():
     place_layer, may = layer_table()
     assert layer_of("io.results", place_layer) not in may[layer_of("tracking.tracker", place_layer)]
     assert layer_of("cli.parser", place_layer) not in may[layer_of("solvers.cpsat", place_layer)]
-    assert layer_of("experiments.diff", place_layer) not in may[layer_of("scene.queries", place_layer)]
+    assert layer_of("runs.diff", place_layer) not in may[layer_of("scene.queries", place_layer)]
 
 
 def test_every_package_folder_is_installed():
@@ -130,3 +132,60 @@ def test_every_package_folder_is_installed():
     listed = set(tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))["tool"]["setuptools"]["packages"])
     folders = {".".join(p.parent.relative_to(REPO).parts) for p in PACKAGE.rglob("__init__.py")}
     assert folders <= listed, f"package folders missing from pyproject.toml: {sorted(folders - listed)}"
+
+
+# The product's entry points: the library, and the modules of the commands a user tracks, solves,
+# cross-checks, scores and reads scenes with (cli.parser.COMMANDS: track; solve and diff; eval;
+# query, explain, plot, report, render).
+PRODUCT_ROOTS = ("api", "cli.tracking", "cli.solving", "cli.evaluation", "cli.scenes")
+
+# The one exception, named: the parser builds every command's options at once, the benchmarks'
+# too, and its `benchmark --peers` / `--shift` help lists the names of two registries of the
+# lab bench. Nothing else of experiments/ may be reached, and nothing through another module.
+PARSER_READS = ("experiments.peer_table", "experiments.shifts")
+
+
+def reached_from(roots) -> dict[str, str]:
+    """Every refimpl module importing the roots loads, each with the module that first imports it:
+    a module's refimpl imports and the packages it sits in (importing a.b.c runs a/__init__ and
+    a/b/__init__ first)."""
+    known = modules()
+    by: dict[str, str] = {r: "" for r in roots}
+    todo = list(roots)
+    while todo:
+        here = todo.pop()
+        parts = here.split(".")
+        parents = {".".join(parts[:i]) for i in range(1, len(parts))}
+        for dep in sorted(refimpl_imports(known[here]) | parents):
+            if dep in known and dep not in by:
+                by[dep] = here
+                todo.append(dep)
+    return by
+
+
+def test_the_product_does_not_reach_the_lab_bench():
+    # experiments/ holds what is measured; the library and the product's commands run through
+    # runs/, tracking/ and below, never through it (issue 40)
+    by = reached_from(PRODUCT_ROOTS)
+    bench = {m: by[m] for m in by if m.split(".")[0] == "experiments"}
+    allowed = {"experiments": bench.get("experiments"), **{m: "cli.parser" for m in PARSER_READS}}
+    assert bench == allowed, "\n".join(f"{m} imported by {i}" for m, i in sorted(bench.items()))
+    # the product's runner sits below experiments/: the layer table keeps it there
+    place_layer, may = layer_table()
+    assert "experiments" not in may[layer_of("runs.scaleout", place_layer)]
+    assert {"runs.scaleout", "runs.tasks", "runs.diff", "runs.progress"} <= set(by)
+
+
+def test_the_product_check_can_tell_a_bench_import():
+    # the walk follows packages and relative imports: benchmark's module reaches the benchmarks
+    assert "experiments.benchmarks" in reached_from(["cli.benchmarks"])
+    assert "experiments.benchmarks" not in reached_from(PRODUCT_ROOTS)
+
+
+def test_the_product_loads_no_bench_module():
+    # the same, as Python loads it: importing the library and the product's command modules puts
+    # no module of experiments/ in sys.modules but the parser's two name tables (and their package)
+    code = ("import sys, " + ", ".join(f"refimpl.{r}" for r in PRODUCT_ROOTS) + "\n"
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('refimpl.experiments'))))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True).stdout
+    assert set(out.split()) == {f"refimpl.{m}" for m in ("experiments", *PARSER_READS)}

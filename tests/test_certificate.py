@@ -18,7 +18,7 @@ pytest.importorskip("clingo")
 from certificate_frames import OUTSIDE_THE_WITNESS  # noqa: E402
 from refimpl.core.facts import parse_facts  # noqa: E402
 from refimpl.core.spec import FrameProblem  # noqa: E402
-from refimpl.knowledge.events import EVENT_TABLE  # noqa: E402
+from refimpl.knowledge.event_table import EVENT_TABLE  # noqa: E402
 from refimpl.solvers import get_solver  # noqa: E402
 from refimpl.solvers.certificate import Certificate, certificate, certificate_facts  # noqa: E402
 from refimpl.solvers.clingo_backend import ClingoSolver, default_model_files  # noqa: E402

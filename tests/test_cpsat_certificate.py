@@ -19,7 +19,8 @@ from refimpl.experiments.synthetic import dense_frame  # noqa: E402
 from refimpl.knowledge.events import EventState  # noqa: E402
 from refimpl.solvers import NoAdmissibleHypothesis  # noqa: E402
 from refimpl.solvers.cpsat_certificate import prune  # noqa: E402
-from refimpl.solvers.cpsat_model import PAIR_ORDER, TIEBREAK_LEVEL, build_model, solve_lexicographic  # noqa: E402
+from refimpl.solvers.cpsat_model import PAIR_ORDER, TIEBREAK_LEVEL, build_model  # noqa: E402
+from refimpl.solvers.cpsat_lexicographic import solve_lexicographic  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from framegen import random_frame  # noqa: E402
@@ -121,7 +122,7 @@ def test_out_of_time_the_stand_in_answer_has_the_witnesss_assigns():
     # confirms it), and its level 10 is the optimum's (the witness reaches the bound, 2.10).
     from refimpl.core.hypothesis import Hypothesis
     from refimpl.solvers.check import check_answer
-    from refimpl.solvers.cpsat_model import _trivial_solution
+    from refimpl.solvers.cpsat_lexicographic import _trivial_solution
     problem = dense_frame(60, 1)
     am = build_model(problem, EventState.from_problem(problem), resolve_constants(problem))
     assert prune(am, problem)[0] and len(am.witness) > 40

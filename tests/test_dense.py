@@ -12,7 +12,8 @@ from refimpl.core.constants import resolve_constants
 from refimpl.knowledge.events import EventState
 from refimpl.solvers import get_solver
 from refimpl.solvers.common import components
-from refimpl.solvers.cpsat_model import build_model, solve_lexicographic
+from refimpl.solvers.cpsat_model import build_model
+from refimpl.solvers.cpsat_lexicographic import solve_lexicographic
 from refimpl.core.spec import Detection, FrameProblem
 from refimpl.experiments.synthetic import DENSE_TYPE, dense_frame, iou_facts
 

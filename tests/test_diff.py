@@ -1,4 +1,4 @@
-"""Frame-by-frame backend diff (refimpl.experiments.diff) and its command."""
+"""Frame-by-frame backend diff (refimpl.runs.diff) and its command."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from pathlib import Path
 from refimpl.io.datasets import benchmark_sequences
 from refimpl import io
 from refimpl.cli import main
-from refimpl.experiments.diff import diff_sequence
+from refimpl.runs.diff import diff_sequence
 from refimpl.solvers import get_solver
 
 REPO = Path(__file__).resolve().parent.parent

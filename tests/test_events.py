@@ -7,19 +7,15 @@ import random
 import pytest
 
 from refimpl.core.constants import resolve_constants
-from refimpl.knowledge.events import (
+from refimpl.knowledge.events import EventState, _fluent_key, fluent_key, poss, possible_events
+from refimpl.knowledge.event_table import (
     EFFECTS,
-    EventState,
-    _fluent_key,
-    fluent_key,
-    poss,
     poss_hides_behind,
     poss_lost,
     poss_missing_detections,
     poss_noise,
     poss_recover,
     poss_unhides_from_behind,
-    possible_events,
 )
 from refimpl.core.spec import FrameProblem, HistoryEvent, TrackPrediction
 from refimpl.core.facts import parse_term

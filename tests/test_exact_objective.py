@@ -22,13 +22,12 @@ from refimpl.solvers.check import check_answer
 from refimpl.core.constants import resolve_constants
 from refimpl.knowledge.events import EventState
 from refimpl.solvers import get_solver
-from refimpl.solvers.cpsat_model import (
-    OBJECTIVE_BITS,
+from refimpl.solvers.cpsat_model import OBJECTIVE_BITS, build_model
+from refimpl.solvers.cpsat_lexicographic import (
     _chunk_pairs,
     _pack_levels,
     _range,
     _span,
-    build_model,
     objective_groups,
     objective_plan,
     solve_lexicographic,

@@ -335,7 +335,7 @@ REAL = [("mot15", "TUD-Campus"), ("mot15", "KITTI-17"), ("kitti-car", "0000")]
 @pytest.mark.parametrize("suite,name", REAL)
 def test_fast_path_equals_full_model_on_every_frame_of_a_real_sequence(shared_data, suite, name):
     from refimpl import io
-    from refimpl.tracking.tracker import track_sequence
+    from refimpl.tracking.pipeline import track_sequence
 
     seqs = {s.name: s for s in benchmark_sequences(suite, shared_data)}
     if name not in seqs:

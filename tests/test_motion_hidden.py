@@ -7,7 +7,7 @@ import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.tracking.motion import HIDDEN_MAX_SPEED, BoxKalman
-from refimpl.tracking.tracker import track_sequence
+from refimpl.tracking.pipeline import track_sequence
 
 
 def _moving(n: int, x0: float = 100.0, vx: float = 10.0, w: float = 40.0, h: float = 80.0, grow: float = 0.0):

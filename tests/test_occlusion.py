@@ -203,7 +203,7 @@ def test_a_target_missed_just_before_it_hides_needs_the_reexplained_ignore(tmp_p
     pytest.importorskip("clingo")
     import dataclasses
 
-    from refimpl.experiments.diff import diff_sequence
+    from refimpl.runs.diff import diff_sequence
     from refimpl.core.hypothesis import parse_action
     from refimpl.tracking.pipeline import Setup, run_sequence
     from refimpl.solvers.asp_model import load_asp_model

@@ -11,7 +11,8 @@ import pytest
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
 from refimpl.tracking.options import OPTIONS_BY_NAME, TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
 from refimpl.solvers import get_solver
-from refimpl.tracking.tracker import AbductionTracker, track_sequence
+from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.tracker import AbductionTracker
 from test_streaming import _walk
 from test_tracker import _occlusion_sequence
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from refimpl import cli
-from refimpl.experiments.tasks import results_file_name
+from refimpl.runs.tasks import results_file_name
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus"
@@ -99,7 +99,7 @@ def test_two_local_workers_write_the_same_bytes(inputs, serial, tmp_path):
 
 
 def test_the_scale_out_rule_runs_small_work_serially():
-    from refimpl.experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER, Plan, run_tasks
+    from refimpl.runs.scaleout import LOCAL_MIN_FRAMES_PER_WORKER, Plan, run_tasks
     two = Plan(workers=2)
     assert two.frames_threshold == 2 * LOCAL_MIN_FRAMES_PER_WORKER
     assert two.serial_for(2 * LOCAL_MIN_FRAMES_PER_WORKER - 1) and not two.serial_for(2 * LOCAL_MIN_FRAMES_PER_WORKER)
@@ -129,11 +129,11 @@ def _worker_state(item):
 
 
 def test_embedded_workers_freeze_what_they_inherit_and_leave_ctrl_c_to_the_command():
-    # refimpl.experiments.worker_start runs in each forked worker: gc.freeze() (the inherited heap
+    # refimpl.runs.worker_start runs in each forked worker: gc.freeze() (the inherited heap
     # is not visited, so not copied, by the worker's collections) and SIGINT ignored; the command's
     # own process is left as it was (nothing frozen, its Ctrl-C handler kept).  Each item travels
     # pickled (scaleout.call_pickled) and comes back as it went.
-    from refimpl.experiments.scaleout import Plan, run_tasks
+    from refimpl.runs.scaleout import Plan, run_tasks
     before = gc.get_freeze_count(), signal.getsignal(signal.SIGINT)
     out = run_tasks(_worker_state, [("a", 1), ("b", 2)], Plan(workers=2), quiet=True)
     assert [item for item, *_ in out] == [("a", 1), ("b", 2)]
@@ -170,7 +170,7 @@ def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, 
 
         # results come back in input order although the first task finishes last: two workers,
         # task 0 sleeps 1.5 s while tasks 1 and 2 (no sleep) finish on the other worker
-        from refimpl.experiments.scaleout import Plan, run_tasks
+        from refimpl.runs.scaleout import Plan, run_tasks
         items = [["sleep", "1.5"], ["true"], ["echo"]]
         finished = []
         done = run_tasks(subprocess.run, items, Plan(scheduler=address), quiet=True,
@@ -219,7 +219,7 @@ def test_several_dets_need_out_dir():
 
 
 def test_an_unreachable_scheduler_is_a_one_line_error(tmp_path, monkeypatch):
-    from refimpl.experiments import scaleout
+    from refimpl.runs import scaleout
     monkeypatch.setattr(scaleout, "DEFAULT_CONNECT_TIMEOUT", 1.0)  # nothing listens on port 9
     code, _, err = run_cli(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(tmp_path / "x.txt"),
                             "--scheduler", "tcp://127.0.0.1:9", "--quiet"])
@@ -235,9 +235,9 @@ def test_run_requests_regroups_tasks_per_request():
     from refimpl import io
     from refimpl.tracking.baseline import track_sequence as sort_track
     from refimpl.evaluation.evaluate import evaluate_many
-    from refimpl.experiments.scaleout import Plan
+    from refimpl.runs.scaleout import Plan
     from refimpl.experiments.benchmark_tasks import RunRequest, run_requests
-    from refimpl.tracking.tracker import track_sequence
+    from refimpl.tracking.pipeline import track_sequence
 
     seq = io.demo_sequence_paths()
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)

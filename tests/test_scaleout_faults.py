@@ -25,8 +25,8 @@ pytest.importorskip("distributed")
 
 from refimpl import cli  # noqa: E402
 
-from refimpl.experiments import scaleout  # noqa: E402
-from refimpl.experiments.scaleout import ClusterError, Plan, check_address, run_tasks  # noqa: E402
+from refimpl.runs import scaleout  # noqa: E402
+from refimpl.runs.scaleout import ClusterError, Plan, check_address, run_tasks  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus"
@@ -416,7 +416,7 @@ def _children(pid: int) -> list[str]:
 
 def test_ctrl_c_on_a_local_cluster_is_the_commands_one_line(long_inputs, tmp_path):
     # a Ctrl-C reaches the whole process group, the forked workers included: they ignore it
-    # (refimpl.experiments.worker_start) and the command closes its cluster, says one line and
+    # (refimpl.runs.worker_start) and the command closes its cluster, says one line and
     # exits 130, writing nothing (before, every worker printed its KeyboardInterrupt traceback)
     import signal
     run = subprocess.Popen([sys.executable, "-m", "refimpl", "track", "--backend", "cpsat", "--dets", *long_inputs,

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from refimpl import io
-from refimpl.experiments import scaleout
-from refimpl.experiments.scaleout import Plan, run_tasks
-from refimpl.experiments.tasks import PackedSequence, TrackJob, pack_sequence, track_job, unpack_sequence
+from refimpl.runs import scaleout
+from refimpl.runs.scaleout import Plan, run_tasks
+from refimpl.runs.tasks import PackedSequence, TrackJob, pack_sequence, track_job, unpack_sequence
 from refimpl.tracking.pipeline import Setup, run_sequence
 
 KITTI_0011 = "/work/shared/data/KITTI/tracking/training/det_02_pointrcnn/Car/0011.txt"

@@ -18,7 +18,7 @@ import pytest
 
 from refimpl import io
 from refimpl.solvers.cpsat import CpSatSolver
-from refimpl.tracking.tracker import track_sequence
+from refimpl.tracking.pipeline import track_sequence
 
 REPO = Path(__file__).resolve().parent.parent
 

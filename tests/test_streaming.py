@@ -11,7 +11,8 @@ import pytest
 
 from refimpl.io import (DetectionSequence, ResultWriter, event_json_line, event_line, format_mot_results,
                         read_mot_detections)
-from refimpl.tracking.tracker import AbductionTracker, track_sequence
+from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.tracker import AbductionTracker
 from refimpl.solvers import get_solver
 
 from refimpl.experiments.measure_memory import frames as walk_frames

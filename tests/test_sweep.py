@@ -9,7 +9,7 @@ import math
 import pytest
 
 from refimpl import cli, io
-from refimpl.experiments.scaleout import Plan
+from refimpl.runs.scaleout import Plan
 from refimpl.experiments.sweep import SweepPlan, format_sweep, grid_settings, run_sweep, split_dataset, val_sequences
 from refimpl.experiments.benchmark_tasks import RunRequest, RunSummary
 

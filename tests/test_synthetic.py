@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from refimpl.knowledge.events import EventState, explaining
+from refimpl.knowledge.events import EventState
+from refimpl.knowledge.event_table import explaining
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.spec import IOU_SCALE, FrameProblem, write_facts
 from refimpl.core.facts import parse_facts, read_problem

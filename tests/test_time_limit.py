@@ -12,7 +12,7 @@ from refimpl.solvers.check import check_answer
 from refimpl.solvers import get_solver
 from refimpl.solvers.fallback import obvious_hypothesis
 from refimpl.core.facts import read_problem
-from refimpl.tracking.tracker import track_sequence
+from refimpl.tracking.pipeline import track_sequence
 
 
 def test_obvious_hypothesis_ignores_detections_and_halts_active_tracks(examples):

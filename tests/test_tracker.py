@@ -12,7 +12,7 @@ from refimpl import io
 from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.io import write_event_log, write_event_log_json
 from refimpl.solvers import BACKENDS
-from refimpl.tracking.tracker import track_sequence
+from refimpl.tracking.pipeline import track_sequence
 
 
 def _occlusion_sequence() -> DetectionSequence:

@@ -11,7 +11,7 @@ import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
 from refimpl.tracking.options import TRACKER_OPTIONS, TrackerOptions, WrittenBox
-from refimpl.tracking.tracker import track_sequence
+from refimpl.tracking.pipeline import track_sequence
 
 # one object over three frames, moving right and getting wider (x, y, w, h)
 BOXES = [(100.0, 100.0, 40.0, 80.0), (104.0, 100.0, 44.0, 80.0), (109.0, 101.0, 46.0, 80.0)]

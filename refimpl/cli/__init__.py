@@ -21,8 +21,8 @@ from typing import Sequence
 from ..core.display import visible
 from ..core.errors import UserFacingError
 from ..core.loader import load
-from ..experiments.progress import Progress  # noqa: F401  (re-exported, as refimpl/cli.py had it)
-from ..experiments.scaleout import ClusterError
+from ..runs.progress import Progress  # noqa: F401  (re-exported, as refimpl/cli.py had it)
+from ..runs.scaleout import ClusterError
 from ..solvers import BACKENDS  # noqa: F401
 from .common import (  # noqa: F401  (the public names of refimpl.cli)
     BENCHMARKS,
@@ -39,7 +39,7 @@ from .parser import COMMANDS, build_parser
 USER_ERRORS: tuple[type[BaseException], ...] = (UserFacingError, ClusterError)
 """What a command may raise that ends it with one line and exit code 2: every refimpl error deriving
 from refimpl.core.errors.UserFacingError (a mistake in an argument or a file, a problem without an
-answer), and a Dask cluster that cannot be reached or used (refimpl.experiments.scaleout)."""
+answer), and a Dask cluster that cannot be reached or used (refimpl.runs.scaleout)."""
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:

@@ -21,7 +21,7 @@ from ..experiments.occlusion_bench import format_results, parse_variant, run_sui
 from ..experiments.shifts import SHIFTS_BEGIN, SHIFTS_END, parse_shifts, shift_table, shifted_dataset
 from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
                                  peer_class, per_sequence_table)
-from ..experiments.progress import Progress
+from ..runs.progress import Progress
 from ..experiments.sweep import format_sweep, plan_sweep, run_sweep, sweep_json
 from ..experiments.table6 import BenchmarkRun, format_table6
 from ..experiments.benchmark_tasks import RunRequest, run_requests

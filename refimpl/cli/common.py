@@ -10,7 +10,7 @@ from contextlib import contextmanager
 
 from .. import io
 from ..core.errors import UserFacingError
-from ..experiments.scaleout import Plan
+from ..runs.scaleout import Plan
 from ..io.datasets import DATASETS as BENCHMARKS  # noqa: F401  (the one dataset catalogue)
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND, TRACKERS  # noqa: F401  (the registry)
 from ..tracking.options import TrackerOptions
@@ -140,7 +140,7 @@ def _option_flags_given(args: argparse.Namespace) -> bool:
 
 
 def _plan(args: argparse.Namespace):
-    """Where the tasks of a many-sequence command run (refimpl.experiments.scaleout)."""
+    """Where the tasks of a many-sequence command run (refimpl.runs.scaleout)."""
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers must be >= 1, got {args.workers}")
     if args.workers is not None and args.scheduler is not None:

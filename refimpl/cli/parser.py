@@ -8,7 +8,7 @@ import argparse
 from .. import __version__
 from ..evaluation import DEVKITS
 from ..experiments.peer_table import PEERS
-from ..experiments.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
+from ..runs.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
 from ..experiments.shifts import SHIFTS
 from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES, shipped_examples
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS

@@ -12,8 +12,8 @@ from ..core.ranges import check_constant, check_ranges
 from ..core.spec import ProblemFormatError, with_constants
 from ..core.facts import read_problem
 from ..core.hypothesis import cost_list_text, cost_text
-from ..experiments.diff import DiffJob, DiffReport, diff_job
-from ..experiments.scaleout import run_tasks
+from ..runs.diff import DiffJob, DiffReport, diff_job
+from ..runs.scaleout import run_tasks
 from ..io.datasets import load_dataset
 from ..solvers import BACKENDS, CLINGO, get_solver
 from ..solvers.asp_model import AspModelError, load_asp_model

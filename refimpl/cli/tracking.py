@@ -14,9 +14,9 @@ from .. import io
 from ..core.constants import default_constants
 from ..core.loader import load
 from ..core.ranges import check_constant
-from ..experiments.progress import Progress
-from ..experiments.scaleout import run_tasks
-from ..experiments.tasks import SCENE_FROM_RESULT, SCENE_TO_JSON, AnswerCheck, TrackJob, results_file_name, track_job
+from ..runs.progress import Progress
+from ..runs.scaleout import run_tasks
+from ..runs.tasks import SCENE_FROM_RESULT, SCENE_TO_JSON, AnswerCheck, TrackJob, results_file_name, track_job
 from ..io import ResultWriter, results_formatter
 from ..io.outputs import OutputSet, STDOUT, check_outputs
 from ..solvers import BACKENDS, BASELINE, get_solver

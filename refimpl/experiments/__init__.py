@@ -1,1 +1,1 @@
-"""What is measured on the trackers and backends: benchmarks, Table 6, synthetic and occlusion suites, sweeps, calibration, peers, detector quality, backend diffs, per-sequence tasks and their scale-out."""
+"""What is measured on the trackers and backends: benchmarks, Table 6, synthetic and occlusion suites, sweeps, calibration, peers, detector quality and the scored per-sequence tasks. The product runs many sequences through refimpl.runs, never through this package."""

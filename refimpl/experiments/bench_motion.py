@@ -18,7 +18,7 @@ from pathlib import Path
 from ..evaluation.evaluate import combine, evaluate_many
 from .occlusion_bench import parse_variant
 from ..io.datasets import load_dataset
-from ..tracking.tracker import track_sequence
+from ..tracking.pipeline import track_sequence
 
 VAL_SEQMAP = Path("KITTI/tracking/training/evaluate_tracking.seqmap.val")
 

@@ -2,7 +2,7 @@
 truth (``benchmark``, ``table6``, ``sweep``, ``calibrate``), as picklable jobs and a module-level
 function, and the requests' scores regrouped from the tasks' results.
 
-Apart from refimpl.experiments.tasks (the track and diff jobs) because scoring needs the scorer
+Apart from refimpl.runs.tasks (the track and diff jobs) because scoring needs the scorer
 and scipy: a worker of ``refimpl track --workers N`` never imports them.  As there, a job carries
 its data (detections, ground truth), and its result depends on the job only.
 """
@@ -21,8 +21,8 @@ from ..io import DetectionSequence, GroundTruth
 from ..solvers import BASELINE
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import NONE, Setup, run_sequence
-from .scaleout import run_tasks
-from .tasks import pack_sequence, unpack_sequence
+from ..runs.scaleout import run_tasks
+from ..runs.tasks import pack_sequence, unpack_sequence
 
 
 # ---------------------------------------------------------------------------------------
@@ -40,7 +40,7 @@ class BenchmarkJob:
     """Its request without the sequences (what a worker needs to know, nothing more)."""
 
     def __reduce__(self):
-        # its detections packed, as a TrackJob's (refimpl.experiments.tasks.pack_sequence); the
+        # its detections packed, as a TrackJob's (refimpl.runs.tasks.pack_sequence); the
         # ground truth is a few arrays already
         return _unpack_benchmark_job, (self.name, pack_sequence(self.dets), self.gt, self.request)
 

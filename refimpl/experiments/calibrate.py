@@ -43,7 +43,7 @@ from ..solvers import DEFAULT_BACKEND
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import NONE
 from ..tracking.presets import DEFAULT_KEY, Preset, load_presets, preset_entry, presets_path
-from .scaleout import Plan, run_tasks
+from ..runs.scaleout import Plan, run_tasks
 from .table6 import run_benchmark
 from .benchmark_tasks import RunRequest, run_requests
 
@@ -176,7 +176,7 @@ def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] 
               backend: str = DEFAULT_BACKEND, plan=None, quiet: bool = True,
               loso: bool | None = None) -> Calibration:
     """Run the grid on a benchmark and rank it; see the module docstring.  The grid points run as
-    tasks on ``plan`` (refimpl.experiments.scaleout.Plan: serial by default, or a Dask cluster), each with
+    tasks on ``plan`` (refimpl.runs.scaleout.Plan: serial by default, or a Dask cluster), each with
     the dataset it tracks; results come back in grid order whatever the worker count."""
 
     check_tunable(benchmark, data_root)

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..core.geometry import iou_matrix
 from ..evaluation.evaluate import evaluate_sequence
-from ..knowledge.events import EVENT_TABLE
+from ..knowledge.event_table import EVENT_TABLE
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import Setup, run_sequence

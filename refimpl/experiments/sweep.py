@@ -1,7 +1,7 @@
 """Parameter sweeps: a benchmark tracked and scored for every combination of model constants.
 
 Each (setting, sequence) pair is one task (refimpl.experiments.benchmark_tasks.benchmark_job), so a sweep spreads
-over a Dask cluster like any many-sequence command (refimpl.experiments.scaleout); the table lists the
+over a Dask cluster like any many-sequence command (refimpl.runs.scaleout); the table lists the
 settings in grid order (the first constant varies slowest), whatever order tasks finish in.
 
 Tuning on KITTI uses ``split="tune"``: the 10 training sequences outside
@@ -102,7 +102,7 @@ def plan_sweep(benchmark: str, data_root: str, backend: str, grid: Sequence[tupl
 
 
 def run_sweep(sweep: SweepPlan, plan, quiet: bool = False) -> SweepResult:
-    """Every setting x sequence as a task on the plan's workers (refimpl.experiments.scaleout)."""
+    """Every setting x sequence as a task on the plan's workers (refimpl.runs.scaleout)."""
     runs = run_requests(sweep.requests, plan, label="sweep", quiet=quiet)
     return SweepResult(sweep, tuple(runs))
 

@@ -58,7 +58,7 @@ import numpy as np
 from ..core.geometry import integer_box, intersection_area, iou_matrix, scale_iou
 from ..knowledge.relations import overlapping_top
 from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, write_facts
-from ..knowledge.events import EventType, explaining
+from ..knowledge.event_table import EventType, explaining
 from ..solvers.common import components
 from ..io.outputs import OutputSet
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 from typing import Callable, Sequence
 
 from ..knowledge import relations as rel
-from ..knowledge.events import EVENT_TABLE
+from ..knowledge.event_table import EVENT_TABLE
 from .episodes import hiding_end, hiding_episodes
 from .model import Box, Scene, SceneError, SceneTrack
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..knowledge.events import EVENT_TABLE, HIDING_KINDS, explaining, halting
+from ..knowledge.event_table import EVENT_TABLE, HIDING_KINDS, explaining, halting
 from ..core.spec import natural_key
 from .model import Scene, track_id
 
@@ -111,7 +111,7 @@ def _later(a: int, b: int) -> str:
 
 
 def explain_episode(scene: Scene, ep: Episode) -> str:
-    """One plain-English sentence for an episode (phrases from the event table, refimpl.knowledge.events)."""
+    """One plain-English sentence for an episode (phrases from the event table, refimpl.knowledge.event_table)."""
     who = _who(scene, ep.track, True) if ep.track else ""
     halt = halting(ep.kind)
     if halt is not None:

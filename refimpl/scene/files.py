@@ -15,7 +15,7 @@ from ..core.spec import HistoryEvent, ProblemFormatError
 from ..core.facts import parse_term
 from ..core.records import RecordTooLong, read_text
 from ..io import write_text_atomic
-from ..knowledge.events import EFFECTS
+from ..knowledge.event_table import EFFECTS
 from .model import Box, Scene, SceneError, SceneTrack
 
 

@@ -12,7 +12,8 @@ import bisect
 from dataclasses import dataclass, field
 from typing import Iterable, Mapping, Sequence
 
-from ..knowledge.events import EVENT_TABLE, EventState
+from ..knowledge.events import EventState
+from ..knowledge.event_table import EVENT_TABLE
 from ..core.errors import UserFacingError
 from ..core.spec import HistoryEvent, Term, natural_key
 

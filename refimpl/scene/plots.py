@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 
 from . import EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, load_scene
-from ..knowledge.events import EVENT_TABLE
+from ..knowledge.event_table import EVENT_TABLE
 from ..core.display import visible
 from ..core.spec import natural_key
 from ..io.outputs import atomic_file, check_outputs
@@ -27,7 +27,7 @@ RESUMED_COLOUR = "#ff7f0e"
 ENDED_COLOUR = "#9a9a9a"
 
 EVENT_STYLE = {name: (e.marker, e.colour, name) for name, e in EVENT_TABLE.items()}
-"""event name -> (marker, colour, label), from the event table (refimpl.knowledge.events)."""
+"""event name -> (marker, colour, label), from the event table (refimpl.knowledge.event_table)."""
 PAIR_EVENTS = frozenset(name for name, e in EVENT_TABLE.items() if e.arity == 2)
 """Events joined to the second track's row by a dotted line."""
 

@@ -8,7 +8,8 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from ..knowledge import relations as rel
-from ..knowledge.events import EventState, HALT_KINDS, HIDING_KINDS
+from ..knowledge.events import EventState
+from ..knowledge.event_table import HALT_KINDS, HIDING_KINDS
 from .anticipation import DEFAULT_CONFIG, ReasoningConfig, anticipate, no_anticipation_reason
 from .episodes import ENDINGS, episodes
 from .model import Box, Scene, SceneError, frame_runs, track_id

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..knowledge.events import HALT_KINDS, HIDING_KINDS
+from ..knowledge.event_table import HALT_KINDS, HIDING_KINDS
 from .plots import MIN_OBSERVED, frame_relation_lines, halted_spans
 from . import Box, EgoRegion, Scene, SceneError, episodes, explain_episode, frame_runs
 from .episodes import ENDINGS

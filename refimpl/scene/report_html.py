@@ -26,7 +26,7 @@ import json
 
 from ..core.constants import default_constants
 from ..core.display import visible
-from ..knowledge.events import EVENT_TABLE, explaining
+from ..knowledge.event_table import EVENT_TABLE, explaining
 from ..knowledge.relations import RELATION_CODES
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
 from ..io.outputs import check_outputs, write_atomic

@@ -14,7 +14,7 @@ from typing import Iterable, Sequence
 from .. import io
 from ..io.datasets import THROUGHPUT_DATASETS, benchmark_sequences
 from ..io.outputs import write_atomic
-from ..knowledge.events import EVENT_TABLE
+from ..knowledge.event_table import EVENT_TABLE
 from ..solvers import DEFAULT_BACKEND
 from ..tracking.pipeline import Setup, run_sequence
 from .anticipation import DEFAULT_CONFIG, Anticipation, ReasoningConfig, anticipate

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from typing import Mapping
 
-from ..knowledge.events import EventState, anticipated_unhide
+from ..knowledge.events import EventState
+from ..knowledge.event_table import anticipated_unhide
 from ..knowledge.relations import area
 from ..core.spec import Detection, FrameProblem, TrackPrediction
 

@@ -33,7 +33,7 @@ import numpy as np
 from ..core.assignment import linear_sum_assignment
 from ..core.constants import resolve_constants
 from ..core.spec import FrameProblem
-from ..knowledge.events import explaining
+from ..knowledge.event_table import explaining
 from .admissibility import assignment_constraints
 from .common import candidate_pairs
 

@@ -5,7 +5,7 @@ Given a frame problem and a hypothesis, it verifies every rule of the model
 constraint, every event's precondition, every halt/resume/start/end explained (and the ignore
 of a missing track that a track now covers from the front) and no event without its action —
 recomputes the cost vector from the answer, and reports each violation by the rule's label.  It shares only the problem data, the constants, the event-calculus
-state and the preconditions (refimpl.knowledge.events) with the backends: the numbers are the same,
+state and the preconditions (refimpl.knowledge.events, event_table) with the backends: the numbers are the same,
 the reasoning over them is written again here.
 """
 
@@ -15,7 +15,8 @@ from collections import defaultdict
 from dataclasses import dataclass
 
 from ..core.constants import resolve_constants
-from ..knowledge.events import EVENT_TABLE, EventState, poss
+from ..knowledge.events import EventState, poss
+from ..knowledge.event_table import EVENT_TABLE
 from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, Cost, Hypothesis
 from .common import tiebreak_level
 from ..core.spec import FrameProblem

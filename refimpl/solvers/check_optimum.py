@@ -28,7 +28,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from .check import FrameRules, check_answer, recompute_cost
-from ..knowledge.events import EVENT_TABLE, poss
+from ..knowledge.events import poss
+from ..knowledge.event_table import EVENT_TABLE
 from ..core.hypothesis import PRIORITIES, Cost, Hypothesis
 from .common import TiebreakWeights, event_term, tiebreak_weights
 from ..core.spec import FrameProblem

@@ -27,7 +27,7 @@ Levels 10..1 leave ties.  Level 0 makes the optimum unique on every frame:
   options of one node always differ at level 3 (ignore costs 10@3, end/start/halt 0@3; an active
   track has no other solo action than halt), so the actions are unique.
 * explanation part: every event a track (or detection) can explain an action with has an index
-  idx >= 0 among the events of its first argument: the arity-1 events in refimpl.knowledge.events.EVENT_NAMES
+  idx >= 0 among the events of its first argument: the arity-1 events in refimpl.knowledge.event_table.EVENT_NAMES
   order, then for each arity-2 event the other tracks that overlap the track's box (decreasing
   overlap, then natural order) or that its history names (natural order).  A chosen event weighs
   idx.  The events of one action have distinct indices and, given the actions, each action's
@@ -54,7 +54,8 @@ from typing import Iterable, NamedTuple, Sequence
 import numpy as np
 
 from ..core.constants import resolve_constants
-from ..knowledge.events import EFFECTS, EVENT_NAMES, EventState
+from ..knowledge.events import EventState
+from ..knowledge.event_table import EFFECTS, EVENT_NAMES
 from ..core.ranges import EXPLANATION_LIMIT
 from ..core.spec import Box, FrameProblem, event_of, natural_key, parse_atom
 from .admissibility import assignment_constraints, resume_constraints

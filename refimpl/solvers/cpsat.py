@@ -23,9 +23,10 @@ component, and only when its optimum is unique; otherwise (ties, inadmissible tr
 components) the full CP-SAT model above answers.  See the section "The fast exact path" in
 refimpl/solvers/fast_path.py and docs/benchmarks.md for why this gives the identical hypothesis.
 
-Modules: this one holds the backend class ``CpSatSolver``; refimpl/solvers/cpsat_model.py the
-admissibility functions, ``build_model`` and ``solve_lexicographic``; refimpl/solvers/fast_path.py
-``solve_fast`` and ``TrackwiseState``.  Every name of the three is importable from here.
+Modules: this one holds the backend class ``CpSatSolver``; refimpl/solvers/cpsat_model.py
+``build_model`` (the admissibility functions it reads are refimpl/solvers/admissibility.py);
+refimpl/solvers/cpsat_lexicographic.py ``solve_lexicographic``; refimpl/solvers/fast_path.py
+``solve_fast`` and ``TrackwiseState``.  Every name of these is importable from here.
 """
 
 from __future__ import annotations
@@ -46,24 +47,26 @@ from .cpsat_model import (  # noqa: F401  (re-exported: refimpl.solvers.cpsat is
     OBJECTIVE_BITS,
     AbductionModel,
     CpSatFailure,
+    _cost,
+    _explanations,
+    _hidden,
+    _overlapping_top_matrix,
+    _pair_candidates,
+    build_model,
+)
+from .cpsat_lexicographic import (  # noqa: F401  (re-exported)
     LevelTerms,
     LexResult,
     _certify,
     _chunk_pairs,
-    _cost,
-    _explanations,
     _fix_levels,
-    _hidden,
     _level_value,
-    _overlapping_top_matrix,
     _pack_levels,
-    _pair_candidates,
     _range,
     _scalarised,
     _span,
     _solution,
     _trivial_solution,
-    build_model,
     objective_groups,
     solve_lexicographic,
 )

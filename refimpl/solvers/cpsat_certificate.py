@@ -20,7 +20,7 @@ The argument needs the model's levels 10 and 5 to hold only assign and resume te
 ``build_model`` makes them (``action_cost``), which ``prune`` checks too.  The pruned model keeps
 every lexicographic optimum, so the answer is the same (unique under the canonical tie-break);
 CP-SAT only proves level 10 and 5 without searching for them.  The witness also goes into the
-answer that stands in when a time limit leaves the first level no time (cpsat_model's
+answer that stands in when a time limit leaves the first level no time (cpsat_lexicographic's
 _trivial_solution): the obvious answer with the witness's pairs assigned, optimal at level 10.
 """
 
@@ -51,7 +51,7 @@ def _reorder(am, zero: set[int]) -> None:
     those left).  Within a component the order of every two sets of pairs is that of the largest
     q in which they differ, which the ranks keep; components add up independently (the model's
     levels 10..1 are sums of their optima).  So the minimum is the same set of pairs, and with far
-    fewer bits CP-SAT needs far fewer chunks (cpsat_model._chunk_pairs): a 400-track pile kept
+    fewer bits CP-SAT needs far fewer chunks (cpsat_lexicographic._chunk_pairs): a 400-track pile kept
     ~600 of its ~15,000 pairs, 12 chunks instead of ~390."""
     kept = [(c, v) for c, v in am.objectives[TIEBREAK_LEVEL] if v.index not in zero]
     rank = {c: 1 << k for k, c in enumerate(sorted({c for c, _ in kept}))}

@@ -7,7 +7,7 @@ event-table order (missing_detections), else by its first other possible explana
 problem the tracker builds this answer is admissible (docs/model-spec.md section 4), so a frame
 whose solver ran out of time still gets an answer, flagged not optimal; where it is not admissible,
 the caller reports the frame instead.  One function (:func:`obvious_answer`) builds it for every
-backend: the CP-SAT model starts from it inside a level (cpsat_model._trivial_solution), the
+backend: the CP-SAT model starts from it inside a level (cpsat_lexicographic._trivial_solution), the
 backends return it as a Hypothesis (:func:`obvious_hypothesis`).
 """
 
@@ -17,7 +17,8 @@ from typing import Mapping
 
 from .check import check_answer  # the checker decides admissibility and the cost
 from ..core.constants import resolve_constants
-from ..knowledge.events import EventState, explaining, poss, reexplained
+from ..knowledge.events import EventState, poss
+from ..knowledge.event_table import explaining, reexplained
 from ..core.hypothesis import Hypothesis
 from ..core.spec import FrameProblem
 

@@ -13,7 +13,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..knowledge.events import EVENT_TABLE, EventState, EventType, explaining, fluent_key, reexplained
+from ..knowledge.events import EventState, fluent_key
+from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, Term
 from .common import DisjointSets, LazyTiebreak, intersection_matrix
@@ -260,7 +261,7 @@ class TrackwiseState:
     EventState per track, each folded from that track's own events only, and memoised.
 
     Exact because every effect, start and halt time of an event concerns its first argument only
-    (refimpl.knowledge.events.EFFECTS: each effect's fluent has the event's first argument as its own first
+    (refimpl.knowledge.event_table.EFFECTS: each effect's fluent has the event's first argument as its own first
     argument; recover's "hidden_by(T, X) for every X" too), and the set-valued grouping of one
     time point is per fluent; folding a track's events in time order (stable, as EventState does)
     gives that track's fluents exactly.  Per-track states, with the holds_at answers they gave, are
@@ -344,7 +345,7 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     """The unique lexicographic optimum of the model, without CP-SAT, or FastPathDeclined.
 
     Candidates are those of build_model (same rules: cpsat_model's constraint functions and the
-    poss functions of refimpl.knowledge.events), costs those of build_model's objectives."""
+    poss functions of refimpl.knowledge.event_table), costs those of build_model's objectives."""
     tracks, dets = problem.tracks, problem.detections
     iou = problem.iou_map
     inter = intersection_matrix([t.box for t in tracks])

@@ -188,7 +188,7 @@ class TrackerOptions:
         return {k: v for k, v in self.as_dict().items() if default[k] != v}
 
     def kwargs(self) -> dict[str, object]:
-        """Keyword arguments of track_sequence / AbductionTracker."""
+        """Keyword arguments of pipeline.track_sequence / AbductionTracker."""
         return {o.name: getattr(self, o.name) for o in TRACKER_OPTIONS}
 
 

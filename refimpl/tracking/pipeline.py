@@ -13,6 +13,7 @@ published tables measured.
   the robust default where that pair has none), unless asked for none or for another by name, then
   the caller's constants and options on top;
 * :func:`run_sequence` tracks one sequence with a Setup, optionally streaming to a sink.
+* :func:`track_sequence` is :func:`run_sequence` with the Setup spelled as keywords (no preset).
 """
 
 from __future__ import annotations
@@ -105,7 +106,7 @@ FrameCallback = Callable[[], None]
 
 def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: float | None = None,
                 min_hits: int | None = None, bridge_gap: int | None = None, bridge_conf: int | None = None,
-                solver=None, sink=None, keep_records: bool = True):
+                solver=None, sink=None, keep_records: bool = True, compact_history: bool = True):
     """The abduction tracker (refimpl.tracking.tracker.AbductionTracker) of a Setup for a sequence of this
     image size and frame rate, exactly as :func:`run_sequence` builds it (the library's
     refimpl.Tracker steps it frame by frame)."""
@@ -115,22 +116,25 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
                             sequence_constants(dict(setup.constants), image_size, fps),
                             DEFAULT_MIN_HITS if min_hits is None else min_hits, setup.time_limit,
                             DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
-                            DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf,
+                            DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
                             sink=sink, keep_records=keep_records, frame_budget=setup.frame_budget,
                             **setup.options.kwargs())
 
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,
-                 solver=None, on_frame: FrameCallback | None = None, frame_times: list | None = None):
+                 solver=None, on_frame: FrameCallback | None = None, frame_times: list | None = None,
+                 min_hits: int | None = None, bridge_gap: int | None = None, bridge_conf: int | None = None,
+                 compact_history: bool = True):
     """Track one DetectionSequence (or a refimpl.io.DetectionStream: its frames are read once, as
     they arrive) with ``setup``: a refimpl.tracking.tracker.TrackingResult.
 
     ``observer(problem, hypothesis)`` sees every frame's answer (abduction only); ``on_frame()`` is
     called once per frame (progress); with a ``sink`` (refimpl.tracking.tracker.ResultSink) rows and events
     are handed over as they become final and the result's rows are empty (as for
-    refimpl.tracking.tracker.track_sequence); ``solver``: a solver instance to use instead of the backend's; ``frame_times``: a list that
+    :func:`track_sequence`); ``solver``: a solver instance to use instead of the backend's; ``frame_times``: a list that
     receives each frame's CPU seconds of tracking (time.process_time around the frame's update:
-    latency, issue 27)."""
+    latency, issue 27); ``min_hits``, ``bridge_gap``, ``bridge_conf``, ``compact_history``: the
+    abduction tracker's own (refimpl.tracking.tracker.AbductionTracker; None: its defaults)."""
     if setup.baseline:
         kept, frames = [], 0
         for rows in _timed(stream_sequence(seq), frame_times):  # seq.frames may be a stream, read once
@@ -150,8 +154,8 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
         if on_frame is not None:
             on_frame()
 
-    tracker = new_tracker(setup, seq.image_size, getattr(seq, "fps", None), solver=solver, sink=sink,
-                          keep_records=keep_records)
+    tracker = new_tracker(setup, seq.image_size, getattr(seq, "fps", None), min_hits, bridge_gap, bridge_conf,
+                          solver=solver, sink=sink, keep_records=keep_records, compact_history=compact_history)
     watch = observe if (observer is not None or on_frame is not None) else None
     for fr in seq.frames:
         start = process_time() if frame_times is not None else 0.0
@@ -164,6 +168,29 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
                           tracker.track_records() if keep_records else (), tracker.frames, tracker.not_optimal,
                           tracker.solve_ms, tracker.budget_hits, tracker.over_budget)
+
+
+def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, int] | None = None,
+                   min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
+                   observer=None, solver=None, bridge_gap: int | None = None, bridge_conf: int | None = None,
+                   compact_history: bool = True, sink=None, keep_records: bool = True,
+                   frame_budget: float | None = None, **options: object) -> TrackingResult:
+    """Track a DetectionSequence by abduction, the Setup spelled as keywords: :func:`run_sequence`
+    with ``backend``, ``constants`` (no preset), ``time_limit``, ``frame_budget`` and ``**options``,
+    the tracker options by name (refimpl.tracking.options.TRACKER_OPTIONS; ValueError for an unknown
+    name or a bad value).  The image size feeds the field-of-view border and the frame rate the
+    safety bound on halts (refimpl.tracking.tracker.sequence_constants).  With a ``sink`` the rows
+    and events go to it as they are decided and the result's rows are empty (its events and tracks
+    too unless ``keep_records``)."""
+    solver = solver or get_solver(backend)  # ValueError for a name that is no abduction backend
+    chosen = TrackerOptions.from_mapping(options)  # ValueError if unknown or bad
+    # the solver decides; 'baseline' with a solver of one's own is that solver, as it always was
+    setup = Setup(backend=DEFAULT_BACKEND if backend == BASELINE else backend,
+                  constants=tuple((constants or {}).items()), options=chosen, time_limit=time_limit,
+                  frame_budget=frame_budget)
+    return run_sequence(seq, setup, observer=observer, sink=sink, keep_records=keep_records, solver=solver,
+                        min_hits=min_hits, bridge_gap=bridge_gap, bridge_conf=bridge_conf,
+                        compact_history=compact_history)
 
 
 def _timed(frames, frame_times: list | None):

@@ -43,12 +43,12 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ..core.geometry import integer_box, integer_boxes, iou_matrix, scale_iou
-from ..knowledge.events import explaining
+from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman
 from .options import TrackerOptions, WrittenBox
 from ..core.ranges import check_ranges
-from ..solvers import DEFAULT_BACKEND, Solver, get_solver
+from ..solvers import Solver
 from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, is_symbol, track_number
 
 DEFAULT_MIN_HITS = 3
@@ -561,32 +561,3 @@ def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[in
     if fps:
         merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * fps))))
     return merged
-
-
-def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, int] | None = None,
-                   min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
-                   observer: FrameObserver | None = None, solver: Solver | None = None,
-                   bridge_gap: int | None = None, bridge_conf: int | None = None,
-                   compact_history: bool = True, sink: ResultSink | None = None,
-                   keep_records: bool = True, frame_budget: float | None = None, **options: object) -> TrackingResult:
-    """Track a DetectionSequence by abduction; the image size feeds the field-of-view border and
-    the frame rate the safety bound on halts (HIDDEN_MAX_SECONDS).
-
-    ``**options``: the tracker options by name (refimpl.tracking.options.TRACKER_OPTIONS), passed on to
-    AbductionTracker.  With a ``sink`` the rows and events go to it as they are decided (see
-    AbductionTracker) and the result's rows are empty (its events and tracks too unless ``keep_records``)."""
-    merged = sequence_constants(constants, seq.image_size, getattr(seq, "fps", None))
-    tracker = AbductionTracker(solver or get_solver(backend), merged, min_hits, time_limit,
-                               DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
-                               DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
-                               sink=sink, keep_records=keep_records, frame_budget=frame_budget, **options)
-    for fr in seq.frames:
-        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, observer)
-    tracker.finish()
-    if sink is not None:
-        return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
-                              tracker.track_records() if keep_records else (),
-                              tracker.frames, tracker.not_optimal, tracker.solve_ms, tracker.budget_hits,
-                              tracker.over_budget)
-    return tracker.result()
-

@@ -20,7 +20,7 @@ Input ``i`` comes from ``random.Random(f"{seed}/{i}")`` (``--only i`` regenerate
   across the image border) or at the accepted limits (coordinates at +-2^28, widths and heights
   up to the area limits, 1x1 boxes); IoU facts from the boxes or at the edges (0, 1, the
   thresholds +-1, 100000); confidences 0, 100, the thresholds +-1; an event history from
-  refimpl.knowledge.events.EVENT_TABLE (every event, right arity, on current and gone tracks, times at
+  refimpl.knowledge.event_table.EVENT_TABLE (every event, right arity, on current and gone tracks, times at
   curr_time-1, mintime, +-2^30, repeated), plus now and then an unknown event; curr_time at 0,
   1, +-2^30; ``#const`` overrides at their edge values (0, +-1, the default +-1, +-2^30, the
   32-bit limits), each kept only when ``refimpl.core.ranges.check_constant`` accepts it.  An input
@@ -29,7 +29,7 @@ Input ``i`` comes from ``random.Random(f"{seed}/{i}")`` (``--only i`` regenerate
   again (up to 20 times; counted as ``refused``).
 * **sequence** (1 in 5): a short detection sequence (3-14 frames, 1-6 walking objects or 10-16, misses,
   crossings, confidences at the edges, a small image or none) tracked with the first backend
-  while every frame is solved again by the others (refimpl.experiments.diff.diff_sequence: same history).
+  while every frame is solved again by the others (refimpl.runs.diff.diff_sequence: same history).
 
 Outcomes: ``agree`` (all proven optimal, equal), ``infeasible`` (every backend: no admissible
 answer), ``not-proven`` (some backend hit the time limit: answers checked, not compared),
@@ -53,7 +53,7 @@ import numpy as np
 
 from refimpl.solvers.check import check_answer
 from refimpl.core.constants import default_constants
-from refimpl.knowledge.events import EVENT_TABLE, explaining
+from refimpl.knowledge.event_table import EVENT_TABLE, explaining
 from refimpl.core.geometry import iou_matrix, scale_iou
 from refimpl.core.hypothesis import Hypothesis
 from refimpl.core.ranges import BOX_LIMIT, TIME_LIMIT, check_constant, check_ranges
@@ -352,7 +352,7 @@ def run_one(index: int, seed: int, solvers: Sequence, time_limit: float = TIME_L
                               draws_refused=refused)
             outcome, detail = judge_frame(problem, solvers, time_limit)
             return Result(index, target, outcome, detail, problem, time.perf_counter() - t0, refused)
-        from refimpl.experiments.diff import diff_sequence
+        from refimpl.runs.diff import diff_sequence
         seq = random_sequence(rng)
         rep = diff_sequence(seq, _names(solvers), solvers=solvers, time_limit=time_limit)
         if rep.first_divergence is not None:

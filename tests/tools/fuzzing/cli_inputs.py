@@ -76,7 +76,7 @@ def make_fixtures(root: Path) -> dict:
     """A scene of the first 25 TUD-Campus frames (cpsat), a results file, a bench-scale JSON."""
     from refimpl import io
     from refimpl.scene import scene_from_result, scene_to_json
-    from refimpl.tracking.tracker import track_sequence
+    from refimpl.tracking.pipeline import track_sequence
     seq = io.read_mot_detections(DEMO / "det" / "det.txt")
     seq = type(seq)(seq.name, seq.frames[:25], seq.first_frame, seq.image_size, seq.fps)
     scene = scene_to_json(scene_from_result(seq, track_sequence(seq, backend="cpsat")))

@@ -271,7 +271,7 @@ def user_solver(asp_model: AspModel) -> Solver:
 
 
 # ---------------------------------------------------------------------------------------
-# diff's job for refimpl.experiments.scaleout (one sequence, picklable: it carries its data)
+# diff's job for refimpl.runs.scaleout (one sequence, picklable: it carries its data)
 
 
 @dataclass(frozen=True)
@@ -279,7 +279,7 @@ class DiffJob:
     seq: DetectionSequence
     backends: tuple[str, ...]
     time_limit: float | None = 20.0
-    """Per-frame limit of every backend (refimpl.experiments.diff)."""
+    """Per-frame limit of every backend (refimpl.runs.diff)."""
     asp_model: AspModel | None = None
     """A user's encoding for the clingo backend (refimpl.solvers.asp_model.AspModel), or None."""
 

@@ -5,7 +5,7 @@ shared.
 Signals.  A Ctrl-C reaches every process of the terminal's process group, the workers of
 ``--workers N`` included; each one raised KeyboardInterrupt in its own event loop and printed a
 traceback beside the command's one line (``refimpl: interrupted``).  The command closes its
-cluster on the way out (refimpl.experiments.scaleout), which stops the workers, so a worker
+cluster on the way out (refimpl.runs.scaleout), which stops the workers, so a worker
 ignores SIGINT, and takes SIGTERM (how its nanny stops a worker that does not close in time) as a
 plain exit, as a spawned process would, not as the handler a forked one inherits from the command
 line.

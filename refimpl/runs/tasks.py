@@ -2,12 +2,12 @@
 
 Each job carries its input data (a DetectionSequence), not file paths, so a
 worker on another machine needs no shared file system.  Each function's result depends on its
-job only; refimpl.experiments.scaleout runs them serially or on a Dask cluster and returns results in input
+job only; refimpl.runs.scaleout runs them serially or on a Dask cluster and returns results in input
 order, and the commands write from those results only, so outputs are the same bytes either way.
 
 * ``track_job``: one sequence tracked (``refimpl track`` with several ``--dets``).
 
-``diff``'s job (``DiffJob``, ``diff_job``) is in refimpl.experiments.diff, beside what it runs, and the
+``diff``'s job (``DiffJob``, ``diff_job``) is in refimpl.runs.diff, beside what it runs, and the
 scored jobs (``benchmark``, ``table6``, ``sweep``) are in refimpl.experiments.benchmark_tasks:
 they need the scorer (scipy), which a worker that only tracks never imports.
 """

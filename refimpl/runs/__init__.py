@@ -1,0 +1,1 @@
+"""How the product runs many sequences: the per-sequence jobs of `track` and `diff` (`tasks`, `diff`), run serially or on Dask (`scaleout`, its workers' start-up `worker_start`), with a progress bar (`progress`)."""
