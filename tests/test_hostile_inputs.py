@@ -332,3 +332,17 @@ def test_a_dollar_sign_in_a_scene_is_not_mathtext(hostile_scene, tmp_path, capsy
     assert main(["plot", str(scene), "--out", str(tmp_path / "b.png"), "--frame", "5"]) == 0
     assert capsys.readouterr().out.splitlines() == [f"a$\\x$ frames 1-71: 9 tracks -> {tmp_path / 'a.png'}",
                                                     f"a$\\x$ frame 5: 3 boxes -> {tmp_path / 'b.png'}"]
+
+
+def test_a_detection_file_named_with_control_characters_is_named_escaped(tmp_path, capsys):
+    # the summary line names the sequence (the file's folder) and the results path: a name made of
+    # control characters reaches the terminal as SHOWN, and the results file is still written
+    folder = tmp_path / ("seq" + HOSTILE.replace("\r", ""))
+    folder.mkdir()
+    det = folder / "det.txt"
+    det.write_text(DEMO.read_text())
+    out = folder / "out.txt"
+    assert main(["track", "--dets", str(det), "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    assert not _controls(printed.out) and not _controls(printed.err)
+    assert SHOWN.replace(r"\r", "") in printed.out and out.stat().st_size > 0

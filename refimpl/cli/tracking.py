@@ -12,6 +12,7 @@ from pathlib import Path
 
 from .. import io
 from ..core.constants import default_constants
+from ..core.display import visible
 from ..core.loader import load
 from ..core.ranges import check_constant
 from ..runs.progress import Progress
@@ -122,7 +123,7 @@ def cmd_track(args: argparse.Namespace) -> int:
                     continue  # a backend that broke the model writes no results
             files.write(path, out.text)  # formatted by the task (on a cluster: by its worker)
             tracks = len(set(out.rows[:, 1].tolist())) if len(out.rows) else 0
-            print(f"{seq.name}: {len(seq.frames)} frames, {tracks} tracks -> {path}", file=summary)
+            print(visible(f"{seq.name}: {len(seq.frames)} frames, {tracks} tracks -> {path}"), file=summary)
             _warn_if_empty(seq, tracks, setup, args)
     if failed:
         raise CheckFailed(f"{failed} answers break a rule of the model")
@@ -215,7 +216,7 @@ def _track_streaming(seq, args: argparse.Namespace, out_path, setup, summary, li
         if args.scene:
             scene = load(SCENE_FROM_RESULT)(seq, result)
             outs.write(args.scene, json.dumps(load(SCENE_TO_JSON)(scene), separators=(",", ":")) + "\n")
-    print(f"{seq.name}: {result.frames} frames, {len(sink.track_ids)} tracks -> {out_path}", file=summary)
+    print(visible(f"{seq.name}: {result.frames} frames, {len(sink.track_ids)} tracks -> {out_path}"), file=summary)
     _warn_if_empty(seq, len(sink.track_ids), setup, args)
 
 
