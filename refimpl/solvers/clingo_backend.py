@@ -41,7 +41,7 @@ from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, event_of, parse_atom
 from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, effective_limit
 from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
-from .asp_model import certificate_preconditions
+from .asp_model import ENCODING_MEMORY, certificate_preconditions
 from .certificate import certificate, certificate_facts
 from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
@@ -157,12 +157,16 @@ class ClingoSolver:
     ``certify`` (default: True for the model in model/, False for other ``model_files``; True: each
     solve also gets the certificate of levels 10 and 5 (refimpl.solvers.certificate) as facts, which
     model/certificate.lp checks and uses to prune, docs/model.md 2.10), ``own_constants`` (the
-    constants a user's encoding defines itself, passed to it by no ``-c``: clingo_arguments)."""
+    constants a user's encoding defines itself, passed to it by no ``-c``: clingo_arguments),
+    ``memory_cap`` (bytes of address space for the child process that solves a user's encoding;
+    default asp_model.ENCODING_MEMORY; the reference model runs under none: a frame beyond it is
+    refused in one line, clingo_process.EncodingMemoryError)."""
 
     def __init__(self, threads: int = 1, model_files: Sequence[str | Path] | None = None,
                  decompose: bool = True, part_nodes: int = PART_NODES, isolate: bool = True,
                  recycle: int | None = None, inline_solves: int = INLINE_SOLVES, checked_costs: bool = False,
-                 name: str = CLINGO, certify: bool | None = None, own_constants: Sequence[str] = ()):
+                 name: str = CLINGO, certify: bool | None = None, own_constants: Sequence[str] = (),
+                 memory_cap: int | None = None):
         if int(threads) < 1:
             raise ValueError(f"threads must be >= 1, got {threads}")
         self._clingo = _clingo_module()
@@ -190,8 +194,12 @@ class ClingoSolver:
         self._calls = 0
         self._worker = None
         if isolate:  # clingo in a child process (refimpl.solvers.clingo_process): bounded memory
+            # a user's encoding runs under the memory cap of its check (asp_model.ENCODING_MEMORY);
+            # the reference model under none
+            cap = None if model_files is None else (memory_cap or ENCODING_MEMORY)
             self._worker = ClingoWorker({"threads": self.threads, "model_files": self.model_files,
-                                         "certify": self.certify, "own_constants": self.own_constants},
+                                         "certify": self.certify, "own_constants": self.own_constants,
+                                         "memory_cap": cap},
                                         DEFAULT_RECYCLE if recycle is None else recycle)
 
     def __getstate__(self) -> dict:

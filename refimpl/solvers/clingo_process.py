@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ..core.errors import UserFacingError
 from ..core.spec import FrameProblem
 from . import NoAdmissibleHypothesis
 
@@ -28,6 +29,10 @@ GRACE = 1.0
 """Seconds a child may overrun its time limit (finishing its search, reporting) before it is killed;
 under a short limit less, 0.5 s + 5 % of it (``grace``): the child stops its own search at the limit
 (its POLL is 0.1 s) and what is left is sending the answer."""
+
+
+class EncodingMemoryError(MemoryError, UserFacingError):
+    """A user's encoding went beyond the worker's memory cap on a frame (one line)."""
 
 
 def grace(time_limit: float) -> float:
@@ -149,6 +154,8 @@ class ClingoWorker:
         _, name, message = reply
         if name == "NoAdmissibleHypothesis":
             raise NoAdmissibleHypothesis(message)
+        if name == "MemoryError":
+            raise EncodingMemoryError(message)
         raise RuntimeError(message)
 
     def __del__(self) -> None:

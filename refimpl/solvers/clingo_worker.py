@@ -22,6 +22,7 @@ never imports this module and this module may import the backend).
 from __future__ import annotations
 
 import multiprocessing.connection
+import resource
 import signal
 import sys
 import time
@@ -34,7 +35,11 @@ def _serve(conn) -> None:
     send) in, ("ok", result, cpu
     seconds) or ("error", type, message) out; None or a closed pipe ends it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides about interrupts
-    solver = ClingoSolver(**conn.recv(), isolate=False)
+    options = conn.recv()
+    cap = options.pop("memory_cap", None)
+    if cap:  # a user's encoding: its grounding may not take the machine (ClingoSolver)
+        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
+    solver = ClingoSolver(**options, isolate=False)
     while True:
         try:
             job = conn.recv()
@@ -51,6 +56,10 @@ def _serve(conn) -> None:
         try:
             result = solver._solve_one(problem, time_limit)
             conn.send(("ok", result, time.process_time() - cpu))
+        except MemoryError:
+            conn.send(("error", "MemoryError", f"frame {problem.time}: the encoding went beyond its memory cap of "
+                                               f"{cap / 2 ** 30:g} GiB (does a rule ground a product of every "
+                                               "detection or every time point?)"))
         except Exception as exc:  # sent back and raised again in the parent
             conn.send(("error", type(exc).__name__, str(exc)))
 
