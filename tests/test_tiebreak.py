@@ -193,7 +193,11 @@ def test_time_limits_must_be_finite_and_not_negative():
 
 
 def test_the_registry_builds_every_backend(backend):
-    assert get_solver(backend).name == backend
+    solver = get_solver(backend)
+    assert solver.name == backend
+    # every backend class declares the contract it implements (refimpl.solvers.Solver)
+    from refimpl.solvers import Solver
+    assert Solver in type(solver).__mro__
     with pytest.raises(ValueError, match="unknown backend"):
         get_solver("bogus")
 

@@ -39,7 +39,7 @@ from ..core.constants import model_dir, resolve_constants
 from ..core.ranges import OutOfClingoRange, clingo_overflow
 from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, event_of, parse_atom
-from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, SolverUnavailable, effective_limit
+from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, Solver, SolverUnavailable, effective_limit
 from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
 from .asp_model import ENCODING_MEMORY, certificate_preconditions
 from .certificate import certificate, certificate_facts
@@ -143,7 +143,7 @@ class _Best:
         self.count += 1
 
 
-class ClingoSolver:
+class ClingoSolver(Solver):
     """Solves a FrameProblem with clingo and the ASP model in model/*.lp.
 
     Options: ``threads`` (clingo's --parallel-mode), ``model_files``, ``decompose`` (default True:

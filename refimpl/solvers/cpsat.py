@@ -38,7 +38,7 @@ from ..core.constants import resolve_constants
 from ..knowledge.events import EventState
 from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL, Hypothesis
 from ..core.spec import FrameProblem
-from . import CPSAT, CPSAT_FULL, NoAdmissibleHypothesis, SolveTimeout, check_time_limit, effective_limit  # noqa: F401
+from . import CPSAT, CPSAT_FULL, NoAdmissibleHypothesis, SolveTimeout, Solver, check_time_limit, effective_limit  # noqa: F401
 from .common import tiebreak_level
 from .cpsat_model import (  # noqa: F401  (re-exported: refimpl.solvers.cpsat is the public name)
     _EVENT_AT,
@@ -92,7 +92,7 @@ from .fast_path import (  # noqa: F401  (re-exported)
     solve_fast,
 )
 
-class CpSatSolver:
+class CpSatSolver(Solver):
     """The CP-SAT backends ``cpsat`` and ``cpsat-full``: ``solve(problem, time_limit=None) -> Hypothesis``.
 
     Options: ``workers`` (CP-SAT num_workers; 1 for reference runs), ``seed`` (random_seed),
