@@ -15,7 +15,7 @@ import pytest
 
 pytest.importorskip("clingo")
 
-from certificate_frames import OUTSIDE_THE_WITNESS  # noqa: E402
+from certificate_frames import OUTSIDE_THE_WITNESS, TWO_BY_TWO, TWO_CARS  # noqa: E402
 from refimpl.core.facts import parse_facts  # noqa: E402
 from refimpl.core.spec import FrameProblem  # noqa: E402
 from refimpl.knowledge.event_table import EVENT_TABLE  # noqa: E402
@@ -25,31 +25,6 @@ from refimpl.solvers.clingo_backend import ClingoSolver, default_model_files  # 
 
 # Two active tracks far apart (no overlap: neither can hide behind the other; each can halt by
 # missing_detections) and two detections; every pair has IoU > iou_thresh (30000), so every pair is
-# assignable, with level-10 weight w = IoU + 1:
-#   w(1,1) = 80001   w(1,2) = 50001
-#   w(2,1) = 60001   w(2,2) = 40001
-# The two perfect matchings weigh {11, 22} = 120002 and {12, 21} = 110002; a single pair at most
-# 80001.  So M = {(trk_1,det_1), (trk_2,det_2)} is the unique level-10 optimum.
-TWO_CARS = """#const curr_time=100.
-det(det_1, car, 90).
-box2d(det_1, 0, 0, 50, 50).
-det(det_2, car, 90).
-box2d(det_2, 500, 0, 50, 50).
-trk(trk_1, car).
-trk_state(trk_1, active).
-box2d(trk_1, 0, 0, 50, 50).
-trk(trk_2, car).
-"""
-"""Two detections and two tracks of the 2 x 2 frames below (trk_2's state and the ious follow)."""
-TWO_BY_TWO = TWO_CARS + """trk_state(trk_2, active).
-box2d(trk_2, 500, 0, 50, 50).
-iou(trk_1,det_1,80000).
-iou(trk_1,det_2,50000).
-iou(trk_2,det_1,60000).
-iou(trk_2,det_2,40000).
-"""
-
-
 def _problem(text: str = TWO_BY_TWO) -> FrameProblem:
     return parse_facts(text)
 

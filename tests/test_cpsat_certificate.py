@@ -25,20 +25,7 @@ from refimpl.solvers.cpsat_lexicographic import solve_lexicographic  # noqa: E40
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from framegen import random_frame  # noqa: E402
 from densegen import dense_frame as pile  # noqa: E402
-from certificate_frames import OUTSIDE_THE_WITNESS  # noqa: E402
-
-HEAD = """#const curr_time=100.
-det(det_1, car, 90).
-box2d(det_1, 0, 0, 50, 50).
-det(det_2, car, 90).
-box2d(det_2, 500, 0, 50, 50).
-trk(trk_1, car).
-trk_state(trk_1, active).
-box2d(trk_1, 0, 0, 50, 50).
-trk(trk_2, car).
-trk_state(trk_2, active).
-box2d(trk_2, 500, 0, 50, 50).
-"""
+from certificate_frames import OUTSIDE_THE_WITNESS, TWO_BY_TWO  # noqa: E402
 
 
 def _solve(problem, pruned: bool):
@@ -53,8 +40,7 @@ def test_the_two_by_two_frame_is_pruned_to_its_witness():
     # v = (45001, 20001), witness {(1,1), (2,2)}; (1,2) and (2,1) are not tight (55001 > 50001,
     # 65001 > 60001), every node has positive potential.  So both of those assign variables are
     # fixed to 0 and the pair part of the tie-break keeps two terms, re-weighed 2^0 and 2^1.
-    problem = parse_facts(HEAD + "iou(trk_1,det_1,80000).\niou(trk_1,det_2,50000).\n"
-                                 "iou(trk_2,det_1,60000).\niou(trk_2,det_2,40000).\n")
+    problem = parse_facts(TWO_BY_TWO)
     done, am, res = _solve(problem, True)
     assert done == (True, False)  # no halted track: no resume pair, no level-5 certificate
     kept = sorted((c, str(v)) for c, v in am.objectives[PAIR_ORDER])
