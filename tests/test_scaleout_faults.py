@@ -200,21 +200,26 @@ def silent_server():
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(16)
+    server.settimeout(0.1)  # accept() wakes up to see the stop flag (close() does not wake it)
     accepted: list[socket.socket] = []
+    stop = threading.Event()
 
     def serve() -> None:
-        while True:
+        while not stop.is_set():
             try:
                 accepted.append(server.accept()[0])
-            except OSError:  # closed by the fixture
+            except socket.timeout:
+                continue
+            except OSError:  # closed
                 return
     thread = threading.Thread(target=serve, daemon=True)
     thread.start()
     yield f"127.0.0.1:{server.getsockname()[1]}"
+    stop.set()
+    thread.join(timeout=10)
     server.close()
     for conn in accepted:
         conn.close()
-    thread.join(timeout=10)
 
 
 @pytest.mark.parametrize("scheme", ["tcp", "ws"])
