@@ -120,7 +120,7 @@ class Tracker:
     constants: model constant overrides (names of model/constants.lp), e.g. {"iou_thresh": 20000},
         on top of the preset.
     img_size: (width, height) of the images in pixels; sets img_width / img_height (the
-        field-of-view border).  Without it the first frame's image (``update(dets, img)``) gives
+        field-of-view border) and scales the pixel constants to the image (docs/model.md 3.22).  Without it the first frame's image (``update(dets, img)``) gives
         it; without either the border is not tested, as for a det.txt without seqinfo.ini
         (format "kitti": 1242 x 375 until an image says otherwise).
     min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracking.pipeline.track_sequence``.
@@ -140,8 +140,9 @@ class Tracker:
     first_frame: the number of the first frame (default: 1 for MOTChallenge, 0 for KITTI).
     name: carried into ``scene()``.
     fps: the frame rate, a finite number > 0 (default: none for "mot", as a det.txt without
-        seqinfo.ini; 10 for "kitti"): the safety bound on halts (lost_after_hidden_max, 10 s of
-        frames), as a seqinfo.ini's frameRate or ``refimpl track --fps``.
+        seqinfo.ini; 10 for "kitti"): the preset's durations become the same seconds at this rate
+        (docs/model.md 3.22) and a halt is bounded at 10 s (lost_after_hidden_max), as a
+        seqinfo.ini's frameRate or ``refimpl track --fps``.
     history: False (default): the tracker runs in the streaming mode of ``refimpl track --dets -``
         (it forgets finished tracks and all but the boxes a later frame reads), so memory stays
         bounded on a stream of any length, and ``result()``, ``scene()``, ``sequence()``,

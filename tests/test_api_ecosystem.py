@@ -15,6 +15,7 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
+from refimpl.core.constants import default_constants
 
 DEMO = Path(__file__).resolve().parent.parent / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
 KITTI_CAR = ("KITTI", "tracking", "training", "det_02_pointrcnn", "Car")
@@ -203,3 +204,34 @@ def test_fps_sets_the_safety_bound_on_halts():
 def test_an_image_that_is_no_image_is_a_clear_error():
     with pytest.raises(ValueError, match=r"img must be the frame's image .* update\(dets, classes=\[...\]\)"):
         refimpl.Tracker().update([[0, 0, 10, 10, 0.5]], ["car"])
+
+
+def test_a_presets_durations_mean_the_same_seconds_at_another_frame_rate():
+    # model/presets.json: mot/pedestrian was tuned at 25 fps with lost_after_missing 10 and
+    # fill_hidden 30 frames, and model/constants.lp's lost_after_hidden 30 and noise_max_age 3.
+    # At 50 fps each is twice as many frames (frames_at: round half up of frames * 50 / 25); at
+    # 25 fps exactly the preset's; at 5 fps a fifth: 2, 6, 6 and round(0.6) = 1.
+    def durations(**kw):
+        t = refimpl.Tracker(**kw)._tracker
+        c = {**default_constants(), **t.constant_map}
+        return [c[n] for n in ("lost_after_missing", "lost_after_hidden", "noise_max_age")] + [t.fill_hidden]
+    assert durations(fps=25) == [10, 30, 3, 30]
+    assert durations(fps=50) == [20, 60, 6, 60]
+    assert durations(fps=5) == [2, 6, 1, 6]
+    # without a frame rate the preset's frames stay; a duration the user gives is frames as given
+    assert durations() == [10, 30, 3, 30]
+    assert durations(fps=50, constants={"lost_after_missing": 7}, fill_hidden=4) == [7, 60, 6, 4]
+
+
+def test_the_pixel_constants_scale_with_the_image():
+    # model/constants.lp gives size_threshold 100 px^2 and border_margin 10 px at 1920 x 1080
+    # (tracker.REFERENCE_IMAGE).  Half that image in each direction: a quarter of the area, 25 px^2,
+    # and half the margin, 5 px.  KITTI's 1242 x 375: 100 * 465750 / 2073600 = 22.46 -> 22 and
+    # 10 * sqrt(0.2246) = 4.74 -> 5.  A constant the user gives stays in pixels.
+    def pixels(**kw):
+        t = refimpl.Tracker(**kw)._tracker
+        return t.constant_map["size_threshold"], t.constant_map["border_margin"]
+    assert pixels(img_size=(1920, 1080)) == (100, 10)
+    assert pixels(img_size=(960, 540)) == (25, 5)
+    assert pixels(format="kitti", object_type="car") == (22, 5)
+    assert pixels(img_size=(960, 540), constants={"size_threshold": 100}) == (100, 5)

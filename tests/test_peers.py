@@ -243,9 +243,9 @@ def test_repeat_keeps_each_sequences_fastest_run_and_the_first_runs_scores(monke
     first = peers.compare("demo", "/nonexistent", (), "cpsat", dataset=dataset)
     calls = []
 
-    def scripted(seq, tracker, constants, options):
-        calls.append(tracker)
-        return [1e-9 if tracker == "baseline" else 10.0] * len(seq.frames)
+    def scripted(seq, setup):
+        calls.append(setup.backend)
+        return [1e-9 if setup.backend == "baseline" else 10.0] * len(seq.frames)
 
     monkeypatch.setattr(peers, "_refimpl_frame_times", scripted)
     twice = peers.compare("demo", "/nonexistent", (), "cpsat", dataset=dataset, repeat=2)

@@ -58,7 +58,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"refimpl benchmark: {name}: {setup.describe()}", file=sys.stderr)
         requests.append(RunRequest(name, load_dataset(name, args.data), setup.backend, setup.constants,
-                                   setup.options, setup.preset, keep_rows=bool(args.results_dir)))
+                                   setup.options, setup.preset, setup.tuned_fps, setup.in_frames,
+                                   keep_rows=bool(args.results_dir)))
     runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
     if args.results_dir:
         _write_results(args, runs)
@@ -109,7 +110,7 @@ def _benchmark_shifts(args: argparse.Namespace) -> int:
         results: dict[str, dict[str, tuple[float, float]]] = {}
         for shift in shifts:
             c = compare(name, args.data, peers, backend, dict(setup.constants), dataset=shifted_dataset(dataset, shift),
-                        step=progress.step, options=setup.options, without_preset=False)
+                        step=progress.step, options=setup.options, without_preset=False, setup=setup)
             results[shift] = {s.label: (s.overall["hota"], s.overall["idf1"]) for s in c.scores}
         table = f"## {TITLES[name]}: shifts (HOTA / IDF1)\n\n{shift_table(results)}\n"
         print(table)
@@ -144,7 +145,7 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
         progress = Progress(len(dataset) * (2 + bool(constants or options.changed()) + len(peers)),
                             f"{name}/peers", enabled=not args.quiet)
         c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step,
-                    options=options, repeat=args.repeat)
+                    options=options, repeat=args.repeat, setup=setup)
         comparisons.append(c)
         print(f"## {c.title}\n")
         print(comparison_table(c))

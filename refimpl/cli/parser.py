@@ -209,12 +209,12 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
                    help="override a model constant (repeatable; as solve --const; abduction backends; on top "
                         "of the preset of --format/--class)")
     t.add_argument("--img-size", type=_parse_img_size, metavar="W,H",
-                   help="image width and height in pixels (the field-of-view border; default: seqinfo.ini, "
-                        "1242,375 for KITTI, unknown otherwise)")
+                   help="image width and height in pixels (the field-of-view border and the pixel constants, "
+                        "docs/model.md 3.22; default: seqinfo.ini, 1242,375 for KITTI, unknown otherwise)")
     t.add_argument("--fps", type=_parse_fps, metavar="FPS",
-                   help="frames per second of the video, a number above 0: bounds a halt at 10 s of frames "
-                        "(lost_after_hidden_max; default: seqinfo.ini's frameRate, 10 for KITTI, unknown "
-                        "otherwise: the model's bound in frames)")
+                   help="frames per second of the video, a number above 0: the preset's durations become the "
+                        "same seconds at this rate and a halt is bounded at 10 s (docs/model.md 3.22; default: "
+                        "seqinfo.ini's frameRate, 10 for KITTI, unknown otherwise: durations in frames as written)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")
     t.add_argument("--events-json", help="write the event log as JSON lines")
     t.add_argument("--time-limit", type=_time_limit, default=None, metavar="SECONDS",

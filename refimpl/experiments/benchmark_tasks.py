@@ -82,6 +82,9 @@ class RunRequest:
     constants: tuple[tuple[str, int], ...] = ()
     options: TrackerOptions = TrackerOptions()
     preset: str = NONE
+    tuned_fps: float | None = None
+    """The frame rate of the preset's durations (refimpl.tracking.pipeline.Setup.tuned_fps)."""
+    in_frames: tuple[str, ...] = ()
     keep_rows: bool = False
     """Hand every sequence's results rows back (RunSummary.rows)."""
 
@@ -90,7 +93,8 @@ class RunRequest:
         """What each sequence is tracked with (refimpl.tracking.pipeline)."""
         if self.tracker == BASELINE:
             return Setup(BASELINE)
-        return Setup(self.tracker, tuple(self.constants), self.options, None, self.preset)
+        return Setup(self.tracker, tuple(self.constants), self.options, None, self.preset, self.tuned_fps,
+                     tuple(self.in_frames))
 
 
 @dataclass(frozen=True)

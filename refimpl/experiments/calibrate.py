@@ -42,7 +42,7 @@ from ..io.datasets import BENCHMARKS, CATALOGUE, benchmark_sequences, dataset_ki
 from ..solvers import DEFAULT_BACKEND
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import NONE
-from ..tracking.presets import DEFAULT_KEY, Preset, load_presets, preset_entry, presets_path
+from ..tracking.presets import DEFAULT_KEY, Preset, load_presets, preset_entry, preset_key, presets_path
 from ..runs.scaleout import Plan, run_tasks
 from .table6 import run_benchmark
 from .benchmark_tasks import RunRequest, run_requests
@@ -250,7 +250,9 @@ def chosen_preset(cal: Calibration):
     if cal.loso:
         procedure += "; leave-one-sequence-out estimate in docs/peers.md"
     constants, options = split_point(cal.best.constants)
-    return Preset(cal.format, cal.object_class, constants, cal.benchmark, procedure, options)
+    stored = load_presets().get(preset_key(cal.format, cal.object_class))  # its durations' frame rate stays
+    return Preset(cal.format, cal.object_class, constants, cal.benchmark, procedure, options,
+                  stored.fps if stored else None)
 
 
 def parse_grid(specs: Sequence[str] | None) -> dict[str, tuple]:
@@ -326,7 +328,7 @@ def robust_default(benchmarks: Sequence[str], data_root: str, backend: str = DEF
         p = presets.get(cand)
         for name in benchmarks:
             requests.append(RunRequest(name, data[name], backend, tuple(p.constants.items()) if p else (),
-                                       p.tracker if p else TrackerOptions(), cand))
+                                       p.tracker if p else TrackerOptions(), cand, p.fps if p else None))
     runs = run_requests(requests, plan or Plan(), label="calibrate default", quiet=quiet)
     hota = [[runs[c * len(benchmarks) + b].overall["hota"] for b in range(len(benchmarks))] for c in range(len(names))]
     return choose_robust(benchmarks, names, hota)
@@ -357,7 +359,7 @@ def default_preset(choice: RobustChoice):
     procedure = (f"the stored preset with the best mean rank of HOTA over {', '.join(choice.benchmarks)} "
                  f"(refimpl calibrate --default): {name}")
     return Preset("*", "*", dict(source.constants) if source else {}, "+".join(choice.benchmarks), procedure,
-                  source.tracker if source else TrackerOptions())
+                  source.tracker if source else TrackerOptions(), source.fps if source else None)
 
 
 def write_preset(preset: Preset, path: str | os.PathLike | None = None) -> Path:

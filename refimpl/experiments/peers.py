@@ -52,6 +52,7 @@ from ..io.datasets import TITLES, load_dataset
 from ..io.detections import probability_scale
 from ..solvers import BASELINE, DEFAULT_BACKEND
 from ..tracking.options import TrackerOptions
+from ..tracking.pipeline import Setup
 from .latency import summarise
 from .peer_table import PACKAGES, PEERS, Package, Peer  # noqa: F401  (re-exported: the registry)
 from .table6 import change, run_benchmark, run_tracker
@@ -278,7 +279,7 @@ class Comparison:
 
 def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAULT_BACKEND,
             constants: Mapping[str, int] | None = None, dataset=None, step=None, options=None,
-            repeat: int = 1, without_preset: bool = True) -> Comparison:
+            repeat: int = 1, without_preset: bool = True, setup: Setup | None = None) -> Comparison:
     """Every tracker on the same detections of a dataset, scored by the same evaluator.
 
     ``repeat`` > 1: every tracker tracks every sequence that many times in all, the repetitions
@@ -286,7 +287,9 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
     the frame times of its fastest run (least CPU in all): on a shared machine a burst of other
     work then slows one run of one tracker, not one tracker's whole column.  The results and so
     the scores are those of the first run (every run gives the same rows).  ``without_preset``: a row
-    of the abduction tracker without its preset too, where the preset changes anything."""
+    of the abduction tracker without its preset too, where the preset changes anything.  ``setup``:
+    what the abduction tracker runs with (refimpl.tracking.pipeline.setup_for: a preset's constants,
+    options and frame rate), else ``constants`` and ``options`` without a preset."""
     if repeat < 1:
         raise ValueError(f"repeat must be >= 1, got {repeat}")
 
@@ -296,23 +299,23 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
     frames = sum(len(d.frames) for _, d, _ in dataset)
     scores = []
     options = options or TrackerOptions()
-    runs = [(BASELINE, "refimpl baseline (SORT)", None, None),
-            (backend, f"refimpl abduction ({backend})", dict(constants or {}), options)]
+    abduction = setup or Setup(backend, tuple((constants or {}).items()), options)
+    runs = [(BASELINE, "refimpl baseline (SORT)", Setup(BASELINE)),
+            (backend, f"refimpl abduction ({backend})", abduction)]
     if without_preset and (constants or options.changed()):  # what the preset changes: model/constants.lp and default options
-        runs.append((backend, f"refimpl abduction ({backend}), no preset", {}, TrackerOptions()))
+        runs.append((backend, f"refimpl abduction ({backend}), no preset", Setup(backend)))
     # per tracker: a function timing one sequence (its CPU seconds per frame), and the frame
     # times kept per sequence (the fastest run's)
     timers: list = []
     kept: list[dict[str, list[float]]] = []
-    for tracker, label, consts, opts in runs:
-        run = run_benchmark(name, data_root, tracker, step, dataset=dataset, constants=consts, options=opts)
+    for tracker, label, run_setup in runs:
+        run = run_benchmark(name, data_root, tracker, step, dataset=dataset, setup=run_setup)
         scores.append(TrackerScore(label, run.overall, run.per_sequence, frames, run.seconds))
         by_seq: dict[str, list[float]] = {}
         for t, seq_name, *_ in run.latency:
             by_seq.setdefault(seq_name, []).append(t)
         kept.append(by_seq)
-        timers.append(lambda seq, tracker=tracker, consts=consts, opts=opts:
-                      _refimpl_frame_times(seq, tracker, consts, opts))
+        timers.append(lambda seq, run_setup=run_setup: _refimpl_frame_times(seq, run_setup))
     for p in peers:
         triples, params, by_seq = [], {}, {}
         for seq_name, dets, gt in dataset:
@@ -346,10 +349,10 @@ def compare(name: str, data_root: str, peers=tuple(PEERS), backend: str = DEFAUL
                       repeat)
 
 
-def _refimpl_frame_times(seq, tracker: str, constants, options) -> list[float]:
+def _refimpl_frame_times(seq, setup: Setup) -> list[float]:
     """CPU seconds per frame of one refimpl run (the boundary of run_benchmark's latency)."""
     times: list[float] = []
-    run_tracker(seq, tracker, constants, options, frame_times=times)
+    run_tracker(seq, setup.backend, frame_times=times, setup=setup)
     return times
 
 

@@ -35,18 +35,21 @@ class BenchmarkRun:
     """(CPU seconds, sequence, frame, detections) of every frame tracked (refimpl.experiments.latency)."""
 
 
-def run_tracker(seq, tracker: str, constants=None, options=None, frame_times: list | None = None):
+def run_tracker(seq, tracker: str, constants=None, options=None, frame_times: list | None = None,
+                setup: Setup | None = None):
     """Results rows and events of one sequence with 'baseline' (SORT) or an abduction backend
-    (with these model constants on top of model/constants.lp and these TrackerOptions), through
-    the one pipeline (refimpl.tracking.pipeline)."""
-    setup = Setup(tracker) if tracker == BASELINE else \
-        Setup(tracker, tuple((constants or {}).items()), options or TrackerOptions())
+    (with these model constants on top of model/constants.lp and these TrackerOptions, or as
+    ``setup`` says: a preset's, refimpl.tracking.pipeline.setup_for), through the one pipeline
+    (refimpl.tracking.pipeline)."""
+    if setup is None:
+        setup = Setup(tracker) if tracker == BASELINE else \
+            Setup(tracker, tuple((constants or {}).items()), options or TrackerOptions())
     result = run_sequence(seq, setup, frame_times=frame_times)
     return result.rows, result.events
 
 
 def run_benchmark(name: str, data_root: str, tracker: str, step: Callable[[str], None] | None = None,
-                  dataset=None, constants=None, options=None) -> BenchmarkRun:
+                  dataset=None, constants=None, options=None, setup: Setup | None = None) -> BenchmarkRun:
     """Track and evaluate every sequence of a dataset; ``seconds`` is the CPU time of the tracker's
     per-frame updates alone (detections already in memory; set-up and evaluation excluded), the
     boundary the peers are timed at (refimpl.experiments.peers)."""
@@ -55,7 +58,7 @@ def run_benchmark(name: str, data_root: str, tracker: str, step: Callable[[str],
     latency: list = []
     for seq_name, dets, gt in dataset:
         times: list[float] = []
-        rows, evs = run_tracker(dets, tracker, constants, options, frame_times=times)
+        rows, evs = run_tracker(dets, tracker, constants, options, frame_times=times, setup=setup)
         latency += [(t, seq_name, fr.frame, len(fr)) for t, fr in zip(times, dets.frames)]
         events.update(e.event.name for e in evs)
         frames += len(dets.frames)

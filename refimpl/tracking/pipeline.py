@@ -18,7 +18,7 @@ published tables measured.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from time import process_time
 from typing import Callable, Mapping
 
@@ -28,8 +28,8 @@ from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
-from .tracker import (AbductionTracker, DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, TrackingResult,
-                      check_frame_budget, sequence_constants)
+from .tracker import (AbductionTracker, DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, DURATIONS,
+                      TrackingResult, check_frame_budget, frames_at, sequence_constants)
 
 AUTO = "auto"
 """Pick the preset by (format, class), falling back to the robust default."""
@@ -53,6 +53,11 @@ class Setup:
     time_limit: float | None = None
     preset: str = NONE
     """The preset the constants and options came from ("kitti/car", "default", or "none")."""
+    tuned_fps: float | None = None
+    """The frame rate the preset's durations were tuned at (refimpl.tracking.presets.Preset.fps): a
+    sequence of another frame rate gets them converted (refimpl.tracking.tracker.frames_at)."""
+    in_frames: tuple[str, ...] = ()
+    """The durations the caller gave (constants of DURATIONS, ``fill_hidden``): frames as given."""
     frame_budget: float | None = None
     """Milliseconds a frame may take (refimpl.tracking.tracker.AbductionTracker), None: no budget.
     setup_for gives a real-time backend DEFAULT_FRAME_BUDGET_MS unless told otherwise."""
@@ -97,7 +102,9 @@ def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND
     opts = merge_options(chosen, options)
     if isinstance(frame_budget, str) and frame_budget == AUTO:
         frame_budget = DEFAULT_FRAME_BUDGET_MS if backend in REAL_TIME else None
+    given = set(constants or {}) | set(options or {})
     return Setup(backend, tuple(merged.items()), opts, time_limit, chosen.name if chosen else NONE,
+                 chosen.fps if chosen else None, tuple(sorted(given & {*DURATIONS, "fill_hidden"})),
                  check_frame_budget(frame_budget))
 
 
@@ -112,13 +119,17 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
     refimpl.Tracker steps it frame by frame)."""
     if setup.baseline:
         raise ValueError("the baseline is SORT (refimpl.tracking.baseline), not an abduction tracker")
+    options = setup.options
+    if fps and setup.tuned_fps and "fill_hidden" not in setup.in_frames:
+        options = replace(options, fill_hidden=frames_at(options.fill_hidden, fps, setup.tuned_fps))
     return AbductionTracker(solver or get_solver(setup.backend),
-                            sequence_constants(dict(setup.constants), image_size, fps),
+                            sequence_constants(dict(setup.constants), image_size, fps, setup.tuned_fps,
+                                               setup.in_frames),
                             DEFAULT_MIN_HITS if min_hits is None else min_hits, setup.time_limit,
                             DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                             DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
                             sink=sink, keep_records=keep_records, frame_budget=setup.frame_budget,
-                            **setup.options.kwargs())
+                            **options.kwargs())
 
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,

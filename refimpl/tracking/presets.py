@@ -41,6 +41,10 @@ class Preset:
     procedure: str
     tracker: TrackerOptions = TrackerOptions()
     """The tracker options of the preset (the "tracker" entry; defaults where it is absent)."""
+    fps: float | None = None
+    """The frame rate its durations were tuned at (the "fps" entry): the constants and options in
+    frames (refimpl.tracking.tracker.DURATIONS, ``fill_hidden``) mean that many frames at this frame
+    rate and are converted to a sequence's own (docs/model.md 3.22).  None: frames as written."""
     startable: float | None = None
     """The share of the tuning set's detections whose confidence passes the preset's
     conf_thresh_new_track (may start a track): what its thresholds were fitted on; a file far from
@@ -71,9 +75,11 @@ def _parse(data: Mapping, source: Path) -> dict[str, Preset]:
         if unknown or not cls:
             raise ValueError(f"{source}: preset {key!r}: unknown constants {unknown} or key not FORMAT/CLASS")
         options = TrackerOptions.from_mapping(entry.get("tracker", {}), f"{source}: preset {key!r}")
-        share = entry.get("startable")
+        share, fps = entry.get("startable"), entry.get("fps")
+        if fps is not None and not (isinstance(fps, (int, float)) and not isinstance(fps, bool) and fps > 0):
+            raise ValueError(f"{source}: preset {key!r}: fps must be a number above 0, got {fps!r}")
         out[key] = Preset(fmt, cls, consts, str(entry.get("tuned_on", "")), str(entry.get("procedure", "")),
-                          options, None if share is None else float(share))
+                          options, None if fps is None else float(fps), None if share is None else float(share))
     return out
 
 
@@ -149,6 +155,7 @@ def preset_entry(preset: Preset) -> dict[str, object]:
     writes no files."""
     return {"constants": dict(sorted(preset.constants.items())), "tracker": preset.tracker.as_dict(),
             "tuned_on": preset.tuned_on, "procedure": preset.procedure,
+            **({"fps": preset.fps} if preset.fps is not None else {}),
             **({"startable": round(preset.startable, 4)} if preset.startable is not None else {})}
 
 
