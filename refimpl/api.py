@@ -61,9 +61,8 @@ from numpy.typing import ArrayLike
 from .core.confidence import online_rule
 from .core.constants import default_constants
 from .core.spec import HistoryEvent, track_number
-from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMAT_NAMES, InputFormatWarning, KITTI,
-                 KITTI_FPS, KITTI_IMAGE_SIZE, MAX_COORD, MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type,
-                 SCORE_RULES, get_format)
+from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMATS, InputFormatWarning, MAX_COORD,
+                 MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type, SCORE_RULES, get_format)
 from .io.detections import resolve_rule, scale_confidences
 from .io.lines import too_many_detections
 from .scene import Scene, scene_from_result
@@ -109,8 +108,9 @@ class Tracker:
 
     backend: an abduction backend of refimpl.solvers.BACKENDS (default DEFAULT_BACKEND, as
         ``refimpl track``).
-    format: "mot" or "kitti": the file format whose conventions the frames follow (frame numbering,
-        KITTI's image size and frame rate when ``img_size`` / ``fps`` are not given) and, with
+    format: a format of refimpl.io.FORMATS ("mot", "kitti"): the file format whose conventions the
+        frames follow (frame numbering, its image size and frame rate when ``img_size`` / ``fps`` are
+        not given: KITTI's, none for MOTChallenge; what ``scores="auto"`` means) and, with
         ``object_type``, which preset applies.
     preset: "auto" (default: the preset of (format, object_type) by the same rule as
         ``refimpl track``, refimpl.tracking.pipeline.setup_for: its own, else the robust
@@ -171,8 +171,8 @@ class Tracker:
                  frame_budget: float | None | str = AUTO, **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
-        if format not in FORMAT_NAMES:
-            raise ValueError(f"format must be one of {', '.join(FORMAT_NAMES)}, got {format!r}")
+        if format not in FORMATS:
+            raise ValueError(f"format must be one of {', '.join(FORMATS)}, got {format!r}")
         resolve_rule(scores)  # ValueError naming the rules
         fmt = get_format(format)
         if object_type is None and fmt.needs_class:
@@ -184,9 +184,9 @@ class Tracker:
         """Integer class id (column 6 of an (N, 6) array, ``Detections.class_id``) -> object type."""
         overrides = self._constants(constants)
         self._given_size = None if img_size is None else self._img_size(img_size)
-        self._format_size = KITTI_IMAGE_SIZE if format == KITTI else None
-        if fps is None and format == KITTI:
-            fps = KITTI_FPS
+        self._format_size = fmt.image_size
+        if fps is None:
+            fps = fmt.fps
         if fps is not None:
             fps = self._fps(fps)
         if first_frame is None:
@@ -198,14 +198,14 @@ class Tracker:
         if time_limit is not None and not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds or None, got {time_limit!r}")
         TrackerOptions.from_mapping(options, "Tracker")  # ValueError naming what is wrong
-        self.setup = setup_for(format, self.object_type, backend, overrides, options, preset, time_limit,
+        self.setup = setup_for(fmt.preset_format, self.object_type, backend, overrides, options, preset, time_limit,
                                frame_budget)  # ValueError for a bad budget
         """What this tracker runs with (refimpl.tracking.pipeline.Setup): backend, constants, options, preset."""
         LOG.info("refimpl.Tracker: %s", self.setup.describe())
         self.backend = backend
         self.name, self.fps = name, fps
         self.first_frame = int(first_frame)
-        self.scores = resolve_rule(scores)
+        self.scores = resolve_rule(scores, fmt.score_rule)
         """The score rule in use: ``auto`` is the format's own scale, as the file readers read it."""
         self._params = (int(min_hits), int(bridge_gap), int(bridge_conf))
         if not isinstance(history, bool):

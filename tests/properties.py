@@ -24,8 +24,8 @@ from hypothesis.extra import numpy as hnp
 from refimpl.api import Tracker
 from refimpl.core.errors import UserFacingError
 from refimpl.io import InputFormatWarning
-from refimpl.io.detections import read_kitti_detections, read_mot_detections
-from refimpl.io.stream import stream_mot_detections
+from refimpl.io import read_kitti_detections, read_mot_detections
+from refimpl.io import stream_mot_detections
 
 _NUMBERS = st.one_of(
     st.integers(-5, 2000).map(str),

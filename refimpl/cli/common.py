@@ -122,7 +122,7 @@ def _setup(args: argparse.Namespace, fmt: str, cls: str | None, constants=None):
         raise UserError(f"give --no-preset or --preset {asked}, not both")
     preset = NONE if getattr(args, "no_preset", False) else (asked or AUTO)
     try:
-        return setup_for(fmt, cls, args.backend, constants if constants is not None else dict(args.const or []),
+        return setup_for(io.get_format(fmt).preset_format, cls, args.backend, constants if constants is not None else dict(args.const or []),
                          _option_overrides(args), preset, getattr(args, "time_limit", None),
                          _frame_budget(getattr(args, "frame_budget", None)))
     except ValueError as exc:

@@ -18,10 +18,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Sequence
 
 from .. import io
-from ..io.ground_truth import _KITTI_TARGETS, _MOT_DISTRACTORS
+from ..io.formats import KITTI_DEVKIT
 from . import DEVKITS, REFIMPL, TRACKEVAL  # noqa: F401  (the --devkit choices, re-exported)
 from .evaluate import DONTCARE_MIN_COVER, evaluate_many
-from .trackeval_devkit import KITTI_CLASSES, MOT15, mot_benchmark, trackeval_scores
+from .trackeval_devkit import KITTI_CLASSES, MOT15, MOT_CLASS, mot_benchmark, trackeval_scores
 
 if TYPE_CHECKING:
     from .folder_eval import LoadedSequence
@@ -59,7 +59,10 @@ def check_devkit(devkit: str, data_format: str, object_class: str | None) -> Non
     """ValueError (one line) if the devkit cannot score this format / class."""
     if devkit not in DEVKITS:
         raise ValueError(f"unknown devkit {devkit!r} (known: {', '.join(DEVKITS)})")
-    if devkit == TRACKEVAL and data_format == io.KITTI and object_class not in KITTI_CLASSES:
+    conventions = io.get_format(data_format).devkit
+    if devkit == TRACKEVAL and conventions is None:
+        raise ValueError(f"--devkit trackeval has no dataset for --format {data_format}: use --devkit refimpl")
+    if devkit == TRACKEVAL and conventions == KITTI_DEVKIT and object_class not in KITTI_CLASSES:
         raise ValueError(f"--devkit trackeval scores KITTI Car and Pedestrian only (TrackEval's Kitti2DBox), "
                          f"not {str(object_class).capitalize()}: use --devkit refimpl")
 
@@ -71,8 +74,11 @@ def _names(types: Sequence[str]) -> str:
 def refimpl_rules(data_format: str, object_class: str | None, sequences: Sequence[LoadedSequence]) -> str:
     """What refimpl.evaluation.evaluate does with these sequences, in one phrase (refimpl.io's package doc)."""
     cover = f"{100 * DONTCARE_MIN_COVER:g}%"
-    if data_format == io.KITTI:
-        targets, distractors = _KITTI_TARGETS[str(object_class)]
+    fmt = io.get_format(data_format)
+    if fmt.devkit is None:
+        return f"{fmt.title}, simplified devkit (refimpl): targets and distractors as its reader flags them"
+    if fmt.devkit == KITTI_DEVKIT:
+        targets, distractors = fmt.gt_classes[str(object_class)]
         cls = _names(targets)
         matched = (f"hypotheses matched (IoU >= {IOU_THRESHOLD:g}) to {_names(distractors)} rows, "
                    if distractors else "")
@@ -85,7 +91,8 @@ def refimpl_rules(data_format: str, object_class: str | None, sequences: Sequenc
             parts.append("MOT15 ground truth: targets rows with flag != 0; no distractors")
         else:
             parts.append(f"{kind} ground truth: targets rows with flag != 0 and class 1; removed: hypotheses "
-                         f"matched (IoU >= {IOU_THRESHOLD:g}) to rows of class {', '.join(map(str, _MOT_DISTRACTORS))}")
+                         f"matched (IoU >= {IOU_THRESHOLD:g}) to rows of class "
+                         f"{', '.join(map(str, fmt.gt_classes[MOT_CLASS][1]))}")
     return "MOTChallenge, simplified devkit (refimpl): " + " | ".join(parts)
 
 

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from .. import io
+from ..io.formats import KITTI_DEVKIT
 from .hota import trackeval_package
 
 if TYPE_CHECKING:  # the type only: importing this module stays light (the command line reads KITTI_CLASSES)
@@ -54,6 +55,8 @@ MOT_DISTRACTOR_CLASSES = {MOT15: (), MOT17: (2, 7, 8, 12), MOT20: (2, 6, 7, 8, 1
 """The gt classes whose matched hypotheses MotChallenge2DBox removes, by BENCHMARK (TrackEval 1.3.0,
 ``get_preprocessed_seq_data``: person_on_vehicle, static_person, distractor, reflection, and for
 MOT20 non_mot_vehicle; MOT15 is not preprocessed)."""
+MOT_CLASS = "pedestrian"
+"""The class MotChallenge2DBox evaluates."""
 KITTI_CLASSES = ("car", "pedestrian")
 """The classes Kitti2DBox evaluates."""
 KITTI_DISTRACTORS = {"car": "Van", "pedestrian": "Person"}
@@ -170,7 +173,11 @@ def trackeval_scores(sequences: Sequence[LoadedSequence], data_format: str,
                      object_class: str | None = None) -> TrackEvalScores:
     """Score the sequences with TrackEval's dataset pipeline (module doc); KITTI needs car or pedestrian."""
     trackeval = trackeval_package()  # heavy and only needed here
-    if data_format == io.KITTI and object_class not in KITTI_CLASSES:
+    conventions = io.get_format(data_format).devkit
+    if conventions is None:
+        raise ValueError(f"TrackEval has no dataset for the {data_format} format (its devkit conventions are none)")
+    kitti = conventions == KITTI_DEVKIT  # else MOTChallenge's
+    if kitti and object_class not in KITTI_CLASSES:
         raise ValueError(f"TrackEval's Kitti2DBox evaluates {' and '.join(KITTI_CLASSES)} only, not {object_class}")
     if not sequences:
         raise ValueError("no sequences to score")
@@ -185,7 +192,7 @@ def trackeval_scores(sequences: Sequence[LoadedSequence], data_format: str,
         names = {seq.name: f"{k:04d}" for k, seq in enumerate(sequences)}  # neutral names TrackEval can parse
         gt_dir, trackers, out = root / "gt", root / "trackers", root / "out"
         data_dir = trackers / TRACKER / "data"
-        if data_format == io.KITTI:
+        if kitti:
             for seq in sequences:
                 _write(gt_dir / "label_02" / f"{names[seq.name]}.txt", _relabel(io.data_lines(seq.gt_path), None))
                 _write(data_dir / f"{names[seq.name]}.txt", _kitti_result_lines(seq, object_class))
@@ -204,11 +211,11 @@ def trackeval_scores(sequences: Sequence[LoadedSequence], data_format: str,
                 _write(data_dir / f"{names[seq.name]}.txt", _mot_result_lines(seq))
             datasets = {bm: trackeval.datasets.MotChallenge2DBox({
                 "GT_FOLDER": str(gt_dir), "TRACKERS_FOLDER": str(trackers), "OUTPUT_FOLDER": str(out),
-                "TRACKERS_TO_EVAL": [TRACKER], "CLASSES_TO_EVAL": ["pedestrian"], "BENCHMARK": bm,
+                "TRACKERS_TO_EVAL": [TRACKER], "CLASSES_TO_EVAL": [MOT_CLASS], "BENCHMARK": bm,
                 "SPLIT_TO_EVAL": "train", "SKIP_SPLIT_FOL": True, "PRINT_CONFIG": False,
                 "SEQ_INFO": {names[s.name]: s.gt.num_frames for s in sequences if benchmark[s.name] == bm}})
                 for bm in sorted(set(benchmark.values()))}
-            jobs = [(datasets[benchmark[seq.name]], seq, "pedestrian") for seq in sequences]
+            jobs = [(datasets[benchmark[seq.name]], seq, MOT_CLASS) for seq in sequences]
             rules = mot_rules(list(benchmark.values()))
         for dataset, seq, cls in jobs:
             try:

@@ -32,6 +32,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from ..io import get_format
+
 REPO = Path(__file__).resolve().parents[2]  # the checkout
 DEFAULT_DETS = "KITTI/tracking/training/det_02_pointrcnn/Car/0011.txt"
 
@@ -117,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         n = first_frame(dets, one)
         args = ["track", "--dets", str(one), "--format", a.format, "--backend", a.backend, "--out",
                 str(Path(tmp) / "out.txt"), "--quiet"]
-        if a.format == "kitti":
+        if get_format(a.format).needs_class:
             args += ["--class", a.cls]
         with open("/proc/loadavg") as f:
             load = f.read().split()[0]
@@ -125,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         whole = ["track", "--dets", dets, *args[3:]]
         firsts = [run_to_first_solve(whole, Path(tmp) / "stamp") for _ in range(a.runs)]
     print(f"`refimpl track` on the first frame of {dets} ({n} detections; --format {a.format}"
-          f"{' --class ' + a.cls if a.format == 'kitti' else ''} --backend {a.backend} --quiet), {a.runs} fresh "
+          f"{' --class ' + a.cls if get_format(a.format).needs_class else ''} --backend {a.backend} --quiet), {a.runs} fresh "
           f"processes, load average {load} before the first\n")
     print("| run | wall s | CPU s |\n|---:|---:|---:|")
     for k, r in enumerate(runs, 1):

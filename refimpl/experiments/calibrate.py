@@ -37,7 +37,7 @@ from .. import io
 from ..core.constants import default_constants
 from ..core.errors import UserFacingError
 from ..evaluation.evaluate import combine
-from ..io import KITTI, write_text_atomic
+from ..io import write_text_atomic
 from ..io.datasets import BENCHMARKS, CATALOGUE, benchmark_sequences, dataset_kind, load_dataset, tuning_split
 from ..solvers import DEFAULT_BACKEND
 from ..tracking.options import TrackerOptions
@@ -136,8 +136,9 @@ def check_tunable(benchmark: str, data_root: str) -> None:
     reported, never tuned on)."""
     refuse_held_out(benchmark)
     seqs = benchmark_sequences(benchmark, data_root) if benchmark in BENCHMARKS else []
-    if seqs and seqs[0].format == io.KITTI:  # KITTI has a held-out val split
-        held_out = sorted(set(s.name for s in seqs) & set(io.kitti_val_sequences(data_root)))
+    val_split = io.get_format(seqs[0].format).val_split if seqs else None
+    if val_split is not None:  # the format's benchmark has a held-out val split (KITTI's)
+        held_out = sorted(set(s.name for s in seqs) & set(val_split(data_root)))
         if held_out:
             raise CalibrationRefused(
                 f"{benchmark} holds the held-out val sequences {', '.join(held_out)}; calibrate on "
@@ -181,6 +182,7 @@ def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] 
 
     check_tunable(benchmark, data_root)
     fmt, cls = dataset_kind(benchmark, data_root)
+    data_format = io.get_format(fmt)
     combos = grid_points(grid)
     dataset = load_dataset(benchmark, data_root)
     points = run_tasks(_run_point, [(benchmark, data_root, c, backend, dataset) for c in combos],
@@ -193,9 +195,9 @@ def calibrate(benchmark: str, data_root: str, grid: Mapping[str, Sequence[int]] 
     ranked = tuple(sorted(range(len(points)), key=lambda i: (rank_key(points[i].overall, use_hota), -i),
                           reverse=True))
     if loso is None:
-        loso = fmt != KITTI  # no held-out split: leave one sequence out
+        loso = data_format.val_split is None  # no held-out split: leave one sequence out
     loso_result = leave_one_sequence_out(points, use_hota) if loso and len(points[0].per_sequence) > 1 else None
-    return Calibration(benchmark, fmt, cls, {k: tuple(v) for k, v in grid.items()}, tuple(points), ranked,
+    return Calibration(benchmark, data_format.preset_format, cls, {k: tuple(v) for k, v in grid.items()}, tuple(points), ranked,
                        ranking, loso_result)
 
 

@@ -89,7 +89,8 @@ def sweep_data(dataset: str, data_root: str | os.PathLike, sequences: Sequence[s
         for s in names:
             if s not in listing:
                 raise ValueError(f"unknown KITTI sequence {s!r} (known: {', '.join(listing)})")
-            out.append((s, io.load_ground_truth(listing[s]), io.KITTI_IMAGE_SIZE, io.KITTI_FPS))
+            fmt = io.get_format(listing[s].format)
+            out.append((s, io.load_ground_truth(listing[s]), fmt.image_size, fmt.fps))
     else:
         raise ValueError(f"unknown sweep dataset {dataset!r} (choose from {', '.join(SWEEP_DATASETS)})")
     return out

@@ -22,6 +22,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .. import io
 from ..io.datasets import dataset_kind, load_dataset
 from ..solvers import DEFAULT_BACKEND
 from ..tracking.pipeline import run_sequence, setup_for
@@ -107,14 +108,19 @@ class _FullCollections:
         gc.callbacks.remove(self)
 
 
+def _setup(name: str, data_root: str, backend: str):
+    """The Setup a user gets for this dataset: the preset of its format and class (setup_for)."""
+    fmt, cls = dataset_kind(name, data_root)
+    return setup_for(io.get_format(fmt).preset_format, cls, backend)
+
+
 def measure_latency(datasets: Sequence[str] = LATENCY_DATASETS, data_root: str = "../shared/data",
                     backend: str = DEFAULT_BACKEND, heaps: Sequence[str] = HEAPS,
                     step: Callable[[str], None] | None = None) -> list[LatencyRun]:
     """The CPU time of every frame of the datasets, tracked with the defaults a user gets
     (``setup_for``: the dataset's preset, the backend's default frame budget) through the one
     pipeline (``run_sequence(frame_times=)``, the boundary of this module), once per heap mode."""
-    loaded = [(name, setup_for(*dataset_kind(name, data_root), backend), load_dataset(name, data_root))
-              for name in datasets]
+    loaded = [(name, _setup(name, data_root, backend), load_dataset(name, data_root)) for name in datasets]
     runs = []
     for heap in heaps:
         if heap not in HEAPS:

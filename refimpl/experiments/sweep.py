@@ -56,8 +56,8 @@ def split_dataset(benchmark: str, dataset, data_root: str | Path, split: str):
         return list(dataset)
     if split not in SPLITS:
         raise ValueError(f"split must be one of {', '.join(SPLITS)}")
-    kitti = benchmark in BENCHMARKS and all(
-        s.format == io.KITTI for s in benchmark_sequences(benchmark, data_root))
+    kitti = benchmark in BENCHMARKS and all(  # a format with KITTI's held-out val split
+        io.get_format(s.format).val_split is not None for s in benchmark_sequences(benchmark, data_root))
     if not kitti:
         raise ValueError(f"--split {split} is defined for the KITTI benchmarks only (its seqmap.val)")
     val = set(val_sequences(data_root))

@@ -5,14 +5,17 @@ One concern per module (each imports only the ones listed before it):
 * :mod:`.errors`       - InputFormatError, InputFormatWarning;
 * :mod:`.lines`        - reading a file line by line, fields, numbers and the shared row checks;
 * :mod:`.seqinfo`      - MOTChallenge seqinfo.ini and the columns det.txt and gt.txt share;
-* :mod:`.ground_truth` - GroundTruth, the MOTChallenge and KITTI ground-truth readers;
-* :mod:`.detections`   - DetectionFrame / DetectionSequence, the detection readers, the confidence rule;
+* :mod:`.ground_truth` - GroundTruth, what a ground-truth reader makes of a file;
+* :mod:`.detections`   - DetectionFrame / DetectionSequence, what a detection reader makes of a file, and
+  the confidence rule;
 * :mod:`.stream`       - DetectionStream: detections read from a pipe frame by frame as they arrive;
 * :mod:`.event_logs`   - event log lines and files;
-* :mod:`.results`      - results readers and writers (MOTChallenge, KITTI), ResultWriter;
+* :mod:`.results`      - what the results readers and writers share (the table checks, the atomic write);
+* :mod:`.formats`      - one module per file format (:mod:`.formats.mot` MOTChallenge, :mod:`.formats.kitti`
+  KITTI tracking: readers and writers of detections, ground truth, results and the pipe, frame
+  numbering, image size, frame rate, score rule, distractors, preset key, devkit, benchmark layout)
+  and their registry (FORMATS, MOT, KITTI, get_format, registered), with ResultWriter;
 * :mod:`.classes`      - a detector's class names and ids (COCO's 80) as the types they are tracked as;
-* :mod:`.formats`      - the format registry (FORMATS, MOT, KITTI, get_format): each format's readers,
-  writers, frame numbering, ground-truth layout and side files in one row;
 * :mod:`.catalogue`    - the files of the public benchmarks (Benchmark, benchmark_files; the names are
   refimpl.io.datasets.CATALOGUE's), the KITTI splits, load_detections / load_ground_truth and the
   bundled demo.
@@ -105,15 +108,17 @@ from .errors import InputFormatError, InputFormatWarning
 from .lines import (MAX_COORD, MAX_DET_AREA, MAX_DETECTIONS_PER_FRAME, MAX_FRAME, MIN_DET_SIZE, OBJECT_TYPES,
                     data_line_numbers, data_lines)
 from .seqinfo import read_seqinfo
-from .ground_truth import GroundTruth, read_kitti_ground_truth, read_mot_ground_truth
-from .detections import (DEFAULT_SCORE_RULE, KITTI_FPS, KITTI_IMAGE_SIZE, SCORE_RULES, DetectionFrame, DetectionSequence,
-                         read_kitti_detections, read_mot_detections)
-from .stream import STDIN_NAME, DetectionStream, stream_kitti_detections, stream_mot_detections
+from .ground_truth import GroundTruth
+from .detections import DEFAULT_SCORE_RULE, SCORE_RULES, DetectionFrame, DetectionSequence
+from .stream import STDIN_NAME, DetectionStream
 from .event_logs import event_json_line, event_line, write_event_log, write_event_log_json
-from .results import (ResultWriter, format_kitti_results, format_mot_results, read_kitti_results,
-                      read_mot_results, write_kitti_results, write_mot_results, write_text_atomic)
-from .formats import (FORMAT_NAMES, FORMATS, KITTI, MOT, RESULT_FORMATS, DataFormat, get_format, read_results,
-                      results_formatter, write_results)
+from .results import write_text_atomic
+from .formats import (FORMAT_NAMES, FORMATS, KITTI, MOT, RESULT_FORMATS, DataFormat, ResultWriter, get_format,
+                      read_results, registered, results_formatter, write_results)
+from .formats.mot import (format_mot_results, read_mot_detections, read_mot_ground_truth, read_mot_results,
+                          stream_mot_detections, write_mot_results)
+from .formats.kitti import (KITTI_FPS, KITTI_IMAGE_SIZE, format_kitti_results, read_kitti_detections,
+                            read_kitti_ground_truth, read_kitti_results, stream_kitti_detections, write_kitti_results)
 from .classes import COCO_CLASS_TYPES, COCO_NAMES, class_id_type, class_type
 from .catalogue import (KITTI_TRAIN, KITTI_VAL_SEQMAP, MOT15_ACF, MOT15_SORT6, MOT15_TRAIN, Benchmark,
                         BenchmarkSequence, benchmark_files, bundled_data_dirs, demo_sequence_paths, kitti_val_sequences,
@@ -133,7 +138,7 @@ __all__ = [
     "RESULT_FORMATS", "ResultWriter", "format_kitti_results", "format_mot_results", "read_kitti_results",
     "read_mot_results", "read_results", "results_formatter", "write_kitti_results", "write_mot_results",
     "write_results", "write_text_atomic",
-    "FORMAT_NAMES", "FORMATS", "KITTI", "MOT", "DataFormat", "get_format",
+    "FORMAT_NAMES", "FORMATS", "KITTI", "MOT", "DataFormat", "get_format", "registered",
     "KITTI_TRAIN", "KITTI_VAL_SEQMAP", "MOT15_ACF", "MOT15_SORT6", "MOT15_TRAIN", "Benchmark", "BenchmarkSequence",
     "benchmark_files", "bundled_data_dirs", "demo_sequence_paths", "kitti_val_sequences", "load_detections",
     "load_ground_truth", "shipped_examples",

@@ -11,9 +11,9 @@ from pathlib import Path
 
 from .detections import DetectionSequence
 from .errors import InputFormatError
-from .formats import KITTI, MOT, get_format
+from .formats import MOT, get_format
+from .formats.kitti import KITTI_TRAIN, KITTI_VAL_SEQMAP, kitti_val_sequences  # noqa: F401  (re-exported)
 from .ground_truth import GroundTruth
-from .lines import _read_lines
 
 
 @dataclass(frozen=True)
@@ -36,10 +36,6 @@ MOT15_SORT6 = ("TUD-Campus", "ETH-Sunnyday", "ETH-Pedcross2", "ADL-Rundle-8", "V
 MOT15_ACF = ("ETH-Sunnyday", "KITTI-13", "KITTI-17", "PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "Venice-2")
 """The MOT15 training sequences whose official (ACF) ``det/det.txt`` is on the data root: the files of
 ADL-Rundle-6, ADL-Rundle-8, ETH-Bahnhof and ETH-Pedcross2 were not fetched (shared/data/PROVENANCE.md)."""
-KITTI_TRAIN = tuple(f"{i:04d}" for i in range(21))
-KITTI_VAL_SEQMAP = Path("KITTI") / "tracking" / "training" / "evaluate_tracking.seqmap.val"
-"""The val split (AB3DMOT's): the sequences it lists are held out; the other training sequences
-are the split tuned on (``kitti-*-train``)."""
 
 
 @dataclass(frozen=True)
@@ -58,46 +54,6 @@ class Benchmark:
     """KITTI: all the listed sequences, or those in the val seqmap (val) or not in it (train)."""
 
 
-def kitti_val_sequences(root: str | os.PathLike) -> tuple[str, ...]:
-    """The sequence names listed in the KITTI val seqmap (first field of each non-empty line)."""
-    path = Path(root) / KITTI_VAL_SEQMAP
-    if not path.is_file():
-        raise InputFormatError("KITTI val seqmap not found (needed for the kitti-*-val/-train splits)", path)
-    names = []
-    for lineno, line in _read_lines(path):
-        name = line.split()[0]
-        if name not in KITTI_TRAIN:
-            raise InputFormatError(f"sequence {name!r} is not a KITTI training sequence (0000-0020)", path, lineno)
-        if name in names:
-            raise InputFormatError(f"sequence {name!r} listed twice", path, lineno)
-        names.append(name)
-    if not names:
-        raise InputFormatError("the KITTI val seqmap lists no sequence", path)
-    return tuple(names)
-
-
-def _mot15(root: Path, b: Benchmark) -> list[BenchmarkSequence]:
-    out = []
-    for name in b.sequences:
-        seq = root / "MOT15" / "train" / name
-        out.append(BenchmarkSequence(
-            name=name, dets_path=seq / "det" / b.detections, gt_path=seq / "gt" / "gt.txt",
-            format=MOT, object_class=b.object_class, seqinfo_path=seq / "seqinfo.ini"))
-    return out
-
-
-def _kitti(root: Path, b: Benchmark) -> list[BenchmarkSequence]:
-    base = root / "KITTI" / "tracking" / "training"
-    names = b.sequences
-    if b.split != "all":
-        val = set(kitti_val_sequences(root))
-        names = tuple(n for n in names if (n in val) == (b.split == "val"))
-    return [BenchmarkSequence(
-        name=name, dets_path=base / "det_02_pointrcnn" / b.detections / f"{name}.txt",
-        gt_path=base / "label_02" / f"{name}.txt", format=KITTI, object_class=b.object_class, seqinfo_path=None)
-        for name in names]
-
-
 def benchmark_files(name: str, b: Benchmark, data_root: str | os.PathLike) -> list[BenchmarkSequence]:
     """The sequences of benchmark ``b`` (called ``name`` in messages) under data_root (layout of
     /work/shared/data: ``Benchmark.format``); every file must exist.  By name:
@@ -105,7 +61,11 @@ def benchmark_files(name: str, b: Benchmark, data_root: str | os.PathLike) -> li
     root = Path(data_root)
     if not root.is_dir():
         raise InputFormatError(f"data root for benchmark {name!r} not found", root)
-    seqs = _mot15(root, b) if b.format == MOT else _kitti(root, b)
+    layout = get_format(b.format).benchmark_layout
+    if layout is None:
+        raise ValueError(f"benchmark {name!r}: format {b.format!r} has no benchmark layout on the data root")
+    seqs = [BenchmarkSequence(f.name, f.dets_path, f.gt_path, b.format, b.object_class, f.seqinfo_path)
+            for f in layout(root, b.detections, b.sequences, b.split)]
     for s in seqs:
         for p in (s.dets_path, s.gt_path, s.seqinfo_path):
             if p is not None and not p.is_file():

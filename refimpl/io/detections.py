@@ -1,9 +1,8 @@
-"""Detections: MOTChallenge det.txt and KITTI PointRCNN files as DetectionSequence, with the
-confidence rule (refimpl.io's package doc)."""
+"""Detections: DetectionSequence, what every format's detection reader makes of a file (the readers:
+refimpl.io.formats.mot, .kitti), and the confidence rule (refimpl.io's package doc)."""
 
 from __future__ import annotations
 
-import os
 import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -13,16 +12,7 @@ import numpy as np
 
 from ..core.confidence import EVIDENCE, RANK, online_rule
 from .errors import InputFormatError, InputFormatWarning
-from .ground_truth import _kitti_label_num_frames
-from .lines import (MAX_DET_AREA, MAX_FRAME, MIN_DET_SIZE, _check_coordinates, _check_frame_sizes, _check_integral,
-                    _check_max_frame, _check_min_frame, _first_bad, _object_type, _read_table, _round_half_up)
-from .seqinfo import _mot_frames_and_boxes, _mot_sequence_name, _resolve_seqinfo
-
-
-KITTI_IMAGE_SIZE = (1242, 375)
-KITTI_FPS = 10.0
-
-_KITTI_DET_TYPE = {"pedestrian": 1, "car": 2, "cyclist": 3}
+from .lines import MAX_DET_AREA, MIN_DET_SIZE, _first_bad, _round_half_up
 
 
 @dataclass(frozen=True)
@@ -88,13 +78,6 @@ class _Rows:
     """(line, reason) of rows dropped by the documented policy (KITTI's degenerate boxes)."""
 
 
-MOT_DET_TABLE = (",", 7, 10, "frame,id,x,y,w,h,score,...", range(7), ("frame", "id", "x", "y", "w", "h", "score"))
-"""A MOTChallenge detection line: separator, field counts, layout, the columns read and their names."""
-KITTI_DET_TABLE = (",", 15, 15, "frame,type,x1,y1,x2,y2,score,h,w,l,x,y,z,rot_y,alpha", range(15),
-                   ("frame", "type", "x1", "y1", "x2", "y2", "score", "h", "w", "l", "x", "y", "z", "rot_y", "alpha"))
-"""A KITTI PointRCNN detection line (as MOT_DET_TABLE)."""
-
-
 def _build_frames(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, conf: np.ndarray,
                   types: Sequence[str], first: int, count: int) -> tuple[DetectionFrame, ...]:
     """One DetectionFrame per frame first..first+count-1, keeping file order within a frame."""
@@ -128,10 +111,11 @@ ONLINE_RULES = (EVIDENCE, RANK)
 """The rules that read a frame's confidences from the frames up to it (refimpl.core.confidence)."""
 
 
-def resolve_rule(rule: str) -> str:
-    """The rule ``rule`` names (``auto`` is ``evidence``); ValueError naming the rules otherwise."""
+def resolve_rule(rule: str, auto: str = EVIDENCE) -> str:
+    """The rule ``rule`` names (``auto`` is the format's own, ``auto``: ``evidence`` for every
+    built-in format, refimpl.io.formats.DataFormat.score_rule); ValueError naming the rules otherwise."""
     _check_rule(rule, SCORE_RULES)
-    return EVIDENCE if rule == "auto" else rule
+    return auto if rule == "auto" else rule
 
 
 def _check_rule(rule: str, allowed: Sequence[str]) -> None:
@@ -202,85 +186,6 @@ def _check_area(path: Path, linenos: Sequence[int], w: np.ndarray, h: np.ndarray
                                "(the solvers compute 100 * area in 32-bit integers)", path, linenos[bad])
 
 
-def _mot_rows(path, linenos: Sequence[int], a: np.ndarray, info: dict | None,
-              max_frame: int | None = MAX_FRAME) -> _Rows:
-    """Every check of MOTChallenge detection rows (MOT_DET_TABLE columns, as floats): integral
-    frames from 1 (to seqLength with a seqinfo), plausible boxes at least MIN_DET_SIZE wide and
-    high, areas the solvers can compute."""
-    frames, boxes = _mot_frames_and_boxes(path, linenos, a, info, max_frame)
-    tiny = _first_bad((boxes[:, 2] < MIN_DET_SIZE) | (boxes[:, 3] < MIN_DET_SIZE))
-    if tiny is not None:
-        raise InputFormatError(f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got "
-                               f"w={boxes[tiny, 2]:g} h={boxes[tiny, 3]:g}", path, linenos[tiny])
-    _check_area(path, linenos, boxes[:, 2], boxes[:, 3])
-    return _Rows(frames, boxes, a[:, 6], tuple(linenos))
-
-
-def read_mot_detections(path: str | os.PathLike, seqinfo=None,
-                        object_type: str = "pedestrian", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
-    """A MOTChallenge det.txt as a DetectionSequence over frames 1..seqLength (see module doc for conf)."""
-    path = Path(path)
-    otype = _object_type(object_type, path)
-    a, linenos = _read_table(path, *MOT_DET_TABLE)
-    info = _resolve_seqinfo(seqinfo, path)
-    rows = _mot_rows(path, linenos, a, info)
-    _check_frame_sizes(path, rows.linenos, rows.frames)
-    rule = resolve_rule(scores_rule)
-    conf = scale_confidences(path, linenos, rows.scores, rule)
-    count = int(info["seqLength"]) if info is not None else int(rows.frames.max())
-    seq = DetectionSequence(
-        name=_mot_sequence_name(path, info),
-        frames=_build_frames(rows.frames, rows.boxes, rows.scores, conf, [otype] * len(conf), 1, count),
-        first_frame=1,
-        image_size=(int(info["imWidth"]), int(info["imHeight"])) if info is not None else None,
-        fps=float(info["frameRate"]) if info is not None else None,
-    )
-    return calibrated(seq, rule)
-
-
-def _kitti_rows(path, linenos: Sequence[int], a: np.ndarray, otype: str, num_frames: int | None,
-                on_degenerate: str, max_frame: int | None = MAX_FRAME) -> _Rows:
-    """Every check of KITTI PointRCNN detection rows (KITTI_DET_TABLE columns, as floats), and the
-    rows kept: integral frames from 0 (below num_frames if given), a known class type, plausible
-    boxes of non-negative size, areas the solvers can compute; only rows of ``otype``, its
-    degenerate boxes dropped and recorded (``on_degenerate="drop"``) or refused (``"error"``)."""
-    frames = _check_integral(path, linenos, a[:, 0], "frame")
-    types = _check_integral(path, linenos, a[:, 1], "type")
-    _check_min_frame(path, linenos, frames, 0, max_frame)
-    bad = _first_bad(~np.isin(types, list(_KITTI_DET_TYPE.values())))
-    if bad is not None:
-        raise InputFormatError(
-            f"unknown class type {types[bad]} (1 pedestrian, 2 car, 3 cyclist)", path, linenos[bad])
-    if num_frames is not None:
-        _check_max_frame(path, linenos, frames, num_frames - 1, f"num_frames={num_frames}")
-    _check_coordinates(path, linenos, a[:, 2:6], ("x1", "y1", "x2", "y2"))
-    w = a[:, 4] - a[:, 2]
-    h = a[:, 5] - a[:, 3]
-    neg = _first_bad((w < 0) | (h < 0))
-    if neg is not None:
-        raise InputFormatError(
-            f"box has negative size: x2-x1={w[neg]:g}, y2-y1={h[neg]:g}", path, linenos[neg])
-    keep = types == _KITTI_DET_TYPE[otype]
-    zero = keep & ((w < MIN_DET_SIZE) | (h < MIN_DET_SIZE))  # zero-area, or too thin for a results file
-    dropped: list[tuple[int, str]] = []
-    if zero.any():
-        first = int(np.flatnonzero(zero)[0])
-        if on_degenerate == "error":
-            raise InputFormatError(
-                f"box width and height must be > 0, got w={w[first]:g} h={h[first]:g}" if
-                w[first] == 0 or h[first] == 0 else
-                f"box width and height must be >= {MIN_DET_SIZE:g} pixels, got w={w[first]:g} h={h[first]:g}",
-                path, linenos[first])
-        for i in np.flatnonzero(zero):
-            kind = "zero-area" if w[i] == 0 or h[i] == 0 else f"below {MIN_DET_SIZE:g} px"
-            dropped.append((linenos[i], f"{kind} box w={w[i]:g} h={h[i]:g}"))
-        keep &= ~zero
-    kept = np.asarray(linenos)[keep]
-    _check_area(path, kept, w[keep], h[keep])
-    return _Rows(frames[keep], np.column_stack([a[:, 2], a[:, 3], w, h])[keep], a[keep, 6],
-                 tuple(int(n) for n in kept), tuple(dropped))
-
-
 def _warn_dropped(path, dropped: Sequence[tuple[int, str]], stacklevel: int = 3) -> None:
     """One warning naming every line of a degenerate KITTI box that was dropped."""
     warnings.warn(
@@ -288,39 +193,3 @@ def _warn_dropped(path, dropped: Sequence[tuple[int, str]], stacklevel: int = 3)
         f"box(es) on line(s) {', '.join(str(n) for n, _ in dropped)}", InputFormatWarning, stacklevel=stacklevel)
 
 
-def read_kitti_detections(path: str | os.PathLike, object_class: str, num_frames: int | None = None,
-                          on_degenerate: str = "drop", scores_rule: str = DEFAULT_SCORE_RULE) -> DetectionSequence:
-    """PointRCNN detections of one class as a DetectionSequence over frames 0..num_frames-1.
-
-    num_frames defaults to the frame count of ``../../label_02/NNNN.txt`` (relative to the class
-    folder) if present, else max frame + 1.  Zero-width/height boxes: see module doc.
-    """
-    path = Path(path)
-    otype = _object_type(object_class, path)
-    if on_degenerate not in ("drop", "error"):
-        raise ValueError("on_degenerate must be 'drop' or 'error'")
-    rule = resolve_rule(scores_rule)
-    a, linenos = _read_table(path, *KITTI_DET_TABLE)
-    if num_frames is None:
-        label = path.parent.parent.parent / "label_02" / path.name
-        if label.is_file():
-            num_frames = _kitti_label_num_frames(label)
-    elif num_frames < 1:
-        raise ValueError("num_frames must be >= 1")
-    rows = _kitti_rows(path, linenos, a, otype, num_frames, on_degenerate)
-    _check_frame_sizes(path, rows.linenos, rows.frames)
-    if rows.dropped:
-        _warn_dropped(path, rows.dropped)
-    if num_frames is None:
-        num_frames = int(a[:, 0].max()) + 1  # every row's frame (any class), integral and checked
-    seq = DetectionSequence(
-        name=path.stem,
-        frames=_build_frames(rows.frames, rows.boxes, rows.scores,
-                             scale_confidences(path, rows.linenos, rows.scores, rule),
-                             [otype] * len(rows.scores), 0, num_frames),
-        first_frame=0,
-        image_size=KITTI_IMAGE_SIZE,
-        fps=KITTI_FPS,
-        dropped=rows.dropped,
-    )
-    return calibrated(seq, rule)

@@ -1,9 +1,10 @@
 """Detections read from a text stream as its lines arrive: a detector writing rows into a pipe
 (``refimpl track --dets -``).
 
-A :class:`DetectionStream` yields the same DetectionFrames as the file readers of
-:mod:`.detections` give for the same text (each line goes through the same row checks,
-``_mot_rows`` / ``_kitti_rows``, and each frame through the same confidence rule), one frame at a
+A :class:`DetectionStream` yields the same DetectionFrames as a format's file reader gives for the
+same text (each line goes through the same row checks, ``_mot_rows`` / ``_kitti_rows`` of
+refimpl.io.formats.mot / .kitti, which also make their streams, and each frame through the same
+confidence rule), one frame at a
 time: a frame is complete when a line of a later frame arrives, or at the end of the stream.  Its
 memory is one frame's rows (at most MAX_DETECTIONS_PER_FRAME), plus a few floats per detection under an online rule
 (evidence, rank: their state is the last refimpl.core.confidence.SCORE_WINDOW scores) and the line numbers of
@@ -23,18 +24,14 @@ What differs from a file, because a stream cannot be read twice:
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import IO, Callable, Iterator, Sequence
 
 import numpy as np
 
 from ..core.confidence import online_rule
-from .detections import (DEFAULT_SCORE_RULE, KITTI_DET_TABLE, KITTI_FPS, KITTI_IMAGE_SIZE, MOT_DET_TABLE,
-                         DetectionFrame, _kitti_rows, _mot_rows, resolve_rule, scale_confidences,
-                         _Rows, _warn_dropped)
+from .detections import DetectionFrame, _Rows, _warn_dropped, resolve_rule, scale_confidences
 from .errors import InputFormatError
-from .lines import MAX_DETECTIONS_PER_FRAME, MAX_FRAME, _data_lines, _line_numbers, _object_type, too_many_detections
-from .seqinfo import _resolve_seqinfo
+from .lines import MAX_DETECTIONS_PER_FRAME, MAX_FRAME, _data_lines, _line_numbers, too_many_detections
 
 STDIN_NAME = "<stdin>"
 """How errors and the summary name standard input (``<stdin>:12: ...``)."""
@@ -42,10 +39,10 @@ STDIN_NAME = "<stdin>"
 
 class _Scores:
     """A confidence rule applied frame by frame, in order (an online rule keeps its state here;
-    empty frames go through it too, as in a file)."""
+    empty frames go through it too, as in a file); ``auto``: the format's rule for ``auto``."""
 
-    def __init__(self, path: str, rule: str):
-        self.path, self.rule = path, resolve_rule(rule)
+    def __init__(self, path: str, rule: str, auto: str):
+        self.path, self.rule = path, resolve_rule(rule, auto)
         self.state = online_rule(self.rule)
 
     def __call__(self, linenos: Sequence[int], boxes: np.ndarray, scores: np.ndarray,
@@ -138,30 +135,3 @@ class DetectionStream:
         return DetectionFrame(number, np.array(kept.boxes), kept.scores, conf, (self._type,) * len(conf))
 
 
-def stream_mot_detections(fh: IO[str], seqinfo=None, object_type: str = "pedestrian",
-                          scores_rule: str = DEFAULT_SCORE_RULE, image_size: tuple[int, int] | None = None,
-                          path: str = STDIN_NAME) -> DetectionStream:
-    """MOTChallenge detection lines from a text stream (module doc); ``seqinfo``: a seqinfo.ini
-    path or dict (the sequence's name, frame rate, image size and length), else none is known;
-    ``image_size`` overrides its size."""
-    otype = _object_type(object_type, path)
-    info = _resolve_seqinfo(seqinfo, Path(path)) if seqinfo is not None else None
-    size = (int(info["imWidth"]), int(info["imHeight"])) if info is not None else None
-    return DetectionStream(fh, path, MOT_DET_TABLE, lambda linenos, a: _mot_rows(path, linenos, a, info, None),
-                           _Scores(path, scores_rule), otype, 1,
-                           int(info["seqLength"]) if info is not None else None,
-                           str(info["name"]) if info is not None else path, image_size or size,
-                           float(info["frameRate"]) if info is not None else None)
-
-
-def stream_kitti_detections(fh: IO[str], object_class: str, scores_rule: str = DEFAULT_SCORE_RULE,
-                            image_size: tuple[int, int] | None = None, on_degenerate: str = "drop",
-                            path: str = STDIN_NAME) -> DetectionStream:
-    """KITTI PointRCNN detection lines of one class from a text stream (module doc)."""
-    otype = _object_type(object_class, path)
-    if on_degenerate not in ("drop", "error"):
-        raise ValueError("on_degenerate must be 'drop' or 'error'")
-    return DetectionStream(fh, path, KITTI_DET_TABLE,
-                           lambda linenos, a: _kitti_rows(path, linenos, a, otype, None, on_degenerate, None),
-                           _Scores(path, scores_rule), otype, 0, None, path,
-                           image_size or KITTI_IMAGE_SIZE, KITTI_FPS)
