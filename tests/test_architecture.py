@@ -189,3 +189,35 @@ def test_the_product_loads_no_bench_module():
             "print(' '.join(sorted(m for m in sys.modules if m.startswith('refimpl.experiments'))))")
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True).stdout
     assert set(out.split()) == {f"refimpl.{m}" for m in ("experiments", *PARSER_READS)}
+
+
+# The rooms one can hold in mind (CONTRIBUTING, "House rules"): a module under ~600 lines, a
+# function under ~80 (120 at most). Lines are counted as the file has them, docstring and
+# comments included: what a reader scrolls through.
+MODULE_LINES, FUNCTION_LINES = 600, 120
+
+
+def long_functions(path: Path, limit: int) -> list[str]:
+    """Every function or method of a file longer than ``limit`` lines, with its length."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    shown = path.relative_to(REPO) if path.is_relative_to(REPO) else path
+    return [f"{shown}:{node.lineno} {node.name} ({node.end_lineno - node.lineno + 1} lines)"
+            for node in ast.walk(tree)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and node.end_lineno - node.lineno + 1 > limit]
+
+
+def test_no_module_and_no_function_is_too_long():
+    too_long = [f"{p.relative_to(REPO)} ({n} lines)" for p in modules().values()
+                if (n := len(p.read_text(encoding="utf-8").splitlines())) > MODULE_LINES]
+    too_long += [f for p in modules().values() for f in long_functions(p, FUNCTION_LINES)]
+    assert not too_long, "\n".join(too_long)
+
+
+def test_the_length_check_can_tell_a_long_function(tmp_path):
+    # a def line, 119 body lines and one more: 121 lines, one over; the 120-line one passes
+    body = "".join(f"    x{i} = {i}\n" for i in range(119))
+    path = tmp_path / "long.py"
+    path.write_text(f"def ok():\n{body}\ndef long():\n{body}    return 0\n", encoding="utf-8")
+    found = long_functions(path, FUNCTION_LINES)
+    assert [f.split()[1:] for f in found] == [["long", "(121", "lines)"]]
