@@ -163,7 +163,8 @@ def test_velocity_noise_scales_the_velocity_block_of_the_process_noise():
     from refimpl.tracking.tracker import AbductionTracker
     # SORT's Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001); x10 on the velocities du, dv, ds only
     np.testing.assert_allclose(np.diag(BoxKalman(BOXES[0], 10).kf.Q), [1, 1, 1, 1, 0.1, 0.1, 0.001])
-    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1000, "img_height": 600}, velocity_noise=10)
+    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1000, "img_height": 600},
+                               options=TrackerOptions(velocity_noise=10))
     fr = _three_frames().frames[0]
     tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types)
     (trk,) = tracker.tracks.values()

@@ -187,10 +187,6 @@ class TrackerOptions:
         default = TrackerOptions().as_dict()
         return {k: v for k, v in self.as_dict().items() if default[k] != v}
 
-    def kwargs(self) -> dict[str, object]:
-        """Keyword arguments of pipeline.track_sequence / AbductionTracker."""
-        return {o.name: getattr(self, o.name) for o in TRACKER_OPTIONS}
-
 
 def option_flags(*before: str) -> str:
     """Flags for a message, the tracker options' last: option_flags("--const") ==
