@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
-from refimpl.tracking.options import OPTIONS_BY_NAME, TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
+from refimpl.tracking.options import TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
 from refimpl.solvers import get_solver
 from refimpl.tracking.pipeline import track_sequence
 from refimpl.tracking.tracker import AbductionTracker
@@ -21,6 +21,12 @@ PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise":
 """The values that make the plain tracker (SORT's filter and output, nothing filled in) for the
 options that are not switches; every switch (choices yes/no) is off."""
 
+
+
+def _option(name: str):
+    """The row of the option table named so."""
+    (row,) = [o for o in TRACKER_OPTIONS if o.name == name]
+    return row
 
 def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker():
     names = tuple(o.name for o in TRACKER_OPTIONS)
@@ -54,7 +60,7 @@ def test_option_values_parse_from_their_text_and_round_trip_through_presets_json
             TrackerOptions.from_mapping({name: bad})
     with pytest.raises(ValueError, match="unknown tracker option"):
         TrackerOptions.from_mapping({"nosuch": 1})
-    assert OPTIONS_BY_NAME["backfill"].choices == ("yes", "no")
+    assert _option("backfill").choices == ("yes", "no")
 
 
 def _rows_of(result, number: int) -> list[int]:
@@ -264,7 +270,7 @@ def test_motion_options_are_rows_of_the_table_parsed_like_the_others():
         TrackerOptions(hold_hidden="maybe")
     with pytest.raises(ValueError, match="unknown tracker option"):
         track_sequence(_occlusion_sequence(), backend="cpsat", hold=True)
-    assert OPTIONS_BY_NAME["reupdate_on_resume"].flag == "--reupdate-on-resume"
+    assert _option("reupdate_on_resume").flag == "--reupdate-on-resume"
 
 
 def _forward_camera() -> DetectionSequence:

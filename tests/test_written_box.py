@@ -97,7 +97,7 @@ def test_api_tracker_returns_the_detection_box_when_asked():
 
 def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path):
     from refimpl.experiments.calibrate import write_preset
-    from refimpl.tracking.presets import Preset, load_presets, options_for
+    from refimpl.tracking.presets import Preset, load_presets, merge_options, resolve_preset
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"iou_thresh": 20000}, "kitti-car-train", "test",
                         TrackerOptions(WrittenBox.DETECTION)), path)
@@ -106,10 +106,12 @@ def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path
     assert list(written) == [o.name for o in TRACKER_OPTIONS]
     assert written == {**TrackerOptions().as_dict(), "written_box": "detection"}
     assert load_presets(path)["kitti/car"].tracker.written_box is WrittenBox.DETECTION
-    assert options_for("kitti", "car", path=path).written_box is WrittenBox.DETECTION
-    assert options_for("kitti", "car", path=path, use_preset=False) == TrackerOptions()
-    assert options_for("kitti", "car", {"written_box": "filtered"}, path=path) == TrackerOptions()
-    assert options_for("mot", "pedestrian", path=path) == TrackerOptions()  # no preset: defaults
+    # what pipeline.setup_for runs with: the preset's options, then the overrides
+    car = resolve_preset("kitti", "car", path)
+    assert merge_options(car).written_box is WrittenBox.DETECTION
+    assert merge_options(None) == TrackerOptions()
+    assert merge_options(car, {"written_box": "filtered"}) == TrackerOptions()
+    assert merge_options(resolve_preset("mot", "pedestrian", path)) == TrackerOptions()  # no preset: defaults
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"kitti/car": {"constants": {}, "tracker": {"written_box": "x"}}}))
     with pytest.raises(ValueError, match="bad.json"):

@@ -10,7 +10,6 @@ one when it leaves, as in refimpl/experiments/measure_memory.py; scores are prob
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from .measure_memory import frames  # the same seeded walk

@@ -44,23 +44,21 @@ its docstring).
 Everything is drawn from one ``numpy.random.Generator`` seeded with (seed, n_tracks, overlap, ...)
 in a fixed order: the same arguments give the same problem, byte for byte (numpy's Generator
 streams do not depend on the platform).  Counts from shares ("round(overlap*n)" etc.) round half
-up, as everywhere in refimpl.  There is no ``__main__``: the CLI calls :func:`write_synthetic_suite`.
+up, as everywhere in refimpl.
 """
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from ..core.geometry import integer_box, intersection_area, iou_matrix, scale_iou
 from ..knowledge.relations import overlapping_top
-from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, write_facts
+from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 from ..knowledge.event_table import EventType, explaining
 from ..solvers.common import components
-from ..io.outputs import OutputSet
 
 HIDE_OVERLAP = 10
 """The overlap (percent of the back box's area) the generator builds for: model/constants.lp's default."""
@@ -187,36 +185,6 @@ def iou_facts(tracks: Sequence[TrackPrediction], detections: Sequence[Detection]
                               np.array([d.box for d in detections], dtype=float)))
     return tuple((t.id, d.id, int(ml[a, b]))
                  for a, t in enumerate(tracks) for b, d in enumerate(detections) if ml[a, b] > 0)
-
-
-def suite_file_name(n_tracks: int, overlap: float, seed: int) -> str:
-    """File name of one suite problem: n{n}_o{overlap}_s{seed}.lp (overlap as 0.2, 0.5, ...)."""
-    return f"n{int(n_tracks)}_o{overlap:g}_s{int(seed)}.lp"
-
-
-def write_synthetic_suite(folder: str | Path, sizes: Iterable[int] = (5, 10, 20, 50, 100, 200),
-                          overlaps: Iterable[float] = (0.2, 0.5, 0.8), seeds: Iterable[int] = range(10),
-                          **kwargs) -> list[Path]:
-    """Write synthetic_frame(n, overlap, seed, **kwargs) for every combination as fact files.
-
-    Files are named ``n{n}_o{overlap}_s{seed}.lp`` (see suite_file_name) and written with
-    spec.write_facts; the folder is created if needed.  Returns the paths in writing order
-    (sizes, then overlaps, then seeds).
-    """
-    out_dir = Path(folder)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    seeds = list(seeds)
-    overlaps = list(overlaps)
-    paths = []
-    with OutputSet() as outs:  # the suite lands whole or not at all
-        for n in sizes:
-            for ov in overlaps:
-                for s in seeds:
-                    problem = synthetic_frame(n, ov, s, **kwargs)
-                    path = out_dir / suite_file_name(n, ov, s)
-                    outs.write(path, write_facts(problem))
-                    paths.append(path)
-    return paths
 
 
 # ---------------------------------------------------------------------------------------------

@@ -14,7 +14,6 @@ object-oriented API with the Agg canvas is used: no pyplot, no global backend sw
 
 from __future__ import annotations
 
-import os
 
 from . import EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, load_scene
 from ..knowledge.event_table import EVENT_TABLE

@@ -68,7 +68,6 @@ from .cpsat_lexicographic import (  # noqa: F401  (re-exported)
     _span,
     _solution,
     _trivial_solution,
-    objective_groups,
     solve_lexicographic,
 )
 from .admissibility import (  # noqa: F401  (re-exported)

@@ -198,12 +198,6 @@ def objective_plan(am: AbductionModel, bits: int = OBJECTIVE_BITS,
     return _pack_levels(upper, bits), packed, [lower]
 
 
-def objective_groups(am: AbductionModel, bits: int = OBJECTIVE_BITS) -> list[list[tuple[int, LevelTerms]]]:
-    """The objectives solve_lexicographic minimises one after another: objective_plan's three
-    parts in order (the pair chunks are skipped when the pair set is unique: _only_pair_set)."""
-    return [g for part in objective_plan(am, bits) for g in part]
-
-
 def _only_pair_set(fresh: cp_model.CpModel, upper: list[list[tuple[int, LevelTerms]]],
                    pair_vars: Sequence[cp_model.IntVar], solution: Mapping[int, int], workers: int,
                    seed: int, deadline: float | None, bits: int) -> bool:

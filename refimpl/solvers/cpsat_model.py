@@ -20,10 +20,9 @@ if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
 from ..knowledge.events import EventState
-from ..knowledge.event_table import EVENT_TABLE, EventType, anticipated_unhide, explaining, reexplained
+from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..core.spec import Detection, FrameProblem, TrackPrediction
-from ..knowledge.relations import area
 from . import NoAdmissibleHypothesis
 from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
 from .common import intersection_matrix, tiebreak_weights

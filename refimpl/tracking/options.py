@@ -141,8 +141,6 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
 )
 """Every tracker option, in the order of the command line's help and of the tables."""
 
-OPTIONS_BY_NAME: dict[str, TrackerOption] = {o.name: o for o in TRACKER_OPTIONS}
-
 
 @dataclass(frozen=True)
 class TrackerOptions:
