@@ -34,7 +34,7 @@ from ..io.simulate import simulate_detections
 from ..solvers import BACKENDS, BASELINE, get_solver
 from ..tracking.pipeline import run_sequence, setup_for
 from .latency import summarise
-from .peer_table import PEERS
+from ..tracking.peer_table import PEERS
 from .peers import run_peer
 
 CROWD_SIZES = (10, 50, 100, 200, 400)
