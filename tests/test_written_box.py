@@ -69,7 +69,7 @@ def test_unknown_written_box_is_a_value_error_naming_the_choices():
 
 def test_streamed_rows_equal_result_rows_with_detection_boxes():
     # a walker missed now and then: bridged gaps interpolate between written (detection) boxes
-    from refimpl.experiments.measure_memory import frames as walk_frames
+    from refimpl.experiments.walkers import frames as walk_frames
     seq = DetectionSequence("walk", tuple(walk_frames(80, 6, 3)), 1, (1920, 1080), 30.0)
     at_end = track_sequence(seq, backend="cpsat", written_box="detection")
     out = stdio.StringIO()
