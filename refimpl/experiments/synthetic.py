@@ -72,6 +72,58 @@ _MIN_TIME = 4  # start < halt < resume < time needs a few time points
 _MIN_W, _MIN_H = 4.0, 8.0  # smallest box in pixels, so that integer rounding keeps the geometry
 
 
+def _check_arguments(n_tracks: int, overlap: float, time: int, image_size: tuple[int, int], miss_rate: float,
+                     halted_rate: float, fp_rate: float, reappear_rate: float, new_rate: float) -> None:
+    """synthetic_frame's arguments, each in its range; ValueError naming the first that is not."""
+    if int(n_tracks) < 0:
+        raise ValueError(f"n_tracks must be >= 0, got {n_tracks}")
+    if not 0.0 <= overlap <= 1.0:
+        raise ValueError(f"overlap must be within [0, 1], got {overlap}")
+    for name, rate in (("miss_rate", miss_rate), ("halted_rate", halted_rate),
+                       ("reappear_rate", reappear_rate)):
+        if not 0.0 <= rate <= 1.0:
+            raise ValueError(f"{name} must be within [0, 1], got {rate}")
+    if fp_rate < 0 or new_rate < 0:
+        raise ValueError("fp_rate and new_rate must be >= 0")
+    if time < _MIN_TIME:
+        raise ValueError(f"time must be >= {_MIN_TIME} (histories need earlier time points), got {time}")
+    if int(image_size[0]) <= 0 or int(image_size[1]) <= 0:
+        raise ValueError(f"image_size must be positive, got {image_size}")
+
+
+def _detections(rng: np.random.Generator, trk_types: list[str], trk_boxes: list[Box], halted: set[int],
+                width: int, height: int, miss_rate: float, fp_rate: float, reappear_rate: float,
+                new_rate: float) -> tuple[Detection, ...]:
+    """The frame's detections, in random order: the tracks' seen ones (jittered), false positives
+    near a track or anywhere, and new objects (synthetic_frame's step 3, drawn from its generator)."""
+    n = len(trk_boxes)
+    dets: list[tuple[str, int, Box]] = []
+    for i in range(n):
+        u = rng.random()
+        seen = u < reappear_rate if i in halted else u >= miss_rate
+        jitter = rng.standard_normal(4)
+        conf = _confidence(rng.beta(8.0, 1.5))
+        if seen:
+            dets.append((trk_types[i], conf, _jitter(trk_boxes[i], jitter, 0.05, 0.05)))
+    n_fp = int(rng.poisson(fp_rate * n))
+    for _ in range(n_fp):
+        near = n > 0 and rng.random() < 0.5
+        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
+        if near:
+            k = int(rng.integers(n))
+            box = _jitter(trk_boxes[k], rng.standard_normal(4), 0.5, 0.3)
+        else:
+            box = _random_box(rng, ty, n, width, height)
+        dets.append((ty, _confidence(rng.beta(2.0, 5.0)), box))
+    n_new = int(rng.poisson(new_rate * n))
+    for _ in range(n_new):
+        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
+        dets.append((ty, _confidence(rng.beta(8.0, 1.5)), _random_box(rng, ty, n, width, height)))
+    perm = rng.permutation(len(dets))
+    detections = tuple(Detection(f"det_{j}", dets[p][0], dets[p][1], dets[p][2]) for j, p in enumerate(perm))
+    return detections
+
+
 def synthetic_frame(n_tracks: int, overlap: float, seed: int, time: int = 100,
                     image_size: tuple[int, int] = (1920, 1080), miss_rate: float = 0.1,
                     halted_rate: float = 0.1, fp_rate: float = 0.1, with_history: bool = True,
@@ -93,21 +145,8 @@ def synthetic_frame(n_tracks: int, overlap: float, seed: int, time: int = 100,
       new_rate: mean number of new, confidently detected objects per track (Poisson).
     """
     n = int(n_tracks)
-    if n < 0:
-        raise ValueError(f"n_tracks must be >= 0, got {n_tracks}")
-    if not 0.0 <= overlap <= 1.0:
-        raise ValueError(f"overlap must be within [0, 1], got {overlap}")
-    for name, rate in (("miss_rate", miss_rate), ("halted_rate", halted_rate),
-                       ("reappear_rate", reappear_rate)):
-        if not 0.0 <= rate <= 1.0:
-            raise ValueError(f"{name} must be within [0, 1], got {rate}")
-    if fp_rate < 0 or new_rate < 0:
-        raise ValueError("fp_rate and new_rate must be >= 0")
-    if time < _MIN_TIME:
-        raise ValueError(f"time must be >= {_MIN_TIME} (histories need earlier time points), got {time}")
+    _check_arguments(n_tracks, overlap, time, image_size, miss_rate, halted_rate, fp_rate, reappear_rate, new_rate)
     width, height = int(image_size[0]), int(image_size[1])
-    if width <= 0 or height <= 0:
-        raise ValueError(f"image_size must be positive, got {image_size}")
 
     rng = np.random.default_rng(
         [int(seed), n, int(round(overlap * 1000)), int(time), width, height])
@@ -135,30 +174,8 @@ def synthetic_frame(n_tracks: int, overlap: float, seed: int, time: int = 100,
         for i in range(n))
 
     # -- 3. detections ---------------------------------------------------------------------------
-    dets: list[tuple[str, int, Box]] = []
-    for i in range(n):
-        u = rng.random()
-        seen = u < reappear_rate if i in halted else u >= miss_rate
-        jitter = rng.standard_normal(4)
-        conf = _confidence(rng.beta(8.0, 1.5))
-        if seen:
-            dets.append((trk_types[i], conf, _jitter(trk_boxes[i], jitter, 0.05, 0.05)))
-    n_fp = int(rng.poisson(fp_rate * n))
-    for _ in range(n_fp):
-        near = n > 0 and rng.random() < 0.5
-        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
-        if near:
-            k = int(rng.integers(n))
-            box = _jitter(trk_boxes[k], rng.standard_normal(4), 0.5, 0.3)
-        else:
-            box = _random_box(rng, ty, n, width, height)
-        dets.append((ty, _confidence(rng.beta(2.0, 5.0)), box))
-    n_new = int(rng.poisson(new_rate * n))
-    for _ in range(n_new):
-        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
-        dets.append((ty, _confidence(rng.beta(8.0, 1.5)), _random_box(rng, ty, n, width, height)))
-    perm = rng.permutation(len(dets))
-    detections = tuple(Detection(f"det_{j}", dets[p][0], dets[p][1], dets[p][2]) for j, p in enumerate(perm))
+    detections = _detections(rng, trk_types, trk_boxes, halted, width, height, miss_rate, fp_rate, reappear_rate,
+                             new_rate)
 
     return FrameProblem(
         time=int(time),
