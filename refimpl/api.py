@@ -62,7 +62,7 @@ from .core.confidence import online_rule
 from .core.constants import default_constants
 from .core.spec import HistoryEvent, track_number
 from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMATS, InputFormatWarning, MAX_COORD,
-                 MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type, SCORE_RULES, get_format)
+                 MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type, get_format)
 from .io.detections import resolve_rule, scale_confidences
 from .io.lines import too_many_detections
 from .scene import Scene, scene_from_result
@@ -71,7 +71,6 @@ from .tracking.options import TrackerOptions
 from .tracking.pipeline import AUTO, new_tracker, setup_for
 from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, ResultSink, TrackingResult
 
-API_SCORE_RULES = SCORE_RULES  # the readers' rules: the same on every format
 DEFAULT_CLASS_TYPES = COCO_CLASS_TYPES
 """COCO's class ids (what YOLO-family detectors, supervision and BoxMOT use): 0 person (pedestrian),
 1 bicycle (cyclist), 2 car, and the other 77 classes each as a type of its own (refimpl.io.classes)."""

@@ -1,4 +1,4 @@
-"""The start-up benchmark's input: the first frame of a detections file (refimpl.experiments.bench_startup)."""
+"""The start-up benchmark's input: the first frame of a detections file (benchmarks/bench_startup.py)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from refimpl.experiments.bench_startup import first_frame, run_to_first_solve
+from benchmarks.bench_startup import first_frame, run_to_first_solve
 
 
 @pytest.mark.parametrize("lines, kept", [

@@ -11,7 +11,7 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
-from refimpl.core.confidence import OnlineRank, PersistenceEvidence, evidence_confidences, rank_confidences
+from refimpl.core.confidence import OnlineRank, PersistenceEvidence
 from refimpl.io import DetectionFrame
 
 RESCALES = {
@@ -19,6 +19,19 @@ RESCALES = {
     "s**3": lambda s: s ** 3,
     "100*s": lambda s: 100 * s,
 }
+
+
+
+def rank_confidences(frames_scores) -> list[np.ndarray]:
+    """The rank rule over a whole sequence, frame by frame in order, as a reader applies it."""
+    ranker = OnlineRank()
+    return [ranker.confidences(s) for s in frames_scores]
+
+
+def evidence_confidences(frames) -> list[np.ndarray]:
+    """The evidence rule over a whole sequence's frames (each with boxes, scores, types), in order."""
+    rule = PersistenceEvidence()
+    return [rule.confidences(f.boxes, f.scores, f.types) for f in frames]
 
 
 def test_rank_rule_on_two_frames():

@@ -19,7 +19,7 @@ import pytest
 
 from refimpl.solvers import TRACKERS
 
-from refimpl.experiments.long_sequence import write_sequence
+from refimpl.experiments.walkers import write_sequence
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -157,17 +157,19 @@ def test_per_sequence_without_peers_is_a_one_line_user_error(capsys):
 
 def test_presets_are_chosen_by_format_and_class_and_const_overrides_them(tmp_path):
     from refimpl.experiments.calibrate import write_preset
-    from refimpl.tracking.presets import Preset, constants_for
+    from refimpl.tracking.presets import Preset, merge_constants, resolve_preset
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"conf_thresh_new_track": 60}, "kitti-car-train", "test"), path)
     write_preset(Preset("mot", "pedestrian", {"iou_thresh": 20000}, "mot15", "test"), path)
     assert set(json.loads(path.read_text())) == {"kitti/car", "mot/pedestrian"}
-    assert constants_for("kitti", "car", path=path) == {"conf_thresh_new_track": 60}
-    assert constants_for("kitti", "car", {"conf_thresh_new_track": 70}, path=path) == {"conf_thresh_new_track": 70}
-    assert constants_for("kitti", "pedestrian", path=path) == {}  # no preset: constants.lp alone
-    assert constants_for("kitti", "car", path=path, use_preset=False) == {}
+    # what pipeline.setup_for runs with: the preset of (format, class), then the overrides
+    assert merge_constants(resolve_preset("kitti", "car", path)) == {"conf_thresh_new_track": 60}
+    assert merge_constants(resolve_preset("kitti", "car", path), {"conf_thresh_new_track": 70}) == \
+        {"conf_thresh_new_track": 70}
+    assert resolve_preset("kitti", "pedestrian", path) is None  # no preset: constants.lp alone
+    assert merge_constants(None) == {}
     with pytest.raises(ValueError, match="unknown constant 'nosuch'"):
-        constants_for("kitti", "car", {"nosuch": 1}, path=path)
+        merge_constants(resolve_preset("kitti", "car", path), {"nosuch": 1})
 
 
 def test_track_const_changes_the_tracks_and_an_unknown_const_is_exit_2(tmp_path, capsys):

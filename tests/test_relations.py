@@ -19,7 +19,6 @@ from refimpl.knowledge.relations import (
     contact,
     coverage,
     discrete,
-    event_order,
     far,
     first_time_moves_out_of,
     in_front_of,
@@ -338,12 +337,6 @@ def test_interval_relation_on_frames():
     # (0,4) vs (0,9): [0,5) starts [0,10); (12,15) after (0,9)
     assert interval_relation((0, 4), (0, 9)) == "starts"
     assert interval_relation((12, 15), (0, 9)) == "after"
-
-
-def test_event_order():
-    assert event_order(179, 202) == "before"
-    assert event_order(202, 179) == "after"
-    assert event_order(179, 179) == "simultaneous"
 
 
 # ---------------------------------------------------------------------------------------------

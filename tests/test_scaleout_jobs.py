@@ -184,12 +184,12 @@ def _imported(name):
 
 @pytest.mark.skipif(scaleout.START_METHOD != "fork", reason="workers are forked on Linux only")
 def test_local_workers_are_forked_from_this_process():
-    # refimpl.experiments.bench_scaleout is imported here and by nothing a task needs: a worker
+    # refimpl.experiments.shift_table is imported here and by nothing a task needs: a worker
     # has it only as a copy of this process (a spawned worker starts a fresh interpreter)
-    import refimpl.experiments.bench_scaleout  # noqa: F401
+    import refimpl.experiments.shift_table  # noqa: F401
     pytest.importorskip("distributed")
-    assert run_tasks(_imported, ["refimpl.experiments.bench_scaleout"] * 2, Plan(workers=2), quiet=True) == [True,
-                                                                                                             True]
+    assert run_tasks(_imported, ["refimpl.experiments.shift_table"] * 2, Plan(workers=2), quiet=True) == [True,
+                                                                                                          True]
 
 
 def test_a_benchmark_job_pickles_its_detections_packed():

@@ -470,7 +470,7 @@ def test_real_sequence_hides_and_unhides_pair_up_on_the_same_track_pair(shared_d
         assert h.resumed_at > h.hidden_at
         # hidden while halted; observed again at the reappearance
         t = s.track(h.track)
-        assert all(t.halted_box(f) is not None for f in range(h.hidden_at, h.resumed_at))
+        assert all(t.box_at(f)[0] == "halted" for f in range(h.hidden_at, h.resumed_at))
         assert t.observed_box(h.resumed_at) is not None
         # the fluent agrees: hidden_by(T1,T2) true from the frame after hiding to the reappearance
         assert (h.hidden_at + 1, h.resumed_at, "true") in s.timeline(f"hidden_by({h.track},{h.hider})")

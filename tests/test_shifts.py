@@ -1,4 +1,4 @@
-"""Detector and camera shifts (refimpl.experiments.shifts, `refimpl benchmark --shift`)."""
+"""Detector and camera shifts (refimpl.io.shifts, their table refimpl.experiments.shift_table, `refimpl benchmark --shift`)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from refimpl.cli import main
-from refimpl.experiments.shifts import SHIFTS, parse_shifts, shift_table, shifted_dataset
+from refimpl.experiments.shift_table import shift_table
+from refimpl.io.shifts import SHIFTS, parse_shifts, shifted_dataset
 from refimpl.io import DetectionFrame, DetectionSequence, GroundTruth
 
 

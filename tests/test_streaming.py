@@ -15,7 +15,7 @@ from refimpl.tracking.pipeline import track_sequence
 from refimpl.tracking.tracker import AbductionTracker
 from refimpl.solvers import get_solver
 
-from refimpl.experiments.measure_memory import frames as walk_frames
+from refimpl.experiments.walkers import frames as walk_frames
 
 DEMO = Path(__file__).resolve().parent.parent / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
 

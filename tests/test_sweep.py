@@ -71,7 +71,7 @@ def test_table_has_no_hota_column_without_hota():
     from refimpl.experiments.sweep import SweepResult
     o = {"mota": 0.6, "idf1": 0.5, "idsw": 3, "fp": 4, "fn": 5}
     plan = SweepPlan(("iou_thresh",), ((30000,),), "b", "all", ("s",), "cpsat", ())
-    result = SweepResult(plan, (RunSummary(0, {}, o),))
+    result = SweepResult(plan, (RunSummary({}, o),))
     assert format_sweep(result).splitlines()[2] == "| iou_thresh | MOTA | IDF1 | IDs | FP | FN |"
 
 
@@ -79,7 +79,7 @@ def test_table_shows_hota_when_the_evaluation_has_it():
     from refimpl.experiments.sweep import SweepResult
     o = {"hota": 0.5234, "mota": 0.6, "idf1": math.nan, "idsw": 3, "fp": 4, "fn": 5}
     plan = SweepPlan(("iou_thresh",), ((30000,),), "b", "all", ("s",), "cpsat", ())
-    result = SweepResult(plan, (RunSummary(0, {}, o),))
+    result = SweepResult(plan, (RunSummary({}, o),))
     lines = format_sweep(result).splitlines()
     assert lines[2] == "| iou_thresh | HOTA | MOTA | IDF1 | IDs | FP | FN |"
     assert lines[4] == "| 30000 | 52.3 | 60.0 | - | 3 | 4 | 5 |"

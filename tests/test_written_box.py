@@ -69,7 +69,7 @@ def test_unknown_written_box_is_a_value_error_naming_the_choices():
 
 def test_streamed_rows_equal_result_rows_with_detection_boxes():
     # a walker missed now and then: bridged gaps interpolate between written (detection) boxes
-    from refimpl.experiments.measure_memory import frames as walk_frames
+    from refimpl.experiments.walkers import frames as walk_frames
     seq = DetectionSequence("walk", tuple(walk_frames(80, 6, 3)), 1, (1920, 1080), 30.0)
     at_end = track_sequence(seq, backend="cpsat", written_box="detection")
     out = stdio.StringIO()
@@ -97,7 +97,7 @@ def test_api_tracker_returns_the_detection_box_when_asked():
 
 def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path):
     from refimpl.experiments.calibrate import write_preset
-    from refimpl.tracking.presets import Preset, load_presets, options_for
+    from refimpl.tracking.presets import Preset, load_presets, merge_options, resolve_preset
     path = tmp_path / "presets.json"
     write_preset(Preset("kitti", "car", {"iou_thresh": 20000}, "kitti-car-train", "test",
                         TrackerOptions(WrittenBox.DETECTION)), path)
@@ -106,10 +106,12 @@ def test_presets_carry_tracker_options_and_no_preset_gives_the_defaults(tmp_path
     assert list(written) == [o.name for o in TRACKER_OPTIONS]
     assert written == {**TrackerOptions().as_dict(), "written_box": "detection"}
     assert load_presets(path)["kitti/car"].tracker.written_box is WrittenBox.DETECTION
-    assert options_for("kitti", "car", path=path).written_box is WrittenBox.DETECTION
-    assert options_for("kitti", "car", path=path, use_preset=False) == TrackerOptions()
-    assert options_for("kitti", "car", {"written_box": "filtered"}, path=path) == TrackerOptions()
-    assert options_for("mot", "pedestrian", path=path) == TrackerOptions()  # no preset: defaults
+    # what pipeline.setup_for runs with: the preset's options, then the overrides
+    car = resolve_preset("kitti", "car", path)
+    assert merge_options(car).written_box is WrittenBox.DETECTION
+    assert merge_options(None) == TrackerOptions()
+    assert merge_options(car, {"written_box": "filtered"}) == TrackerOptions()
+    assert merge_options(resolve_preset("mot", "pedestrian", path)) == TrackerOptions()  # no preset: defaults
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"kitti/car": {"constants": {}, "tracker": {"written_box": "x"}}}))
     with pytest.raises(ValueError, match="bad.json"):
@@ -163,7 +165,8 @@ def test_velocity_noise_scales_the_velocity_block_of_the_process_noise():
     from refimpl.tracking.tracker import AbductionTracker
     # SORT's Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001); x10 on the velocities du, dv, ds only
     np.testing.assert_allclose(np.diag(BoxKalman(BOXES[0], 10).kf.Q), [1, 1, 1, 1, 0.1, 0.1, 0.001])
-    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1000, "img_height": 600}, velocity_noise=10)
+    tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 1000, "img_height": 600},
+                               options=TrackerOptions(velocity_noise=10))
     fr = _three_frames().frames[0]
     tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types)
     (trk,) = tracker.tracks.values()

@@ -18,7 +18,7 @@ from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, 
                                      robust_report, write_preset)
 from ..experiments.occlusion import SCENARIOS, write_suite
 from ..experiments.occlusion_bench import format_results, parse_variant, run_suite
-from ..experiments.shifts import SHIFTS_BEGIN, SHIFTS_END, parse_shifts, shift_table, shifted_dataset
+from ..experiments.shift_table import SHIFTS_BEGIN, SHIFTS_END, shift_table
 from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
                                  peer_class, per_sequence_table)
 from ..runs.progress import Progress
@@ -28,6 +28,7 @@ from ..experiments.benchmark_tasks import RunRequest, run_requests
 from ..io import InputFormatError, write_text_atomic
 from ..io.datasets import DATASETS, TABLE6_DATASETS, TITLES, dataset_kind, load_dataset
 from ..io.outputs import OutputSet, check_outputs
+from ..io.shifts import parse_shifts, shifted_dataset
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, TRACKERS
 from ..tracking.options import option_flags
 from ..tracking.presets import startable_share
@@ -90,7 +91,7 @@ def _write_results(args: argparse.Namespace, runs) -> None:
 
 def _benchmark_shifts(args: argparse.Namespace) -> int:
     """benchmark --shift: baseline, abduction (and --peers) on every shift of every dataset
-    (refimpl.experiments.shifts): HOTA / IDF1 per shift, the worst case and the largest drop."""
+    (refimpl.io.shifts): HOTA / IDF1 per shift, the worst case and the largest drop."""
     try:
         shifts = parse_shifts(args.shift)
         peers = list(parse_peers(args.peers)) if args.peers is not None else []

@@ -7,12 +7,12 @@ import argparse
 
 from .. import __version__
 from ..evaluation import DEVKITS
-from ..experiments.peer_table import PEERS
 from ..runs.scaleout import LOCAL_MIN_FRAMES_PER_WORKER
-from ..experiments.shifts import SHIFTS
 from ..io import DEFAULT_SCORE_RULE, FORMAT_NAMES, MOT, RESULT_FORMATS, SCORE_RULES, shipped_examples
 from ..io.datasets import HELD_OUT_DATASETS, REAL_DETECTORS
+from ..io.shifts import SHIFTS
 from ..tracking.options import TRACKER_OPTIONS, TrackerOption, TrackerOptions
+from ..tracking.peer_table import PEERS
 from ..tracking.pipeline import DEFAULT_FRAME_BUDGET_MS
 from .common import (BACKENDS, BASELINE, BENCHMARKS, CLASSES, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND,
                      TRACKERS, _parse_const, _parse_fps, _parse_img_size, _time_limit)
@@ -274,7 +274,7 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
     b.add_argument("--shift", metavar="LIST",
                    help="re-run under detector and camera shifts of the datasets' own sequences, 'all' or a "
-                        "comma-separated list out of " + ", ".join(SHIFTS) + " (refimpl/experiments/shifts.py): "
+                        "comma-separated list out of " + ", ".join(SHIFTS) + " (refimpl/io/shifts.py): "
                         "HOTA / IDF1 of the baseline, abduction and any --peers per shift, the worst case and the "
                         "largest drop")
     b.add_argument("--repeat", type=int, default=1, metavar="N",

@@ -129,12 +129,6 @@ def online_rule(rule: str) -> "PersistenceEvidence | RankFrames | None":
     return PersistenceEvidence() if rule == EVIDENCE else RankFrames() if rule == RANK else None
 
 
-def rank_confidences(frames_scores) -> list[np.ndarray]:
-    """The rank rule over a whole sequence, frame by frame in order (what an online tracker sees)."""
-    ranker = OnlineRank()
-    return [ranker.confidences(s) for s in frames_scores]
-
-
 def _increasing(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """The weighted least-squares non-decreasing fit of ``values`` (pool adjacent violators)."""
     level: list[float] = []
@@ -221,9 +215,3 @@ class PersistenceEvidence:
         n = len(self._labelled)
         blended = (n * 100.0 * learned + EVIDENCE_PRIOR * prior) / (n + EVIDENCE_PRIOR)
         return np.floor(blended + 0.5).astype(np.int64)
-
-
-def evidence_confidences(frames) -> list[np.ndarray]:
-    """The evidence rule over a whole sequence's frames (each with boxes, scores, types), in order."""
-    rule = PersistenceEvidence()
-    return [rule.confidences(f.boxes, f.scores, f.types) for f in frames]

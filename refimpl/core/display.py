@@ -22,14 +22,8 @@ _ESCAPES = {cp: repr(chr(cp))[1:-1] for cp in (*range(0xA0), *_BIDI, *_SEPARATOR
             if cp in _BIDI or cp in _SEPARATORS or unicodedata.category(chr(cp)) == "Cc"}
 """Code point -> its escape: C0 (newline and tab too), DEL, C1, the bidirectional controls and the
 two separators."""
-_KEEP_NEWLINE = {**_ESCAPES, ord("\n"): "\n"}
 
 
 def visible(text: str) -> str:
     """``text`` with every control character escaped, newlines too: one line, as a message is."""
     return text.translate(_ESCAPES)
-
-
-def visible_lines(text: str) -> str:
-    """``text`` with every control character escaped but its newlines (lines of a command's own)."""
-    return text.translate(_KEEP_NEWLINE)

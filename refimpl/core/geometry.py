@@ -17,12 +17,6 @@ def xywh_to_xyxy(boxes: np.ndarray) -> np.ndarray:
     return np.concatenate((b[:, :2], b[:, :2] + b[:, 2:]), axis=1)  # the same additions, one array
 
 
-def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
-    """(x1, y1, x2, y2) -> (x, y, w, h)."""
-    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    return np.column_stack([b[:, 0], b[:, 1], b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]])
-
-
 _IOU_BLOCK = 1 << 20
 """Pairs of boxes iou_matrix computes at a time: each pair's IoU is computed elementwise, the same
 operations whatever the block, so blocks change no value; they bound the temporaries (about 7

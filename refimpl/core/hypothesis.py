@@ -8,7 +8,7 @@ pairs, highest priority first, maximise statements counted negatively.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 
 from . import bigint

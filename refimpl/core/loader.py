@@ -3,7 +3,7 @@
 A registry entry may name the module that implements a thing instead of importing it: the
 command table of the `refimpl` command (``"refimpl.cli.tracking:cmd_track"``), the backend registry
 (``refimpl.solvers.cpsat`` / ``CpSatSolver``), the package's ``refimpl.Tracker``, ``track --scene``'s scene builder (refimpl.runs.tasks), and the peer
-trackers' packages (``trackers``, ``boxmot``: refimpl.experiments.peer_table).  Such an entry is
+trackers' packages (``trackers``, ``boxmot``: refimpl.tracking.peer_table).  Such an entry is
 resolved here and nowhere else, so that running one command or one backend imports only what it
 needs (``refimpl track`` does not import the scorers, the plots or clingo).  Every other import of a
 refimpl module is a statement at the top of its module; ``tests/test_import_cycles.py`` fails on an

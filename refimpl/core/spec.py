@@ -22,7 +22,7 @@ nothing heavy.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Iterable, Mapping
 from functools import lru_cache
 

@@ -99,7 +99,6 @@ class RunRequest:
 
 @dataclass(frozen=True)
 class RunSummary:
-    request_index: int
     per_sequence: dict = field(default_factory=dict)
     overall: dict = field(default_factory=dict)
     events: dict = field(default_factory=dict)
@@ -119,7 +118,7 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
                      describe=lambda j: f"{j.request.dataset}/{j.request.tracker}/{j.name}",
                      steps=lambda j: len(j.dets.frames))
     summaries, k = [], 0
-    for i, r in enumerate(requests):
+    for r in requests:
         mine = outs[k:k + len(r.sequences)]
         k += len(r.sequences)
         per_seq: dict[str, dict] = {}
@@ -130,6 +129,6 @@ def run_requests(requests: Sequence[RunRequest], plan, label: str = "benchmark",
             per_seq[name] = out.metrics
             events.update(out.events)
         rows = {name: out.rows for (name, _, _), out in zip(r.sequences, mine) if out.rows is not None}
-        summaries.append(RunSummary(i, per_seq, combine(per_seq.values()), dict(events),
+        summaries.append(RunSummary(per_seq, combine(per_seq.values()), dict(events),
                                     sum(o.frames for o in mine), sum(o.seconds for o in mine), rows))
     return summaries

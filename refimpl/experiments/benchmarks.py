@@ -41,7 +41,7 @@ from ..core import bigint
 from ..core.errors import UserFacingError
 from ..core.records import RecordTooLong, read_text
 from ..io.datasets import THROUGHPUT_DATASETS as THROUGHPUT_BENCHMARKS, benchmark_sequences
-from ..io.outputs import OutputSet, section_text, write_atomic, write_section  # noqa: F401  (section_text, write_section: re-exported for the report writers)
+from ..io.outputs import OutputSet, section_text, write_section  # noqa: F401  (section_text, write_section: re-exported for the report writers)
 from ..solvers import BACKENDS as SCALE_BACKENDS, BASELINE, COLOURS, DEFAULT_BACKEND, REFERENCE_BACKEND, TRACKERS, get_solver
 from ..scene.plots import agg_figure
 from ..solvers.common import components
@@ -58,8 +58,6 @@ DEFAULT_TIME_LIMIT = 20.0
 
 PAPER_MS_PER_FRAME = {5: 23.33, 10: 31.36, 20: 62.08, 50: 511.83, 100: 3996.38}
 """The paper's Fig. "Scalability" (clingo, synthetic frames; overlap share not stated)."""
-PAPER_KITTI_FPS = 33.9
-"""The paper's abduction frame rate on KITTI cars with YOLOv3 detections."""
 
 SCALE_BEGIN, SCALE_END = "<!-- bench-scale:begin -->", "<!-- bench-scale:end -->"
 DENSE_BEGIN, DENSE_END = "<!-- bench-scale-dense:begin -->", "<!-- bench-scale-dense:end -->"
@@ -463,10 +461,6 @@ class BenchmarkFileError(UserFacingError):
     """A saved benchmark JSON file (``--from-json``) that is not one this module wrote: one line, exit 2."""
 
 
-def save_json(path: str | os.PathLike, result: ScaleResult | ThroughputResult) -> None:
-    write_atomic(path, json_text(result))
-
-
 def json_text(result: ScaleResult | ThroughputResult) -> str:
     kind = "scale" if isinstance(result, ScaleResult) else "throughput"
     return bigint.dumps({"kind": kind, **asdict(result)}, indent=1)  # a level 0 of any size
@@ -508,7 +502,7 @@ def _build(cls, data, where: str):
 
 
 def load_json(path: str | os.PathLike) -> ScaleResult | ThroughputResult:
-    """A file written by save_json; anything else is a BenchmarkFileError naming the file."""
+    """A file of json_text's; anything else is a BenchmarkFileError naming the file."""
     try:
         data = bigint.loads(read_text(path))
     except FileNotFoundError:

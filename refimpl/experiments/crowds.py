@@ -23,7 +23,7 @@ from __future__ import annotations
 import gc
 import math
 from dataclasses import dataclass
-from time import perf_counter, process_time
+from time import perf_counter
 from typing import Callable, Sequence
 
 import numpy as np
@@ -31,10 +31,10 @@ import numpy as np
 from ..io import GroundTruth
 from ..io.detections import DEFAULT_SCORE_RULE, calibrated, resolve_rule
 from ..io.simulate import simulate_detections
-from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, get_solver
+from ..solvers import BACKENDS, BASELINE, get_solver
 from ..tracking.pipeline import run_sequence, setup_for
 from .latency import summarise
-from .peer_table import PEERS
+from ..tracking.peer_table import PEERS
 from .peers import run_peer
 
 CROWD_SIZES = (10, 50, 100, 200, 400)

@@ -3,7 +3,7 @@ and BoxMOT's motion-only trackers (ByteTrack, OC-SORT, BoT-SORT, HybridSORT, Boo
 
 The peers are a second reference beside refimpl's own SORT baseline (which reproduces the
 paper's baseline): what a user already runs.  Every peer is one ``Peer`` row of ``PEERS``
-(refimpl.experiments.peer_table, re-exported here): the package it comes from, its class, and what
+(refimpl.tracking.peer_table, re-exported here): the package it comes from, its class, and what
 is set beyond the class's constructor defaults.
 
 * ``trackers`` (roboflow; optional extra ``peers``, ``trackers==2.6.1``): the package's *default*
@@ -54,7 +54,7 @@ from ..solvers import BASELINE, DEFAULT_BACKEND
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import Setup
 from .latency import summarise
-from .peer_table import PACKAGES, PEERS, Package, Peer  # noqa: F401  (re-exported: the registry)
+from ..tracking.peer_table import PACKAGES, PEERS, Package, Peer  # noqa: F401  (re-exported: the registry)
 from .table6 import change, run_benchmark, run_tracker
 
 

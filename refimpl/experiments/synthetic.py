@@ -44,23 +44,21 @@ its docstring).
 Everything is drawn from one ``numpy.random.Generator`` seeded with (seed, n_tracks, overlap, ...)
 in a fixed order: the same arguments give the same problem, byte for byte (numpy's Generator
 streams do not depend on the platform).  Counts from shares ("round(overlap*n)" etc.) round half
-up, as everywhere in refimpl.  There is no ``__main__``: the CLI calls :func:`write_synthetic_suite`.
+up, as everywhere in refimpl.
 """
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from ..core.geometry import integer_box, intersection_area, iou_matrix, scale_iou
 from ..knowledge.relations import overlapping_top
-from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, write_facts
+from ..core.spec import Box, Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
 from ..knowledge.event_table import EventType, explaining
 from ..solvers.common import components
-from ..io.outputs import OutputSet
 
 HIDE_OVERLAP = 10
 """The overlap (percent of the back box's area) the generator builds for: model/constants.lp's default."""
@@ -72,6 +70,58 @@ _FILL = 0.25  # share of the image area the track boxes take together (before ov
 _MAX_HEIGHT_FRAC = 0.3  # no box taller than 30 % of the image height
 _MIN_TIME = 4  # start < halt < resume < time needs a few time points
 _MIN_W, _MIN_H = 4.0, 8.0  # smallest box in pixels, so that integer rounding keeps the geometry
+
+
+def _check_arguments(n_tracks: int, overlap: float, time: int, image_size: tuple[int, int], miss_rate: float,
+                     halted_rate: float, fp_rate: float, reappear_rate: float, new_rate: float) -> None:
+    """synthetic_frame's arguments, each in its range; ValueError naming the first that is not."""
+    if int(n_tracks) < 0:
+        raise ValueError(f"n_tracks must be >= 0, got {n_tracks}")
+    if not 0.0 <= overlap <= 1.0:
+        raise ValueError(f"overlap must be within [0, 1], got {overlap}")
+    for name, rate in (("miss_rate", miss_rate), ("halted_rate", halted_rate),
+                       ("reappear_rate", reappear_rate)):
+        if not 0.0 <= rate <= 1.0:
+            raise ValueError(f"{name} must be within [0, 1], got {rate}")
+    if fp_rate < 0 or new_rate < 0:
+        raise ValueError("fp_rate and new_rate must be >= 0")
+    if time < _MIN_TIME:
+        raise ValueError(f"time must be >= {_MIN_TIME} (histories need earlier time points), got {time}")
+    if int(image_size[0]) <= 0 or int(image_size[1]) <= 0:
+        raise ValueError(f"image_size must be positive, got {image_size}")
+
+
+def _detections(rng: np.random.Generator, trk_types: list[str], trk_boxes: list[Box], halted: set[int],
+                width: int, height: int, miss_rate: float, fp_rate: float, reappear_rate: float,
+                new_rate: float) -> tuple[Detection, ...]:
+    """The frame's detections, in random order: the tracks' seen ones (jittered), false positives
+    near a track or anywhere, and new objects (synthetic_frame's step 3, drawn from its generator)."""
+    n = len(trk_boxes)
+    dets: list[tuple[str, int, Box]] = []
+    for i in range(n):
+        u = rng.random()
+        seen = u < reappear_rate if i in halted else u >= miss_rate
+        jitter = rng.standard_normal(4)
+        conf = _confidence(rng.beta(8.0, 1.5))
+        if seen:
+            dets.append((trk_types[i], conf, _jitter(trk_boxes[i], jitter, 0.05, 0.05)))
+    n_fp = int(rng.poisson(fp_rate * n))
+    for _ in range(n_fp):
+        near = n > 0 and rng.random() < 0.5
+        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
+        if near:
+            k = int(rng.integers(n))
+            box = _jitter(trk_boxes[k], rng.standard_normal(4), 0.5, 0.3)
+        else:
+            box = _random_box(rng, ty, n, width, height)
+        dets.append((ty, _confidence(rng.beta(2.0, 5.0)), box))
+    n_new = int(rng.poisson(new_rate * n))
+    for _ in range(n_new):
+        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
+        dets.append((ty, _confidence(rng.beta(8.0, 1.5)), _random_box(rng, ty, n, width, height)))
+    perm = rng.permutation(len(dets))
+    detections = tuple(Detection(f"det_{j}", dets[p][0], dets[p][1], dets[p][2]) for j, p in enumerate(perm))
+    return detections
 
 
 def synthetic_frame(n_tracks: int, overlap: float, seed: int, time: int = 100,
@@ -95,21 +145,8 @@ def synthetic_frame(n_tracks: int, overlap: float, seed: int, time: int = 100,
       new_rate: mean number of new, confidently detected objects per track (Poisson).
     """
     n = int(n_tracks)
-    if n < 0:
-        raise ValueError(f"n_tracks must be >= 0, got {n_tracks}")
-    if not 0.0 <= overlap <= 1.0:
-        raise ValueError(f"overlap must be within [0, 1], got {overlap}")
-    for name, rate in (("miss_rate", miss_rate), ("halted_rate", halted_rate),
-                       ("reappear_rate", reappear_rate)):
-        if not 0.0 <= rate <= 1.0:
-            raise ValueError(f"{name} must be within [0, 1], got {rate}")
-    if fp_rate < 0 or new_rate < 0:
-        raise ValueError("fp_rate and new_rate must be >= 0")
-    if time < _MIN_TIME:
-        raise ValueError(f"time must be >= {_MIN_TIME} (histories need earlier time points), got {time}")
+    _check_arguments(n_tracks, overlap, time, image_size, miss_rate, halted_rate, fp_rate, reappear_rate, new_rate)
     width, height = int(image_size[0]), int(image_size[1])
-    if width <= 0 or height <= 0:
-        raise ValueError(f"image_size must be positive, got {image_size}")
 
     rng = np.random.default_rng(
         [int(seed), n, int(round(overlap * 1000)), int(time), width, height])
@@ -137,30 +174,8 @@ def synthetic_frame(n_tracks: int, overlap: float, seed: int, time: int = 100,
         for i in range(n))
 
     # -- 3. detections ---------------------------------------------------------------------------
-    dets: list[tuple[str, int, Box]] = []
-    for i in range(n):
-        u = rng.random()
-        seen = u < reappear_rate if i in halted else u >= miss_rate
-        jitter = rng.standard_normal(4)
-        conf = _confidence(rng.beta(8.0, 1.5))
-        if seen:
-            dets.append((trk_types[i], conf, _jitter(trk_boxes[i], jitter, 0.05, 0.05)))
-    n_fp = int(rng.poisson(fp_rate * n))
-    for _ in range(n_fp):
-        near = n > 0 and rng.random() < 0.5
-        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
-        if near:
-            k = int(rng.integers(n))
-            box = _jitter(trk_boxes[k], rng.standard_normal(4), 0.5, 0.3)
-        else:
-            box = _random_box(rng, ty, n, width, height)
-        dets.append((ty, _confidence(rng.beta(2.0, 5.0)), box))
-    n_new = int(rng.poisson(new_rate * n))
-    for _ in range(n_new):
-        ty = TYPES[int(rng.choice(len(TYPES), p=_TYPE_P))]
-        dets.append((ty, _confidence(rng.beta(8.0, 1.5)), _random_box(rng, ty, n, width, height)))
-    perm = rng.permutation(len(dets))
-    detections = tuple(Detection(f"det_{j}", dets[p][0], dets[p][1], dets[p][2]) for j, p in enumerate(perm))
+    detections = _detections(rng, trk_types, trk_boxes, halted, width, height, miss_rate, fp_rate, reappear_rate,
+                             new_rate)
 
     return FrameProblem(
         time=int(time),
@@ -187,36 +202,6 @@ def iou_facts(tracks: Sequence[TrackPrediction], detections: Sequence[Detection]
                               np.array([d.box for d in detections], dtype=float)))
     return tuple((t.id, d.id, int(ml[a, b]))
                  for a, t in enumerate(tracks) for b, d in enumerate(detections) if ml[a, b] > 0)
-
-
-def suite_file_name(n_tracks: int, overlap: float, seed: int) -> str:
-    """File name of one suite problem: n{n}_o{overlap}_s{seed}.lp (overlap as 0.2, 0.5, ...)."""
-    return f"n{int(n_tracks)}_o{overlap:g}_s{int(seed)}.lp"
-
-
-def write_synthetic_suite(folder: str | Path, sizes: Iterable[int] = (5, 10, 20, 50, 100, 200),
-                          overlaps: Iterable[float] = (0.2, 0.5, 0.8), seeds: Iterable[int] = range(10),
-                          **kwargs) -> list[Path]:
-    """Write synthetic_frame(n, overlap, seed, **kwargs) for every combination as fact files.
-
-    Files are named ``n{n}_o{overlap}_s{seed}.lp`` (see suite_file_name) and written with
-    spec.write_facts; the folder is created if needed.  Returns the paths in writing order
-    (sizes, then overlaps, then seeds).
-    """
-    out_dir = Path(folder)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    seeds = list(seeds)
-    overlaps = list(overlaps)
-    paths = []
-    with OutputSet() as outs:  # the suite lands whole or not at all
-        for n in sizes:
-            for ov in overlaps:
-                for s in seeds:
-                    problem = synthetic_frame(n, ov, s, **kwargs)
-                    path = out_dir / suite_file_name(n, ov, s)
-                    outs.write(path, write_facts(problem))
-                    paths.append(path)
-    return paths
 
 
 # ---------------------------------------------------------------------------------------------

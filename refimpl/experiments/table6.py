@@ -7,16 +7,13 @@ no public detections for them ship here), always labelled as such.
 
 from __future__ import annotations
 
-import time
 from collections import Counter
 from dataclasses import dataclass
 from typing import Callable
 
-import numpy as np
-
 from ..evaluation.evaluate import evaluate_many
-from ..io.datasets import TABLE6_DATASETS, TITLES, load_dataset
-from ..solvers import BASELINE, DEFAULT_BACKEND
+from ..io.datasets import TITLES, load_dataset
+from ..solvers import BASELINE
 from ..tracking.options import TrackerOptions
 from ..tracking.pipeline import Setup, run_sequence
 
@@ -126,17 +123,3 @@ def format_table6(runs: list[tuple[BenchmarkRun, BenchmarkRun]]) -> str:
                    + ", ".join(f"{k} {v}" for k, v in sorted(abd.events.items(), key=lambda kv: -kv[1])) + ".")
         out.append("")
     return "\n".join(out)
-
-
-def run_table6(data_root: str, tracker: str = DEFAULT_BACKEND, datasets=TABLE6_DATASETS,
-               step_factory: Callable[[str, int], Callable[[str], None]] | None = None):
-    """(baseline, abduction) runs for every dataset of Table 6, on the same detections."""
-    runs = []
-    for name in datasets:
-        dataset = load_dataset(name, data_root)
-        pair = []
-        for t in (BASELINE, tracker):
-            step = step_factory(f"{name}/{t}", len(dataset)) if step_factory else None
-            pair.append(run_benchmark(name, data_root, t, step, dataset=dataset))
-        runs.append(tuple(pair))
-    return runs

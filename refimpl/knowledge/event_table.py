@@ -323,5 +323,3 @@ EVENT_NAMES = tuple(EVENT_TABLE)
 EFFECTS: Mapping[str, tuple[int, tuple[Effect, ...]]] = {n: (e.arity, e.effects) for n, e in EVENT_TABLE.items()}
 """event name -> (arity, effects): an event whose name is not here, or whose arity differs, has
 no effect (it matches no causesValue rule)."""
-COST_CONSTANT: Mapping[str, str] = {n: e.cost_constant for n, e in EVENT_TABLE.items()}
-POSS: Mapping[str, Callable[..., bool]] = {n: e.poss for n, e in EVENT_TABLE.items()}

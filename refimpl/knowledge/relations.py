@@ -17,7 +17,7 @@ Table 2 that apply to axis-aligned boxes over time and accept integers or floats
 * motion between two time points, single object (moving_left .., growing, shrinking, stationary)
   and pairs (moving_towards, moving_away, moving_parallel, approaching), plus moves_out_of for the
   anticipation rule of Section 4 (first_time_moves_out_of);
-* time: Allen on track intervals (interval_relation) and the order of time points (event_order).
+* time: Allen on track intervals (interval_relation).
 """
 
 from __future__ import annotations
@@ -426,12 +426,3 @@ def interval_relation(i: tuple[int, int], j: tuple[int, int], inclusive: bool = 
     if inclusive:
         e1, e2 = e1 + 1, e2 + 1
     return allen(s1, e1, s2, e2)
-
-
-def event_order(t1: float, t2: float) -> str:
-    """Order of time point t1 w.r.t. t2: before, simultaneous or after."""
-    if t1 < t2:
-        return "before"
-    if t1 > t2:
-        return "after"
-    return "simultaneous"

@@ -171,6 +171,67 @@ def _explain(answers: Sequence[Hypothesis], levels: Sequence[int] = PRIORITIES) 
     return "equal costs, different answers: a tie the canonical tie-break did not separate"
 
 
+def _answers(problem: FrameProblem, hyp: Hypothesis, others: Sequence[Solver], time_limit: float | None
+             ) -> tuple[tuple[Hypothesis, ...], list[OutOfClingoRange], list[str]]:
+    """The first backend's answer and every other's on the same frame problem; the refusals of a
+    frame beyond clingo's range; the backends that find no admissible answer where the first found one."""
+    answers: tuple[Hypothesis, ...] = (hyp,)
+    refused = []
+    unanswered = []
+    for s in others:
+        try:
+            answers += (s.solve(problem, time_limit=time_limit),)
+        except OutOfClingoRange as exc:
+            refused.append(exc)
+        except NoAdmissibleHypothesis:
+            unanswered.append(s.name)
+    return answers, refused, unanswered
+
+
+def _checked(report: DiffReport, problem: FrameProblem, answers: tuple[Hypothesis, ...],
+             levels: tuple[int, ...]) -> list[str]:
+    """Every answer checked (the rules, its cost vector, and where the components are small enough
+    the checker's own optimum against a claim of optimality): what each answer breaks, counted in
+    the report."""
+    checks = [check_answer(problem, h) for h in answers]
+    report.checked += len(answers)
+    bad = [f"{h.backend} breaks {', '.join(sorted({v.rule for v in c.violations}) or ['cost_vector'])}"
+           for c, h in zip(checks, answers) if c.violations or c.cost != h.cost]
+    report.violations += sum(len(c.violations) + (c.cost != h.cost) for c, h in zip(checks, answers))
+    claimed = [h for c, h in zip(checks, answers) if h.optimal and c.ok and c.cost == h.cost]
+    if claimed:  # the checker's own optimum where the components are small enough
+        optimum = FrameOptimum.of(problem)
+        report.enumerated += not optimum.skipped
+        for h in claimed:
+            verdict = optimum.verdict(h, len(levels))
+            if verdict.better is not None:
+                report.false_optima += 1
+                bad.append(f"{h.backend} claims optimal, but {verdict.detail}")
+    return bad
+
+
+def _compared(report: DiffReport, problem: FrameProblem, hyp: Hypothesis, answers: tuple[Hypothesis, ...],
+              levels: tuple[int, ...], broken: bool, explanation: str | None) -> str | None:
+    """A frame every backend proved optimal: equal costs and answers counted, a tie or a
+    disagreement recorded; the explanation of the divergence (that of a broken rule first)."""
+    report.proven += 1
+    same_cost = all(_on(h.cost, levels) == _on(hyp.cost, levels) for h in answers)
+    same_answer = all(h.answer == hyp.answer for h in answers)
+    report.cost_equal += same_cost
+    report.answer_equal += same_answer
+    tie = same_cost and not same_answer and not broken
+    report.ties += tie
+    if tie:
+        report.tie_frames.append(problem.time)
+    agree = same_cost and (same_answer or (tie and TIEBREAK_LEVEL not in levels))
+    if not agree:
+        report.disagreements += 1
+        report.disagreement_frames.append(problem.time)
+    if not agree and explanation is None:
+        explanation = _explain(answers, levels)
+    return explanation
+
+
 def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=None,
                   solvers: Sequence[Solver] | None = None,
                   time_limit: float | None = DEFAULT_TIME_LIMIT, asp_model: AspModel | None = None,
@@ -192,16 +253,7 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
     report = DiffReport(tuple(s.name for s in solvers) if asp_model is not None else backends, levels=levels)
 
     def observe(problem: FrameProblem, hyp: Hypothesis) -> None:
-        answers: tuple[Hypothesis, ...] = (hyp,)
-        refused = []
-        unanswered = []  # backends that find no admissible answer where the first found one
-        for s in solvers[1:]:
-            try:
-                answers += (s.solve(problem, time_limit=time_limit),)
-            except OutOfClingoRange as exc:
-                refused.append(exc)
-            except NoAdmissibleHypothesis:
-                unanswered.append(s.name)
+        answers, refused, unanswered = _answers(problem, hyp, solvers[1:], time_limit)
         report.frames += 1
         if unanswered:
             report.disagreements += 1
@@ -211,20 +263,7 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
                 report.first_divergence = Divergence(problem.time, problem, answers,
                                                      f"{', '.join(unanswered)} finds no admissible answer, "
                                                      f"{hyp.backend} does")
-        checks = [check_answer(problem, h) for h in answers]
-        report.checked += len(answers)
-        bad = [f"{h.backend} breaks {', '.join(sorted({v.rule for v in c.violations}) or ['cost_vector'])}"
-               for c, h in zip(checks, answers) if c.violations or c.cost != h.cost]
-        report.violations += sum(len(c.violations) + (c.cost != h.cost) for c, h in zip(checks, answers))
-        claimed = [h for c, h in zip(checks, answers) if h.optimal and c.ok and c.cost == h.cost]
-        if claimed:  # the checker's own optimum where the components are small enough
-            optimum = FrameOptimum.of(problem)
-            report.enumerated += not optimum.skipped
-            for h in claimed:
-                verdict = optimum.verdict(h, len(levels))
-                if verdict.better is not None:
-                    report.false_optima += 1
-                    bad.append(f"{h.backend} claims optimal, but {verdict.detail}")
+        bad = _checked(report, problem, answers, levels)
         explanation = "; ".join(bad) if bad else None
         if refused:
             report.out_of_range += 1
@@ -236,21 +275,7 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
             report.not_proven += 1
             report.unproven_frames.append((problem.time, tuple(h.backend for h in answers if not h.optimal)))
         else:
-            report.proven += 1
-            same_cost = all(_on(h.cost, levels) == _on(hyp.cost, levels) for h in answers)
-            same_answer = all(h.answer == hyp.answer for h in answers)
-            report.cost_equal += same_cost
-            report.answer_equal += same_answer
-            tie = same_cost and not same_answer and not bad
-            report.ties += tie
-            if tie:
-                report.tie_frames.append(problem.time)
-            agree = same_cost and (same_answer or (tie and TIEBREAK_LEVEL not in levels))
-            if not agree:
-                report.disagreements += 1
-                report.disagreement_frames.append(problem.time)
-            if not agree and explanation is None:
-                explanation = _explain(answers, levels)
+            explanation = _compared(report, problem, hyp, answers, levels, bool(bad), explanation)
         if explanation is not None:
             report.divergences.append(problem.time)
             if report.first_divergence is None:

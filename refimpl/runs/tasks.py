@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Callable
 
 import numpy as np
 
@@ -190,10 +190,6 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
                        result.not_optimal_frames,
                        check.checked if check else 0, tuple(check.violations) if check else (), scene, text,
                        result.budget_hits, result.over_budget)
-
-
-def constants_tuple(constants: Mapping[str, int] | None) -> tuple[tuple[str, int], ...]:
-    return tuple((str(k), int(v)) for k, v in (constants or {}).items())
 
 
 def results_file_name(path) -> str:

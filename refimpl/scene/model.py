@@ -63,9 +63,6 @@ class SceneTrack:
     def observed_box(self, frame: int) -> Box | None:
         return self._obs.get(frame)
 
-    def halted_box(self, frame: int) -> Box | None:
-        return self._halt.get(frame)
-
     def box_at(self, frame: int) -> tuple[str, Box] | None:
         """('observed', box) or ('halted', predicted box) at frame, or None."""
         if frame in self._obs:
@@ -117,10 +114,6 @@ class Scene:
     def life(self, trk_id: str) -> tuple[int, int]:
         t = self.track(trk_id)
         return t.first_frame, t.last_frame(self.last_frame)
-
-    def type_of(self, trk_id: str) -> str | None:
-        t = self._by_id.get(trk_id)
-        return t.type if t is not None else None
 
 
 def _id_range(scene: Scene) -> str:

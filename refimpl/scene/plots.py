@@ -14,7 +14,6 @@ object-oriented API with the Agg canvas is used: no pyplot, no global backend sw
 
 from __future__ import annotations
 
-import os
 
 from . import EgoRegion, Scene, SceneError, SceneTrack, frame_relations, frame_runs, load_scene
 from ..knowledge.event_table import EVENT_TABLE
@@ -170,27 +169,10 @@ def plot_timeline(scene: Scene, out: str, tracks: list[SceneTrack] | None = None
     return n
 
 
-def plot_frame(scene: Scene, frame: int, out: str, tracks: list[SceneTrack] | None = None,
-               region: EgoRegion | None = None) -> int:
-    """One frame: boxes (observed solid, halted dashed), ids, the ego region, the relations listed; number of boxes.
-
-    A wide image (KITTI, 1242 x 375) gets the relations below it in three columns, any other
-    beside it.
-    """
-    Figure, Line2D, _, Rectangle = _matplotlib()
-    if not scene.first_frame <= frame <= scene.last_frame:
-        raise SceneError(f"frame {frame} is outside the scene ({scene.first_frame}-{scene.last_frame})")
-    chosen = tracks if tracks is not None else list(scene.tracks)
-    boxes = [(t, *t.box_at(frame)) for t in chosen if t.box_at(frame) is not None]
-    region = region or EgoRegion()
-    size = scene.image_size
-    if size:
-        width, height = size
-    else:
-        width = max([b[0] + b[2] for _, _, b in boxes] + [100.0])
-        height = max([b[1] + b[3] for _, _, b in boxes] + [100.0])
-    lines = frame_relation_lines(scene, frame, [t for t, _, _ in boxes])
-    title = f"relations at frame {frame} (A B: relations of A to B)"
+def _frame_figure(Figure, width: float, height: float, lines: list[str]):
+    """plot_frame's figure: (figure, image axes, text axes, the columns of relation lines, its
+    height in inches).  A wide image (KITTI, 1242 x 375) gets the relations below it in three
+    columns, any other beside it."""
     line_h = 0.15  # inches per 8 pt line
     if width / height > 2:  # wide: image on top, relations below in three columns
         img_w = 13.8
@@ -214,13 +196,12 @@ def plot_frame(scene: Scene, frame: int, out: str, tracks: list[SceneTrack] | No
         columns = [lines[:rows]]
         if len(lines) > rows:
             columns[0][-1] = f"... {len(lines) - rows + 1} more"
-    ax.set_xlim(0, width)
-    ax.set_ylim(height, 0)
-    ax.set_aspect("equal")
-    if size:
-        xa, xb, ya, yb = region.pixels(size)
-        ax.add_patch(Rectangle((xa, ya), xb - xa, yb - ya, facecolor="#ffe9a8", edgecolor="#d4a017",
-                               alpha=0.45, linewidth=1, zorder=0))
+    return fig, ax, text, columns, fig_h
+
+
+def _draw_boxes(fig, ax, Rectangle, boxes, width: float, height: float) -> None:
+    """Every box of the frame (observed solid, halted dashed) with its track's number on a label
+    that no earlier label covers, kept inside the image."""
     cmap = _palette()
     # label size in data units (8 pt digits: about 0.075 in each, 0.17 in high with the padding)
     ax_w_in = ax.get_position().width * fig.get_figwidth()
@@ -243,6 +224,38 @@ def plot_frame(scene: Scene, frame: int, out: str, tracks: list[SceneTrack] | No
         placed.append((x, y, lw, lh))
         ax.text(x + 0.02 * per_in, y + lh / 2, _shown(str(t.number)), color="white", fontsize=8, zorder=3, va="center",
                 bbox=dict(facecolor=colour, edgecolor="none", pad=1.0, alpha=0.9))
+
+
+def plot_frame(scene: Scene, frame: int, out: str, tracks: list[SceneTrack] | None = None,
+               region: EgoRegion | None = None) -> int:
+    """One frame: boxes (observed solid, halted dashed), ids, the ego region, the relations listed; number of boxes.
+
+    A wide image (KITTI, 1242 x 375) gets the relations below it in three columns, any other
+    beside it.
+    """
+    Figure, Line2D, _, Rectangle = _matplotlib()
+    if not scene.first_frame <= frame <= scene.last_frame:
+        raise SceneError(f"frame {frame} is outside the scene ({scene.first_frame}-{scene.last_frame})")
+    chosen = tracks if tracks is not None else list(scene.tracks)
+    boxes = [(t, *t.box_at(frame)) for t in chosen if t.box_at(frame) is not None]
+    region = region or EgoRegion()
+    size = scene.image_size
+    if size:
+        width, height = size
+    else:
+        width = max([b[0] + b[2] for _, _, b in boxes] + [100.0])
+        height = max([b[1] + b[3] for _, _, b in boxes] + [100.0])
+    lines = frame_relation_lines(scene, frame, [t for t, _, _ in boxes])
+    title = f"relations at frame {frame} (A B: relations of A to B)"
+    fig, ax, text, columns, fig_h = _frame_figure(Figure, width, height, lines)
+    ax.set_xlim(0, width)
+    ax.set_ylim(height, 0)
+    ax.set_aspect("equal")
+    if size:
+        xa, xb, ya, yb = region.pixels(size)
+        ax.add_patch(Rectangle((xa, ya), xb - xa, yb - ya, facecolor="#ffe9a8", edgecolor="#d4a017",
+                               alpha=0.45, linewidth=1, zorder=0))
+    _draw_boxes(fig, ax, Rectangle, boxes, width, height)
     ax.set_xlabel("x (px)")
     ax.set_ylabel("y (px)")
     ax.set_title(_shown(f"{scene.name}, frame {frame}: {len(boxes)} tracks"))

@@ -26,11 +26,11 @@ import json
 
 from ..core.constants import default_constants
 from ..core.display import visible
-from ..knowledge.event_table import EVENT_TABLE, explaining
+from ..knowledge.event_table import explaining
 from ..knowledge.relations import RELATION_CODES
 from .plots import ENDED_COLOUR, EVENT_STYLE, OBSERVED_COLOUR, PAIR_EVENTS, RESUMED_COLOUR
 from ..io.outputs import check_outputs, write_atomic
-from .report import ACTIVE, HALTED, HIDDEN, MISSING, Report, STATES, TrackTimeline, build_report
+from .report import ACTIVE, HALTED, MISSING, Report, STATES, TrackTimeline, build_report
 from .report_images import FrameImage, image_frames, load_frame_images
 from . import SceneError, load_scene
 

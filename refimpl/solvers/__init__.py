@@ -90,7 +90,6 @@ _REGISTRY: dict[str, BackendEntry] = {e.name: e for e in (
 BACKENDS: tuple[str, ...] = tuple(_REGISTRY)
 """Every backend name, in the order the CLI lists them."""
 
-DESCRIPTIONS: dict[str, str] = {name: entry.description for name, entry in _REGISTRY.items()}
 COLOURS: dict[str, str] = {name: entry.colour for name, entry in _REGISTRY.items()}
 LIBRARIES: dict[str, str] = {name: entry.library for name, entry in _REGISTRY.items()}
 REAL_TIME: frozenset[str] = frozenset(name for name, entry in _REGISTRY.items() if entry.real_time)

@@ -130,14 +130,22 @@ class FrameRules:
 def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
     """Every rule the answer breaks, and the cost vector it really has."""
     rules = FrameRules.of(problem)
-    c, state, tracks, dets = rules.c, rules.state, rules.tracks, rules.dets
     bad: list[Violation] = []
+    actions = _check_actions(rules, hyp.actions, bad)
+    explanations, event_names = _check_events(rules, problem, hyp.events, bad)
+    _check_explanations(rules, actions, explanations, bad)
+    valid_events = [a for a in hyp.events if _well_formed_event(a)]
+    return CheckReport(tuple(bad), recompute_cost(problem, hyp.actions, event_names, valid_events, rules.c))
 
-    # -- actions ---------------------------------------------------------------------------
+
+def _check_actions(rules: FrameRules, atoms, bad: list[Violation]) -> list[tuple[str, tuple[str, ...]]]:
+    """The well-formed actions as (name, args); a violation in ``bad`` for every malformed one, for
+    every track or detection without exactly one action, and for every rule an action breaks."""
+    tracks, dets = rules.tracks, rules.dets
     per_track: dict[str, list[str]] = defaultdict(list)
     per_det: dict[str, list[str]] = defaultdict(list)
     actions: list[tuple[str, tuple[str, ...]]] = []
-    for atom in hyp.actions:
+    for atom in atoms:
         term = parse_term(atom)
         name, args = term.name, tuple(a.name for a in term.args)
         if _ACTION_ARITY.get(name) != len(args):
@@ -172,11 +180,17 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
         v = rules.action_violation(name, args)
         if v is not None:
             bad.append(v)
+    return actions
 
-    # -- events ----------------------------------------------------------------------------
-    explanations: dict[tuple[str, str], list[str]] = defaultdict(list)  # (action, subject) -> events
+
+def _check_events(rules: FrameRules, problem: FrameProblem, atoms,
+                  bad: list[Violation]) -> tuple[dict[tuple[str, str], list[str]], list[str]]:
+    """(action, subject) -> the events explaining it, and the names of the well-formed events; a
+    violation in ``bad`` for every malformed event, one at another time and one not possible."""
+    tracks = rules.tracks
+    explanations: dict[tuple[str, str], list[str]] = defaultdict(list)
     event_names: list[str] = []
-    for atom in hyp.events:
+    for atom in atoms:
         term = parse_term(atom)
         if term.name != "occurs_at" or len(term.args) != 2 or not term.args[1].is_int:
             bad.append(Violation("event_syntax", f"{atom} is not occurs_at(Event, Time)"))
@@ -191,14 +205,20 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
             bad.append(Violation("event_syntax", f"{atom}: {event.name} takes {_EVENT_ARITY[event.name]} ids"))
             continue
         event_names.append(event.name)
-        if not poss(event, problem, state, c):
+        if not poss(event, problem, rules.state, rules.c):
             bad.append(Violation(f"poss_{event.name}", f"{atom}: its precondition does not hold"))
         subject = event.args[0].name
         explains = _EXPLAINED_BY[event.name]
         if subject in tracks and tracks[subject].state == "halted" and "ignore_trk" in _ALSO[event.name]:
             explains = "ignore_trk"  # a halted track cannot halt: it is the re-explanation of its ignore
         explanations[(explains, subject)].append(str(event))
+    return explanations, event_names
 
+
+def _check_explanations(rules: FrameRules, actions: list[tuple[str, tuple[str, ...]]],
+                        explanations: dict[tuple[str, str], list[str]], bad: list[Violation]) -> None:
+    """explain_<action>: every explained action has exactly one explaining event, and no event
+    explains an action not taken."""
     subjects = {(n, a[0]) for n, a in actions if n in _EXPLAINED_ACTIONS}
     # explain_ignore: an ignored track that is clipped needs one explanation iff one is possible
     for n, a in actions:
@@ -212,9 +232,6 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
         elif len(found) != 1:
             bad.append(Violation(label,
                                  f"{action} of {subject} needs exactly one explanation, has {found}"))
-
-    valid_events = [a for a in hyp.events if _well_formed_event(a)]
-    return CheckReport(tuple(bad), recompute_cost(problem, hyp.actions, event_names, valid_events, c))
 
 
 def _well_formed_event(atom: str) -> bool:

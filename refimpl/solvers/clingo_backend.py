@@ -43,7 +43,7 @@ from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, Solver, SolverUnavai
 from .clingo_process import ClingoWorker, DEFAULT_RECYCLE
 from .asp_model import ENCODING_MEMORY, certificate_preconditions
 from .certificate import certificate, certificate_facts
-from .common import event_term, tiebreak_facts, tiebreak_level, tiebreak_weights
+from .common import tiebreak_facts, tiebreak_level, tiebreak_weights
 from .decompose import Part, own_atoms, split
 from .fallback import obvious_hypothesis
 

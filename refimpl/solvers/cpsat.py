@@ -26,7 +26,8 @@ refimpl/solvers/fast_path.py and docs/benchmarks.md for why this gives the ident
 Modules: this one holds the backend class ``CpSatSolver``; refimpl/solvers/cpsat_model.py
 ``build_model`` (the admissibility functions it reads are refimpl/solvers/admissibility.py);
 refimpl/solvers/cpsat_lexicographic.py ``solve_lexicographic``; refimpl/solvers/fast_path.py
-``solve_fast`` and ``TrackwiseState``.  Every name of these is importable from here.
+``solve_fast``; refimpl/solvers/trackwise_state.py ``TrackwiseState``.  Every name of these is
+importable from here.
 """
 
 from __future__ import annotations
@@ -67,7 +68,6 @@ from .cpsat_lexicographic import (  # noqa: F401  (re-exported)
     _span,
     _solution,
     _trivial_solution,
-    objective_groups,
     solve_lexicographic,
 )
 from .admissibility import (  # noqa: F401  (re-exported)
@@ -83,7 +83,6 @@ from .fast_path import (  # noqa: F401  (re-exported)
     FAST_PATH_MAX_COMPONENT,
     FastAnswer,
     FastPathDeclined,
-    TrackwiseState,
     _best_solo,
     _cheapest,
     _max_weight_matching,
@@ -91,6 +90,7 @@ from .fast_path import (  # noqa: F401  (re-exported)
     _unique_optimum,
     solve_fast,
 )
+from .trackwise_state import TrackwiseState  # noqa: F401  (re-exported)
 
 class CpSatSolver(Solver):
     """The CP-SAT backends ``cpsat`` and ``cpsat-full``: ``solve(problem, time_limit=None) -> Hypothesis``.

@@ -198,12 +198,6 @@ def objective_plan(am: AbductionModel, bits: int = OBJECTIVE_BITS,
     return _pack_levels(upper, bits), packed, [lower]
 
 
-def objective_groups(am: AbductionModel, bits: int = OBJECTIVE_BITS) -> list[list[tuple[int, LevelTerms]]]:
-    """The objectives solve_lexicographic minimises one after another: objective_plan's three
-    parts in order (the pair chunks are skipped when the pair set is unique: _only_pair_set)."""
-    return [g for part in objective_plan(am, bits) for g in part]
-
-
 def _only_pair_set(fresh: cp_model.CpModel, upper: list[list[tuple[int, LevelTerms]]],
                    pair_vars: Sequence[cp_model.IntVar], solution: Mapping[int, int], workers: int,
                    seed: int, deadline: float | None, bits: int) -> bool:
@@ -240,6 +234,126 @@ def _only_pair_set(fresh: cp_model.CpModel, upper: list[list[tuple[int, LevelTer
     return False
 
 
+class _Levels:
+    """One lexicographic solve under way: the model with every level solved so far fixed, the best
+    solution so far (var index -> value), whether each level so far was proven optimal, and the
+    status of each (LexResult.statuses)."""
+
+    def __init__(self, am: AbductionModel, problem: FrameProblem, deadline: float | None, workers: int,
+                 seed: int, bits: int):
+        self.am, self.problem, self.model = am, problem, am.model
+        self.deadline, self.workers, self.seed, self.bits = deadline, workers, seed, bits
+        self.indices = [v.index for v in am.all_vars()]
+        self.solution: dict[int, int] | None = None
+        self.optimal = True
+        self.statuses: list[str] = []
+
+    def pairs_unique(self, fresh: cp_model.CpModel, upper: list[list[tuple[int, LevelTerms]]],
+                     pair_terms: LevelTerms, after: int) -> bool:
+        """Whether the solution's pair actions are the only optimal set of levels 10..1
+        (_only_pair_set, given its even share of the time left with the ``after`` objectives
+        after the chunks); if so they are fixed."""
+        assert self.solution is not None
+        now = time.perf_counter()
+        until = None if self.deadline is None else now + (self.deadline - now) / (1 + after)
+        if not _only_pair_set(fresh, upper, [v for _, v in pair_terms], self.solution, self.workers, self.seed,
+                              until, self.bits):
+            return False
+        for _, v in pair_terms:
+            self.model.add(v == self.solution[v.index])
+        return True
+
+    def minimise(self, group: list[tuple[int, LevelTerms]], left: int) -> None:
+        """Solve one group's objective with the time left shared over the ``left`` objectives
+        still to solve (this one included), then fix it (``_settle``)."""
+        from ortools.sat.python import cp_model  # heavy: only when the full model is needed (see the imports)
+        terms = _scalarised(group)
+        expr = sum(c * v for c, v in terms) if terms else 0
+        if not terms and self.solution is not None:
+            self.statuses.append("SKIPPED")
+            return
+        if self.solution is not None and all(c > 0 for c, _ in terms) and _level_value(terms, self.solution) == 0:
+            self.model.add(expr == 0)
+            self.statuses.append("BOUND")
+            return
+        status = None
+        share = None
+        if self.deadline is not None:
+            share = (self.deadline - time.perf_counter()) / left
+            if share <= 0:
+                status = cp_model.UNKNOWN  # no time left for this level
+        if status is None:
+            status, name = self._solve(group, terms, expr, share)
+        else:
+            name = "NO_TIME"
+        self.statuses.append(name)
+        self._settle(group, terms, expr, status, name)
+
+    def _solve(self, group: list[tuple[int, LevelTerms]], terms: LevelTerms, expr,
+               share: float | None) -> tuple[int, str]:
+        """CP-SAT's status of one objective and its name (CERTIFIED / UNCERTIFIED for an objective
+        too large for its doubles: _certify), the solution kept when there is one."""
+        from ortools.sat.python import cp_model  # heavy: only when the full model is needed (see the imports)
+        model = self.model
+        solver = _new_solver(self.workers, self.seed, share)
+        model.clear_objective()
+        if terms:
+            model.minimize(expr)
+        if self.solution is not None:
+            _hint(model, self.indices, self.solution)
+        else:
+            model.clear_hints()
+        status = solver.solve(model)
+        name = solver.status_name(status)
+        if status == cp_model.OPTIMAL:
+            self.solution = _solution(solver, self.indices)
+            if _span(group) > (1 << self.bits):  # CP-SAT's OPTIMAL is not exact here
+                proven, self.solution = _certify(model, terms, self.solution, self.indices, self.workers,
+                                                 self.seed, self.deadline)
+                status, name = (cp_model.OPTIMAL, "CERTIFIED") if proven else (cp_model.FEASIBLE, "UNCERTIFIED")
+        elif status == cp_model.FEASIBLE:
+            self.solution = _solution(solver, self.indices)
+        return status, name
+
+    def _settle(self, group: list[tuple[int, LevelTerms]], terms: LevelTerms, expr, status: int,
+                name: str) -> None:
+        """A level proven optimal fixed at its value; one not proven bounded by the best solution
+        so far (the obvious hypothesis standing in when there is none yet); INFEASIBLE and
+        MODEL_INVALID raised."""
+        from ortools.sat.python import cp_model  # heavy: only when the full model is needed (see the imports)
+        am, model, prio = self.am, self.model, group[0][0]
+        if status == cp_model.OPTIMAL:
+            assert self.solution is not None
+            _fix_levels(model, group, self.solution)
+        elif status in (cp_model.FEASIBLE, cp_model.UNKNOWN):
+            self.optimal = False
+            if self.solution is None:
+                self.solution = _trivial_solution(am, self.problem)
+            if self.solution is not None and terms:
+                model.add(expr <= _level_value(terms, self.solution))
+        elif status == cp_model.INFEASIBLE:
+            if self.solution is None:
+                raise NoAdmissibleHypothesis(
+                    f"no hypothesis satisfies the model at time {am.time} (CP-SAT: INFEASIBLE)")
+            raise CpSatFailure(f"level {prio} became INFEASIBLE after a solution was fixed (time {am.time})")
+        else:  # MODEL_INVALID
+            raise CpSatFailure(f"CP-SAT status {name} at level {prio} "
+                               f"(time {am.time}): {model.validate()}")
+
+    def result(self, time_limit: float | None) -> LexResult:
+        """The answer: every atom's value, the cost vector (level 0 from its two parts)."""
+        am, solution = self.am, self.solution
+        if solution is None:
+            raise SolveTimeout(f"no answer at t={am.time} within the time limit "
+                               f"({'none' if time_limit is None else f'{time_limit:g} s'})")
+        level0 = (_level_value(am.objectives[TIEBREAK_LEVEL], solution) << am.tiebreak_shift) + _level_value(
+            am.objectives.get(EXPLANATION, []), solution)
+        cost = tuple((p, level0 if p == TIEBREAK_LEVEL else _level_value(am.objectives[p], solution))
+                     for p in PRIORITIES)
+        values = {atom: solution[v.index] for atom, v in list(am.actions.items()) + list(am.events.items())}
+        return LexResult(values, cost, self.optimal, tuple(self.statuses))
+
+
 def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: float | None = None,
                         workers: int = 1, seed: int = 0, objective_bits: int = OBJECTIVE_BITS,
                         unique_pairs: bool = True) -> LexResult:
@@ -265,100 +379,22 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     never make a higher one worse.  If the first level finds no solution in time, the obvious
     hypothesis (everything ignored or halted, see _trivial_solution) stands in when it exists.
     """
-    from ortools.sat.python import cp_model  # heavy: only when the full model is needed (see the imports)
-    model = am.model
     deadline = None if time_limit is None else time.perf_counter() + max(0.0, time_limit)
-    variables = am.all_vars()
-    indices = [v.index for v in variables]
-    solution: dict[int, int] | None = None  # var index -> value
-    optimal = True
-    statuses: list[str] = []
-
+    run = _Levels(am, problem, deadline, workers, seed, objective_bits)
     upper, chunks, lower = objective_plan(am, objective_bits, unique_pairs)
     groups = upper + chunks + lower
-    pair_terms = am.objectives[TIEBREAK_LEVEL]
     first_chunk, after_chunks = len(upper), len(upper) + len(chunks)
-    fresh = model.clone() if chunks else None  # before any level is fixed: _only_pair_set
-
+    fresh = am.model.clone() if chunks else None  # before any level is fixed: _only_pair_set
     i = -1
     while i + 1 < len(groups):
         i += 1
-        group = groups[i]
-        if i == first_chunk and fresh is not None and optimal and solution is not None:
-            now = time.perf_counter()
-            until = None if deadline is None else now + (deadline - now) / (1 + len(lower))
-            if _only_pair_set(fresh, upper, [v for _, v in pair_terms], solution, workers, seed, until,
-                              objective_bits):
-                for _, v in pair_terms:
-                    model.add(v == solution[v.index])
-                statuses += ["UNIQUE"] * len(chunks)
+        if i == first_chunk and fresh is not None and run.optimal and run.solution is not None:
+            if run.pairs_unique(fresh, upper, am.objectives[TIEBREAK_LEVEL], len(lower)):
+                run.statuses += ["UNIQUE"] * len(chunks)
                 i = after_chunks - 1
                 continue
-        prio = group[0][0]
-        terms = _scalarised(group)
-        expr = sum(c * v for c, v in terms) if terms else 0
-        if not terms and solution is not None:
-            statuses.append("SKIPPED")
-            continue
-        if solution is not None and all(c > 0 for c, _ in terms) and _level_value(terms, solution) == 0:
-            model.add(expr == 0)
-            statuses.append("BOUND")
-            continue
-        status = None
-        share = None
-        if deadline is not None:
-            # the budget left over the objectives left, the pair chunks counted as the one
-            # question of _only_pair_set until it was asked
-            left = len(groups) - i if i >= first_chunk else first_chunk - i + bool(chunks) + len(lower)
-            share = (deadline - time.perf_counter()) / left
-            if share <= 0:
-                status = cp_model.UNKNOWN  # no time left for this level
-        if status is None:
-            solver = _new_solver(workers, seed, share)
-            model.clear_objective()
-            if terms:
-                model.minimize(expr)
-            if solution is not None:
-                _hint(model, indices, solution)
-            else:
-                model.clear_hints()
-            status = solver.solve(model)
-            name = solver.status_name(status)
-            if status == cp_model.OPTIMAL:
-                solution = _solution(solver, indices)
-                if _span(group) > (1 << objective_bits):  # CP-SAT's OPTIMAL is not exact here
-                    proven, solution = _certify(model, terms, solution, indices, workers, seed, deadline)
-                    status, name = (cp_model.OPTIMAL, "CERTIFIED") if proven else (cp_model.FEASIBLE, "UNCERTIFIED")
-            elif status == cp_model.FEASIBLE:
-                solution = _solution(solver, indices)
-            statuses.append(name)
-        else:
-            statuses.append("NO_TIME")
-
-        if status == cp_model.OPTIMAL:
-            _fix_levels(model, group, solution)
-        elif status in (cp_model.FEASIBLE, cp_model.UNKNOWN):
-            optimal = False
-            if solution is None:
-                solution = _trivial_solution(am, problem)
-            if solution is not None and terms:
-                model.add(expr <= _level_value(terms, solution))
-        elif status == cp_model.INFEASIBLE:
-            if solution is None:
-                raise NoAdmissibleHypothesis(
-                    f"no hypothesis satisfies the model at time {am.time} (CP-SAT: INFEASIBLE)")
-            raise CpSatFailure(f"level {prio} became INFEASIBLE after a solution was fixed (time {am.time})")
-        else:  # MODEL_INVALID
-            raise CpSatFailure(f"CP-SAT status {solver.status_name(status)} at level {prio} "
-                               f"(time {am.time}): {model.validate()}")
-
-    if solution is None:
-        raise SolveTimeout(f"no answer at t={am.time} within the time limit "
-                           f"({'none' if time_limit is None else f'{time_limit:g} s'})")
-    level0 = (_level_value(pair_terms, solution) << am.tiebreak_shift) + _level_value(
-        am.objectives.get(EXPLANATION, []), solution)
-    cost = tuple((p, level0 if p == TIEBREAK_LEVEL else _level_value(am.objectives[p], solution))
-                 for p in PRIORITIES)
-    values = {atom: solution[v.index] for atom, v in list(am.actions.items()) + list(am.events.items())}
-    return LexResult(values, cost, optimal, tuple(statuses))
-
+        # the objectives left, the pair chunks counted as the one question of _only_pair_set
+        # until it was asked
+        left = len(groups) - i if i >= first_chunk else first_chunk - i + bool(chunks) + len(lower)
+        run.minimise(groups[i], left)
+    return run.result(time_limit)

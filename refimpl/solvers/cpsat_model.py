@@ -20,10 +20,9 @@ if TYPE_CHECKING:
     from ortools.sat.python import cp_model
 
 from ..knowledge.events import EventState
-from ..knowledge.event_table import EVENT_TABLE, EventType, anticipated_unhide, explaining, reexplained
+from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..core.spec import Detection, FrameProblem, TrackPrediction
-from ..knowledge.relations import area
 from . import NoAdmissibleHypothesis
 from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
 from .common import intersection_matrix, tiebreak_weights
@@ -158,6 +157,124 @@ def _hidden(state: EventState, trk: str) -> bool:
     return state.holds_at(("visibility", trk), "not_visible")
 
 
+def _partners(problem: FrameProblem) -> dict[str, list[Detection]]:
+    """Track -> the detections of its iou/3 facts, in problem order.
+
+    Only pairs with an iou/3 fact can be assigned or resumed, and hides_behind(T, T2) needs
+    overlapping_top(T, T2): build_model skips everything else before calling the rules (same
+    candidates, same variable order as testing every pair, without n^2 Python calls)."""
+    det_at = {d.id: j for j, d in enumerate(problem.detections)}
+    partners: dict[str, list[int]] = {}
+    for t_id, d_id, _ in problem.iou:
+        if d_id in det_at:
+            partners.setdefault(t_id, []).append(det_at[d_id])
+    return {t_id: [problem.detections[j] for j in sorted(set(js))] for t_id, js in partners.items()}
+
+
+class _Builder:
+    """build_model's model under construction: its variables (one per action and event, each with
+    its objective terms), and each track's and detection's actions, of which exactly one is taken."""
+
+    def __init__(self, problem: FrameProblem, state: EventState, constants: Mapping[str, int],
+                 model: cp_model.CpModel, am: AbductionModel):
+        self.problem, self.state, self.constants, self.model, self.am = problem, state, constants, model, am
+        self.iou = problem.iou_map
+        inter = intersection_matrix([t.box for t in problem.tracks])
+        self.tb = tiebreak_weights(problem, inter)
+        self.w = self.tb.pair  # 2^q per pair; events: tb.event (common.py)
+        am.tiebreak_shift = self.tb.shift
+        self.partners = _partners(problem)
+        self.by_id = {t.id: t for t in problem.tracks}
+        self.top = _overlapping_top_matrix(problem.tracks, inter, constants["hide_overlap"])
+        self.cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
+        self.per_trk: dict[str, list[cp_model.IntVar]] = {t.id: [] for t in problem.tracks}
+        self.per_det: dict[str, list[cp_model.IntVar]] = {d.id: [] for d in problem.detections}
+
+    def action(self, atom: str, name: str, likelihood: int = 0) -> cp_model.IntVar:
+        v = self.model.new_bool_var(atom)
+        self.am.actions[atom] = v
+        for p, c in zip(PRIORITIES, action_cost(name, likelihood)):
+            if c:
+                self.am.objectives[p].append((c, v))
+        return v
+
+    def event(self, spec: EventType, args: tuple[str, ...]) -> cp_model.IntVar:
+        atom = f"{spec.name}({','.join(args)})"
+        v = self.model.new_bool_var(atom)
+        self.am.events[atom] = v
+        if self.cost[spec.name]:
+            self.am.objectives[EVENT_LEVEL].append((self.cost[spec.name], v))
+        tie = self.tb.event.get(atom, 0)
+        if tie:
+            self.am.objectives[EXPLANATION].append((tie, v))
+        return v
+
+    def explanations(self, action: str, i: int) -> list[tuple[EventType, tuple[str, ...]]]:
+        return _explanations(action, i, self.problem.tracks, self.top, self.state, self.constants, self.by_id)
+
+    def pair(self, name: str, t: TrackPrediction, d: Detection) -> cp_model.IntVar:
+        """assign(T, D) or resume(T, D): an action of the track and of the detection, with its tie-break."""
+        a = self.action(f"{name}({t.id},{d.id})", name, self.iou[(t.id, d.id)])
+        self.per_trk[t.id].append(a)
+        self.per_det[d.id].append(a)
+        self.am.objectives[TIEBREAK_LEVEL].append((self.w[(t.id, d.id)], a))
+        return a
+
+    def active_track(self, i: int, t: TrackPrediction) -> None:
+        # assign(T, D): assignment_constraints
+        for d in self.partners.get(t.id, ()):
+            if assignment_constraints(self.problem, self.constants, self.iou, t, d):
+                self.pair("assign", t, d)
+        # halt(T) <=> exactly one of its possible explanations   (explain_halt)
+        halts = self.explanations("halt", i)
+        if halts:
+            h = self.action(f"halt({t.id})", "halt")
+            self.per_trk[t.id].append(h)
+            self.model.add(sum(self.event(spec, args) for spec, args in halts) == h)
+
+    def halted_track(self, i: int, t: TrackPrediction) -> None:
+        # end(T) <=> exactly one of its possible explanations   (explain_end)
+        ends = self.explanations("end", i)
+        if ends:
+            en = self.action(f"end({t.id})", "end")
+            self.per_trk[t.id].append(en)
+            self.model.add(sum(self.event(spec, args) for spec, args in ends) == en)
+        ig = self.action(f"ignore_trk({t.id})", "ignore_trk")
+        self.per_trk[t.id].append(ig)
+        # ignore_trk(T) of a missing track <=> exactly one possible re-explanation, if any   (explain_ignore)
+        again = self.explanations("ignore_trk", i) if reexplained(self.state, t.id) else []
+        if again:
+            self.model.add(sum(self.event(spec, args) for spec, args in again) == ig)
+        # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
+        resumable = [d for d in self.partners.get(t.id, ())
+                     if resume_constraints(self.problem, self.constants, self.iou, t, d, self.state, self.by_id)]
+        expl = self.explanations("resume", i) if resumable else []
+        if resumable and expl:
+            res = [self.pair("resume", t, d) for d in resumable]
+            self.model.add(sum(self.event(spec, args) for spec, args in expl) == sum(res))
+
+    def detections(self) -> None:
+        taken = occupied(self.problem, self.constants)  # [start_occupied]
+        for d in self.problem.detections:
+            # start(D) <=> exactly one of its possible explanations (enters_fov)   (explain_start)
+            starts = [spec for spec in explaining("start") if spec.poss(self.state, self.constants, d.id, tracks=None)]
+            if start_constraints(self.constants, d, taken) and starts:
+                s = self.action(f"start({d.id})", "start")
+                self.per_det[d.id].append(s)
+                self.model.add(sum(self.event(spec, (d.id,)) for spec in starts) == s)
+            self.per_det[d.id].append(self.action(f"ignore_det({d.id})", "ignore_det"))
+
+    def exactly_one(self) -> None:
+        """Every track and every detection takes exactly one of its actions."""
+        for t in self.problem.tracks:
+            if not self.per_trk[t.id]:
+                raise NoAdmissibleHypothesis(
+                    f"track {t.id} ({t.state}) has no admissible action at time {self.problem.time}")
+            self.model.add_exactly_one(self.per_trk[t.id])
+        for d in self.problem.detections:
+            self.model.add_exactly_one(self.per_det[d.id])
+
+
 def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str, int]) -> AbductionModel:
     """The CP-SAT model of one frame problem (see the module docstring).
 
@@ -166,106 +283,12 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
     from ortools.sat.python import cp_model  # heavy: only when the full model is needed (see the imports)
     model = cp_model.CpModel()
     am = AbductionModel(model, problem.time, objectives={p: [] for p in PRIORITIES + (EXPLANATION,)})
-    iou = problem.iou_map
-    inter = intersection_matrix([t.box for t in problem.tracks])
-    tb = tiebreak_weights(problem, inter)
-    w = tb.pair  # 2^q per pair; events: tb.event (common.py)
-    am.tiebreak_shift = tb.shift
-    # Only pairs with an iou/3 fact can be assigned or resumed, and hides_behind(T, T2) needs
-    # overlapping_top(T, T2): the loops below skip everything else before calling the rules
-    # (same candidates, same variable order as testing every pair, without n^2 Python calls:
-    # a track's detections are those of its iou/3 facts, in problem order).
-    det_at = {d.id: j for j, d in enumerate(problem.detections)}
-    partners: dict[str, list[Detection]] = {}  # track -> the detections of its iou/3 facts, in problem order
-    for t_id, d_id, _ in problem.iou:
-        if d_id in det_at:
-            partners.setdefault(t_id, []).append(det_at[d_id])
-    for t_id, js in partners.items():
-        partners[t_id] = [problem.detections[j] for j in sorted(set(js))]
-    by_id = {t.id: t for t in problem.tracks}
-    top = _overlapping_top_matrix(problem.tracks, inter, constants["hide_overlap"])
-    obj = am.objectives
-    cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
-
-    def action(atom: str, name: str, likelihood: int = 0) -> cp_model.IntVar:
-        v = model.new_bool_var(atom)
-        am.actions[atom] = v
-        for p, c in zip(PRIORITIES, action_cost(name, likelihood)):
-            if c:
-                obj[p].append((c, v))
-        return v
-
-    def event(spec: EventType, args: tuple[str, ...]) -> cp_model.IntVar:
-        v = model.new_bool_var(f"{spec.name}({','.join(args)})")
-        am.events[f"{spec.name}({','.join(args)})"] = v
-        if cost[spec.name]:
-            obj[EVENT_LEVEL].append((cost[spec.name], v))
-        tie = tb.event.get(f"{spec.name}({','.join(args)})", 0)
-        if tie:
-            obj[EXPLANATION].append((tie, v))
-        return v
-
-    per_trk: dict[str, list[cp_model.IntVar]] = {t.id: [] for t in problem.tracks}
-    per_det: dict[str, list[cp_model.IntVar]] = {d.id: [] for d in problem.detections}
-
+    build = _Builder(problem, state, constants, model, am)
     for i, t in enumerate(problem.tracks):
         if t.state == "active":
-            # assign(T, D): assignment_constraints
-            for d in partners.get(t.id, ()):
-                if assignment_constraints(problem, constants, iou, t, d):
-                    a = action(f"assign({t.id},{d.id})", "assign", iou[(t.id, d.id)])
-                    per_trk[t.id].append(a)
-                    per_det[d.id].append(a)
-                    obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
-            # halt(T) <=> exactly one of its possible explanations   (explain_halt)
-            halts = _explanations("halt", i, problem.tracks, top, state, constants, by_id)
-            if halts:
-                h = action(f"halt({t.id})", "halt")
-                per_trk[t.id].append(h)
-                model.add(sum(event(spec, args) for spec, args in halts) == h)
+            build.active_track(i, t)
         else:  # halted
-            # end(T) <=> exactly one of its possible explanations   (explain_end)
-            ends = _explanations("end", i, problem.tracks, top, state, constants, by_id)
-            if ends:
-                en = action(f"end({t.id})", "end")
-                per_trk[t.id].append(en)
-                model.add(sum(event(spec, args) for spec, args in ends) == en)
-            ig = action(f"ignore_trk({t.id})", "ignore_trk")
-            per_trk[t.id].append(ig)
-            # ignore_trk(T) of a missing track <=> exactly one possible re-explanation, if any   (explain_ignore)
-            again = (_explanations("ignore_trk", i, problem.tracks, top, state, constants, by_id)
-                     if reexplained(state, t.id) else [])
-            if again:
-                model.add(sum(event(spec, args) for spec, args in again) == ig)
-            # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
-            resumable = [d for d in partners.get(t.id, ())
-                         if resume_constraints(problem, constants, iou, t, d, state, by_id)]
-            expl = _explanations("resume", i, problem.tracks, top, state, constants, by_id) if resumable else []
-            if resumable and expl:
-                res = []
-                for d in resumable:
-                    a = action(f"resume({t.id},{d.id})", "resume", iou[(t.id, d.id)])
-                    res.append(a)
-                    per_trk[t.id].append(a)
-                    per_det[d.id].append(a)
-                    obj[TIEBREAK_LEVEL].append((w[(t.id, d.id)], a))
-                model.add(sum(event(spec, args) for spec, args in expl) == sum(res))
-
-    taken = occupied(problem, constants)  # [start_occupied]
-    for d in problem.detections:
-        # start(D) <=> exactly one of its possible explanations (enters_fov)   (explain_start)
-        starts = [spec for spec in explaining("start") if spec.poss(state, constants, d.id, tracks=None)]
-        if start_constraints(constants, d, taken) and starts:
-            s = action(f"start({d.id})", "start")
-            per_det[d.id].append(s)
-            model.add(sum(event(spec, (d.id,)) for spec in starts) == s)
-        per_det[d.id].append(action(f"ignore_det({d.id})", "ignore_det"))
-
-    for t in problem.tracks:
-        if not per_trk[t.id]:
-            raise NoAdmissibleHypothesis(
-                f"track {t.id} ({t.state}) has no admissible action at time {problem.time}")
-        model.add_exactly_one(per_trk[t.id])
-    for d in problem.detections:
-        model.add_exactly_one(per_det[d.id])
+            build.halted_track(i, t)
+    build.detections()
+    build.exactly_one()
     return am

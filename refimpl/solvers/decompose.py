@@ -16,7 +16,7 @@ tracks' part of each sub-answer is discarded.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Iterable, Sequence
+from typing import Iterable
 
 import numpy as np
 
@@ -114,8 +114,3 @@ def own_atoms(part: Part, actions: Iterable[str], events: Iterable[str]) -> tupl
     acts = [a for a in actions if _first_argument(a) in part.own]
     evs = [e for e in events if _first_argument(event_term(e)) in part.own]
     return acts, evs
-
-
-def order_like(problem: FrameProblem, actions: Sequence[str], events: Sequence[str]) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """Merged answers in one canonical order (sorted), as every backend reports them."""
-    return tuple(sorted(actions)), tuple(sorted(events))

@@ -2,8 +2,8 @@
 
 The model of refimpl.solvers.cpsat_model is a bipartite matching with lexicographic costs; it is
 solved exactly in Python component by component, and answered only when the optimum is unique
-(otherwise FastPathDeclined, and the full CP-SAT model answers).  Also ``TrackwiseState``, the
-per-track memoised event state both paths query.
+(otherwise FastPathDeclined, and the full CP-SAT model answers).  The event state both paths
+query is refimpl.solvers.trackwise_state's.
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..knowledge.events import EventState, fluent_key
+from ..knowledge.events import EventState
 from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
-from ..core.spec import FrameProblem, Term
+from ..core.spec import FrameProblem
 from .common import DisjointSets, LazyTiebreak, intersection_matrix
 from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
 from .cpsat_model import _cost, _explanations, _has_explanation, _overlapping_top_matrix
@@ -256,68 +256,6 @@ def _unique_optimum(nl: int, nr: int, edges: list[tuple[int, int, int]], mate_l:
     return seen == n
 
 
-class TrackwiseState:
-    """The queries of an EventState (values, holds_at, started_at, halted_at) answered from one
-    EventState per track, each folded from that track's own events only, and memoised.
-
-    Exact because every effect, start and halt time of an event concerns its first argument only
-    (refimpl.knowledge.event_table.EFFECTS: each effect's fluent has the event's first argument as its own first
-    argument; recover's "hidden_by(T, X) for every X" too), and the set-valued grouping of one
-    time point is per fluent; folding a track's events in time order (stable, as EventState does)
-    gives that track's fluents exactly.  Per-track states, with the holds_at answers they gave, are
-    reused across frames while the track's events are unchanged (``cache``), so a tracker's frame
-    folds only new events and asks each state only what no earlier frame asked;
-    ``used`` holds the entries this frame needed, the cache to pass to the next frame."""
-
-    _EMPTY = EventState()
-
-    def __init__(self, history: Sequence, tracks: Sequence[str],
-                 cache: dict[tuple[str, tuple], tuple[EventState, dict]] | None = None):
-        groups: dict[str, list] = {}
-        for h in history:
-            args = h.event.args
-            if args:  # events without arguments have no effect (no EFFECTS entry of arity 0)
-                a0 = args[0]  # str(Term) of a constant is its name
-                groups.setdefault(a0.name if type(a0) is Term and not a0.args else str(a0), []).append(h)
-        cache = {} if cache is None else cache
-        # per track: its EventState and the memo of its holds_at answers, which never change (the
-        # state is folded once from the track's events; a new event makes a new key)
-        self.used: dict[tuple[str, tuple], tuple[EventState, dict]] = {}
-        self._per: dict[str, tuple[EventState, dict]] = {}
-        for trk in tracks:
-            events = groups.get(trk)
-            if not events:
-                continue
-            key = (trk, tuple(events))
-            entry = cache.get(key)
-            if entry is None:
-                entry = (EventState(events, (trk,)), {})
-            self.used[key] = self._per[trk] = entry
-        self._empty = (self._EMPTY, {})
-
-    def _state(self, trk: str) -> EventState:
-        return self._per.get(trk, self._empty)[0]
-
-    def values(self, fluent) -> frozenset[str]:
-        key = fluent_key(fluent)
-        return self._state(key[1]).values_of_key(key)
-
-    def holds_at(self, fluent, value: str) -> bool:
-        key = fluent_key(fluent)
-        st, memo = self._per.get(key[1], self._empty)
-        memo_key = (key, value)
-        got = memo.get(memo_key)
-        if got is None:
-            got = memo[memo_key] = value in st.values_of_key(key)
-        return got
-
-    def started_at(self, trk: str) -> int | None:
-        return self._state(trk).started_at(trk)
-
-    def halted_at(self, trk: str) -> int | None:
-        return self._state(trk).halted_at(trk)
-
-
 def _rows(top: "np.ndarray") -> list[list[int]]:
     """The column indices of each row's True entries (np.flatnonzero(top[i]).tolist() per row i),
     from one np.nonzero of the whole matrix (row-major, so each row's in increasing order)."""
@@ -340,20 +278,13 @@ class FastAnswer:
     """Nodes (tracks + detections) of the largest component."""
 
 
-def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str, int],
-               max_component: int = FAST_PATH_MAX_COMPONENT) -> FastAnswer:
-    """The unique lexicographic optimum of the model, without CP-SAT, or FastPathDeclined.
-
-    Candidates are those of build_model (same rules: cpsat_model's constraint functions and the
-    poss functions of refimpl.knowledge.event_table), costs those of build_model's objectives."""
-    tracks, dets = problem.tracks, problem.detections
-    iou = problem.iou_map
-    inter = intersection_matrix([t.box for t in tracks])
-    t_index = {t.id: i for i, t in enumerate(tracks)}
-    d_index = {d.id: j for j, d in enumerate(dets)}
-    by_id = {t.id: t for t in tracks}
-    # the candidate pairs (common.candidate_pairs: an iou/3 fact and the pair action's integrity
-    # constraint), which rank the pair actions of the tie-break; an edge below is one of them
+def _candidate_pairs(problem: FrameProblem, state: EventState, constants: Mapping[str, int],
+                     t_index: Mapping[str, int], d_index: Mapping[str, int],
+                     by_id: Mapping) -> list[tuple[int, int]]:
+    """The candidate pairs (common.candidate_pairs: an iou/3 fact and the pair action's integrity
+    constraint) as (track index, detection index) in iou/3 order: they rank the pair actions of the
+    tie-break, and an edge of the matching is one of them."""
+    tracks, dets, iou = problem.tracks, problem.detections, problem.iou_map
     pairs: list[tuple[int, int]] = []
     for (tid, did) in iou:
         i, j = t_index.get(tid), d_index.get(did)
@@ -363,16 +294,42 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
         if (assignment_constraints(problem, constants, iou, t, d) if t.state == "active"
                 else resume_constraints(problem, constants, iou, t, d, state, by_id)):
             pairs.append((i, j))
-    tb = LazyTiebreak(problem, inter, pairs, t_index, d_index)  # = tiebreak_weights' numbers, computed where asked
-    ev = tb.index  # level 0 of an explaining event: its index (common.py)
-    w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
-    cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
-    top = _overlapping_top_matrix(tracks, inter, constants["hide_overlap"])
-    top_rows = _rows(top)
-    paired = {tid for tid, _ in iou}
+    return pairs
 
-    def priced(found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:
-        return [((cost[spec.name], ev(spec.name, args)), f"{spec.name}({','.join(args)})") for spec, args in found]
+
+class _FrameOptions:
+    """Every option of one frame: each track's and detection's solo option and each candidate
+    pair's (an edge).  Their costs above the event level are known at once; an option's whole cost
+    vector (its explanation, the event level, the tie-break) is priced where first needed, and kept.
+
+    Candidates are those of build_model (same rules: cpsat_model's constraint functions and the
+    poss functions of refimpl.knowledge.event_table), costs those of build_model's objectives."""
+
+    def __init__(self, problem: FrameProblem, state: EventState, constants: Mapping[str, int]):
+        self.tracks, self.dets, self.iou = problem.tracks, problem.detections, problem.iou_map
+        self.state, self.constants = state, constants
+        inter = intersection_matrix([t.box for t in self.tracks])
+        t_index = {t.id: i for i, t in enumerate(self.tracks)}
+        d_index = {d.id: j for j, d in enumerate(self.dets)}
+        self.by_id = {t.id: t for t in self.tracks}
+        self.pairs = _candidate_pairs(problem, state, constants, t_index, d_index, self.by_id)
+        tb = LazyTiebreak(problem, inter, self.pairs, t_index, d_index)  # = tiebreak_weights' numbers, computed where asked
+        self.ev = tb.index  # level 0 of an explaining event: its index (common.py)
+        self.w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
+        self.cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
+        self.top_rows = _rows(_overlapping_top_matrix(self.tracks, inter, constants["hide_overlap"]))
+        self._track_solos()
+        self._detection_solos(occupied(problem, constants))  # [start_occupied]
+        self._edges()
+
+    def priced(self, found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:
+        return [((self.cost[spec.name], self.ev(spec.name, args)), f"{spec.name}({','.join(args)})")
+                for spec, args in found]
+
+    def explanations(self, action: str, i: int) -> list[tuple[tuple[int, int], str]]:
+        """Track i's possible explanations of action, priced."""
+        return self.priced(_explanations(action, i, self.tracks, self.top_rows, self.state, self.constants,
+                                         self.by_id))
 
     # -- solo options of the tracks, and each halted track's cheapest resume explanation --------
     # An active track's halt is priced only where it is needed (``track_solo``): most tracks are
@@ -382,159 +339,190 @@ def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str,
     # halts only tracks with an explanation is admissible in the model, so it is the model's
     # unique optimum; where it would halt a track without one, track_solo declines (the full model
     # answers: assign it, or no admissible hypothesis).
-    solo_t: list[_Option | None] = []
-    resumable: set[int] = set()  # halted tracks with an iou/3 pair and a possible resume explanation
-    resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
-    for i, t in enumerate(tracks):
-        if t.state == "active":
-            solo_t.append(None)  # its halt, priced where needed (track_solo)
-        else:
-            again = (priced(_explanations("ignore_trk", i, tracks, top_rows, state, constants, by_id))
-                     if reexplained(state, t.id) else [])
+    def _track_solos(self) -> None:
+        paired = {tid for tid, _ in self.iou}
+        self.solo_t: list[_Option | None] = []
+        self.resumable: set[int] = set()  # halted tracks with an iou/3 pair and a possible resume explanation
+        self.resume_expl: dict[int, tuple[tuple[int, int], str, bool]] = {}
+        for i, t in enumerate(self.tracks):
+            if t.state == "active":
+                self.solo_t.append(None)  # its halt, priced where needed (track_solo)
+                continue
+            again = self.explanations("ignore_trk", i) if reexplained(self.state, t.id) else []
             if again:  # explain_ignore: the ignore of a missing track carries its re-explanation
                 (c1, c0), event, tie = _cheapest(again)
                 options = [_Option(f"ignore_trk({t.id})", event, _cost("ignore_trk", event=c1, tiebreak=c0), tie)]
             else:
                 options = [_Option(f"ignore_trk({t.id})", None, _cost("ignore_trk"))]
-            ends = priced(_explanations("end", i, tracks, top_rows, state, constants, by_id))
+            ends = self.explanations("end", i)
             if ends:
                 (c1, c0), event, tie = _cheapest(ends)
                 options.append(_Option(f"end({t.id})", event, _cost("end", event=c1, tiebreak=c0), tie))
-            solo_t.append(_best_solo(options))
-            if t.id in paired and _has_explanation("resume", i, tracks, top_rows, state, constants, by_id):
-                resumable.add(i)  # priced where needed (``resume_of``), as the halts
+            self.solo_t.append(_best_solo(options))
+            if t.id in paired and _has_explanation("resume", i, self.tracks, self.top_rows, self.state,
+                                                   self.constants, self.by_id):
+                self.resumable.add(i)  # priced where needed (``resume_of``), as the halts
 
-    def track_solo(i: int) -> _Option:
+    def track_solo(self, i: int) -> _Option:
         """Track i's solo option: a halted track's, or an active track's halt, priced now."""
-        o = solo_t[i]
+        o = self.solo_t[i]
         if o is None:
-            t = tracks[i]
-            found = priced(_explanations("halt", i, tracks, top_rows, state, constants, by_id))
+            t = self.tracks[i]
+            found = self.explanations("halt", i)
             if not found:
                 raise FastPathDeclined("track without a solo action")  # full model: assign or nothing
             (c1, c0), event, tie = _cheapest(found)
-            o = solo_t[i] = _Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie)
+            o = self.solo_t[i] = _Option(f"halt({t.id})", event, _cost("halt", event=c1, tiebreak=c0), tie)
         return o
+
+    def solo_high_t(self, i: int) -> tuple[int, ...]:
+        """Track i's solo cost above the event level (an active track's: its halt's)."""
+        o = self.solo_t[i]
+        return _HALT_HIGH if o is None else o.cost[:_HIGH]
+
+    def resume_of(self, i: int) -> tuple[tuple[int, int], str, bool]:
+        """The cheapest resume explanation of halted track i (one of ``resumable``)."""
+        got = self.resume_expl.get(i)
+        if got is None:
+            got = self.resume_expl[i] = _cheapest(self.explanations("resume", i))
+        return got
 
     # -- solo options of the detections (priced where needed, as the halts: ``det_of``) ----------
-    solo_d: list[_Option | None] = []
-    high_d: list[tuple[int, ...]] = []  # the solo's cost above the event level, known at once
-    taken = occupied(problem, constants)  # [start_occupied]
-    for d in dets:
-        startable = start_constraints(constants, d, taken) and any(
-            spec.poss(state, constants, d.id, tracks=None) for spec in explaining("start"))
-        solo_d.append(None)
-        high_d.append(min(_IGNORE_DET_HIGH, _START_HIGH) if startable else _IGNORE_DET_HIGH)
+    def _detection_solos(self, taken) -> None:
+        self.taken = taken
+        self.solo_d: list[_Option | None] = []
+        self.high_d: list[tuple[int, ...]] = []  # the solo's cost above the event level, known at once
+        for d in self.dets:
+            startable = start_constraints(self.constants, d, taken) and any(
+                spec.poss(self.state, self.constants, d.id, tracks=None) for spec in explaining("start"))
+            self.solo_d.append(None)
+            self.high_d.append(min(_IGNORE_DET_HIGH, _START_HIGH) if startable else _IGNORE_DET_HIGH)
 
-    def det_of(j: int) -> _Option:
-        o = solo_d[j]
+    def det_of(self, j: int) -> _Option:
+        """Detection j's solo option, priced now."""
+        o = self.solo_d[j]
         if o is None:
-            d = dets[j]
+            d = self.dets[j]
             options = [_Option(f"ignore_det({d.id})", None, _cost("ignore_det"))]
-            starts = [((cost[spec.name], ev(spec.name, (d.id,))), f"{spec.name}({d.id})")
+            starts = [((self.cost[spec.name], self.ev(spec.name, (d.id,))), f"{spec.name}({d.id})")
                       for spec in explaining("start")
-                      if spec.poss(state, constants, d.id, tracks=None)]
-            if start_constraints(constants, d, taken) and starts:
+                      if spec.poss(self.state, self.constants, d.id, tracks=None)]
+            if start_constraints(self.constants, d, self.taken) and starts:
                 (c1, c0), event, tie = _cheapest(starts)
                 options.append(_Option(f"start({d.id})", event, _cost("start", event=c1, tiebreak=c0), tie))
-            o = solo_d[j] = _best_solo(options)
+            o = self.solo_d[j] = _best_solo(options)
         return o
-
-    def resume_of(i: int) -> tuple[tuple[int, int], str, bool]:
-        """The cheapest resume explanation of halted track i (one of ``resumable``)."""
-        got = resume_expl.get(i)
-        if got is None:
-            got = resume_expl[i] = _cheapest(priced(_explanations("resume", i, tracks, top_rows, state, constants,
-                                                                    by_id)))
-        return got
 
     # -- pair options (edges): assign for active tracks, resume for halted ones ------------------
     # Each edge's cost above the event level is known at once; a resume's explanation (its event,
     # its cost at the event level and the tie-break) is priced where needed (``edge_of``).
-    edges: list[tuple[int, int, tuple[int, ...]]] = []  # (track, detection, cost above the event level)
-    edge_opt: list[_Option | None] = []
-    for i, j in pairs:  # candidate pairs, in iou/3 order
-        t, d = tracks[i], dets[j]
-        tid, did = t.id, d.id
-        if t.state == "active":
-            o = _Option(f"assign({tid},{did})", None, _cost("assign", iou[(tid, did)], tiebreak=w[(tid, did)]))
-            edges.append((i, j, o.cost[:_HIGH]))
-            edge_opt.append(o)
-        elif i in resumable:
-            edges.append((i, j, _cost("resume", iou[(tid, did)])[:_HIGH]))
-            edge_opt.append(None)
+    def _edges(self) -> None:
+        self.edges: list[tuple[int, int, tuple[int, ...]]] = []  # (track, detection, cost above the event level)
+        self.edge_opt: list[_Option | None] = []
+        for i, j in self.pairs:  # candidate pairs, in iou/3 order
+            t, d = self.tracks[i], self.dets[j]
+            tid, did = t.id, d.id
+            if t.state == "active":
+                o = _Option(f"assign({tid},{did})", None,
+                            _cost("assign", self.iou[(tid, did)], tiebreak=self.w[(tid, did)]))
+                self.edges.append((i, j, o.cost[:_HIGH]))
+                self.edge_opt.append(o)
+            elif i in self.resumable:
+                self.edges.append((i, j, _cost("resume", self.iou[(tid, did)])[:_HIGH]))
+                self.edge_opt.append(None)
 
-    def edge_of(k: int) -> _Option:
-        o = edge_opt[k]
+    def edge_of(self, k: int) -> _Option:
+        """Edge k's pair option, priced now."""
+        o = self.edge_opt[k]
         if o is None:
-            i, j, _ = edges[k]
-            tid, did = tracks[i].id, dets[j].id
-            (c1, c0), event, tie = resume_of(i)
-            o = edge_opt[k] = _Option(f"resume({tid},{did})", event,
-                                      _cost("resume", iou[(tid, did)], event=c1, tiebreak=w[(tid, did)] + c0), tie)
+            i, j, _ = self.edges[k]
+            tid, did = self.tracks[i].id, self.dets[j].id
+            (c1, c0), event, tie = self.resume_of(i)
+            o = self.edge_opt[k] = _Option(
+                f"resume({tid},{did})", event,
+                _cost("resume", self.iou[(tid, did)], event=c1, tiebreak=self.w[(tid, did)] + c0), tie)
         return o
 
-    def solo_high_t(i: int) -> tuple[int, ...]:
-        o = solo_t[i]
-        return _HALT_HIGH if o is None else o.cost[:_HIGH]
 
-    # -- components (union-find over the edges) and their matchings ------------------------------
-    nt = len(tracks)
-    sets = DisjointSets(nt + len(dets))
+# -- components (union-find over the edges) and their matchings ----------------------------------
+def _components(frame: _FrameOptions) -> tuple[dict[int, list[int]], dict[int, int]]:
+    """The frame's components: each root's edges (indices into ``frame.edges``), and each root's
+    number of nodes (tracks + detections, an edgeless node a component of its own)."""
+    nt, nodes = len(frame.tracks), len(frame.tracks) + len(frame.dets)
+    sets = DisjointSets(nodes)
     find = sets.find
-    for i, j, _ in edges:
+    for i, j, _ in frame.edges:
         sets.union(i, nt + j)
-    comp_edges: dict[int, list[int]] = {}  # root -> its edges (indices into ``edges``)
-    for k, e in enumerate(edges):
+    comp_edges: dict[int, list[int]] = {}
+    for k, e in enumerate(frame.edges):
         comp_edges.setdefault(find(e[0]), []).append(k)
     sizes: dict[int, int] = {}
-    for x in range(nt + len(dets)):
+    for x in range(nodes):
         root = find(x)
         sizes[root] = sizes.get(root, 0) + 1
+    return comp_edges, sizes
+
+
+def _one_pair(frame: _FrameOptions, k: int) -> list[int]:
+    """A component of one track, one detection and one pair option, in closed form: [k] when the
+    pair is taken, [] when both take their solos.
+
+    The pair wins iff the solos' cost vector minus its own is lexicographically > 0; above the
+    event level the solos' costs are known without their explanations."""
+    i, j, high = frame.edges[k]
+    gain = _lex_sign(frame.solo_high_t(i), frame.high_d[j], high)
+    if gain == 0:
+        gain = _lex_sign(frame.track_solo(i).cost, frame.det_of(j).cost, frame.edge_of(k).cost)
+    if gain == 0:
+        raise FastPathDeclined("tie")
+    return [k] if gain > 0 else []
+
+
+def _matched_edges(frame: _FrameOptions, ces: list[int]) -> list[int]:
+    """The edges (indices into ``frame.edges``) of the unique optimal matching of one component.
+
+    First above the event level, where every cost is known without an explanation: a unique
+    optimum there is the unique optimum of the whole vector (every other matching is worse
+    already above the event level).  Otherwise all the costs, every explanation priced."""
+    edges = frame.edges
+    ls = sorted({edges[k][0] for k in ces})
+    rs = sorted({edges[k][1] for k in ces})
+    lpos = {i: a for a, i in enumerate(ls)}
+    rpos = {j: b for b, j in enumerate(rs)}
+    by_pair = {(lpos[edges[k][0]], rpos[edges[k][1]]): k for k in ces}
+    try:
+        mate = _matching(len(ls), len(rs), [frame.solo_high_t(i) for i in ls], [frame.high_d[j] for j in rs],
+                         [(lpos[edges[k][0]], rpos[edges[k][1]], edges[k][2]) for k in ces])
+    except FastPathDeclined as exc:
+        if exc.reason != "tie":
+            raise
+        mate = _matching(len(ls), len(rs), [frame.track_solo(i).cost for i in ls],
+                         [frame.det_of(j).cost for j in rs],
+                         [(lpos[edges[k][0]], rpos[edges[k][1]], frame.edge_of(k).cost) for k in ces])
+    return [by_pair[(a, b)] for a, b in enumerate(mate) if b >= 0]
+
+
+def solve_fast(problem: FrameProblem, state: EventState, constants: Mapping[str, int],
+               max_component: int = FAST_PATH_MAX_COMPONENT) -> FastAnswer:
+    """The unique lexicographic optimum of the model, without CP-SAT, or FastPathDeclined.
+
+    The frame's options (``_FrameOptions``), its components, each component's matching, and
+    every unmatched track and detection with its solo option."""
+    frame = _FrameOptions(problem, state, constants)
+    comp_edges, sizes = _components(frame)
     chosen: list[_Option] = []
     matched_t: set[int] = set()
     matched_d: set[int] = set()
     for root, ces in comp_edges.items():
         if sizes[root] > max_component:
             raise FastPathDeclined("component too large")
-        if len(ces) == 1:  # one track, one detection, one pair option: closed form
-            i, j, high = edges[ces[0]]
-            # the pair wins iff the solos' cost vector minus its own is lexicographically > 0;
-            # above the event level the solos' costs are known without their explanations
-            gain = _lex_sign(solo_high_t(i), high_d[j], high)
-            if gain == 0:
-                gain = _lex_sign(track_solo(i).cost, det_of(j).cost, edge_of(ces[0]).cost)
-            if gain == 0:
-                raise FastPathDeclined("tie")
-            if gain > 0:
-                chosen.append(edge_of(ces[0]))
-                matched_t.add(i)
-                matched_d.add(j)
-            continue
-        ls = sorted({edges[k][0] for k in ces})
-        rs = sorted({edges[k][1] for k in ces})
-        lpos = {i: a for a, i in enumerate(ls)}
-        rpos = {j: b for b, j in enumerate(rs)}
-        by_pair = {(lpos[edges[k][0]], rpos[edges[k][1]]): k for k in ces}
-        # First above the event level, where every cost is known without an explanation: a unique
-        # optimum there is the unique optimum of the whole vector (every other matching is worse
-        # already above the event level).  Otherwise all the costs, every explanation priced.
-        try:
-            mate = _matching(len(ls), len(rs), [solo_high_t(i) for i in ls], [high_d[j] for j in rs],
-                             [(lpos[edges[k][0]], rpos[edges[k][1]], edges[k][2]) for k in ces])
-        except FastPathDeclined as exc:
-            if exc.reason != "tie":
-                raise
-            mate = _matching(len(ls), len(rs), [track_solo(i).cost for i in ls],
-                             [det_of(j).cost for j in rs],
-                             [(lpos[edges[k][0]], rpos[edges[k][1]], edge_of(k).cost) for k in ces])
-        for a, b in enumerate(mate):
-            if b >= 0:
-                chosen.append(edge_of(by_pair[(a, b)]))
-                matched_t.add(ls[a])
-                matched_d.add(rs[b])
-    chosen += [track_solo(i) for i in range(len(tracks)) if i not in matched_t]
-    chosen += [det_of(j) for j in range(len(dets)) if j not in matched_d]
+        for k in (_one_pair(frame, ces[0]) if len(ces) == 1 else _matched_edges(frame, ces)):
+            i, j, _ = frame.edges[k]
+            chosen.append(frame.edge_of(k))
+            matched_t.add(i)
+            matched_d.add(j)
+    chosen += [frame.track_solo(i) for i in range(len(frame.tracks)) if i not in matched_t]
+    chosen += [frame.det_of(j) for j in range(len(frame.dets)) if j not in matched_d]
     if any(o.tie for o in chosen):
         raise FastPathDeclined("tie")
     t = problem.time

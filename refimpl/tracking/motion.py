@@ -101,7 +101,7 @@ def _z_values(box: list[float]) -> tuple[float, float, float, float]:
 
 
 def _state_box(x: np.ndarray) -> np.ndarray | None:
-    """x_to_xywh of a (7, 1) state if every component of the state and of the box is finite and the
+    """The (x, y, w, h) box of a (7, 1) state [u, v, s, r, ...] (w = sqrt(s * r), h = s / w) if every component of the state and of the box is finite and the
     box has w, h > 0 (BoxKalman.box's test), else None."""
     box = _state_box_values(x)
     return None if box is None else np.array(box)
@@ -120,19 +120,6 @@ def _state_box_values(x: np.ndarray) -> tuple[float, float, float, float] | None
     h = s / w
     box = (u - w / 2.0, c - h / 2.0, w, h)
     return box if _valid_box(box) else None
-
-
-def x_to_xywh(x) -> np.ndarray:
-    """State (or observation) [u, v, s, r, ...] -> (x, y, w, h) with w = sqrt(s*r), h = s/w, shape (4,).
-
-    No validity check: s * r <= 0 gives NaN (or w = 0); `BoxKalman.predict` is where that is caught.
-    """
-    v = np.asarray(x, dtype=float).reshape(-1)
-    u, c, s, r = v[0], v[1], v[2], v[3]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = np.sqrt(s * r)
-        h = s / w
-    return np.array([u - w / 2.0, c - h / 2.0, w, h])
 
 
 def transition_matrix() -> np.ndarray:
@@ -243,11 +230,6 @@ class BoxKalman:
     def velocity(self) -> np.ndarray:
         """(du, dv): the centre's velocity in pixels per frame, shape (2,)."""
         return self.kf.x[4:6, 0].copy()
-
-    @property
-    def is_valid(self) -> bool:
-        """Whether the current state is a finite box with w > 0 and h > 0."""
-        return _state_box(self.kf.x) is not None
 
     def predict(self, hold: bool = False) -> np.ndarray:
         """Advance one frame; return the predicted (x, y, w, h) box.

@@ -141,8 +141,6 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
 )
 """Every tracker option, in the order of the command line's help and of the tables."""
 
-OPTIONS_BY_NAME: dict[str, TrackerOption] = {o.name: o for o in TRACKER_OPTIONS}
-
 
 @dataclass(frozen=True)
 class TrackerOptions:
@@ -186,10 +184,6 @@ class TrackerOptions:
         """The options that differ from the defaults (what a preset changes)."""
         default = TrackerOptions().as_dict()
         return {k: v for k, v in self.as_dict().items() if default[k] != v}
-
-    def kwargs(self) -> dict[str, object]:
-        """Keyword arguments of pipeline.track_sequence / AbductionTracker."""
-        return {o.name: getattr(self, o.name) for o in TRACKER_OPTIONS}
 
 
 def option_flags(*before: str) -> str:

@@ -129,7 +129,7 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
                             DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
                             DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
                             sink=sink, keep_records=keep_records, frame_budget=setup.frame_budget,
-                            **options.kwargs())
+                            options=options)
 
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,

@@ -97,10 +97,6 @@ def load_presets(path: str | Path | None = None) -> dict[str, Preset]:
     return _load(str(p), p.stat().st_mtime)
 
 
-def preset_for(fmt: str, object_class: str, path: str | Path | None = None) -> Preset | None:
-    return load_presets(path).get(preset_key(fmt, object_class))
-
-
 def preset_named(name: str, path: str | Path | None = None) -> Preset:
     """The preset stored under this name (``kitti/car``, ``default``); ValueError naming the known ones."""
     presets = load_presets(path)
@@ -132,21 +128,6 @@ def merge_options(preset: Preset | None, overrides: Mapping[str, object] | None 
     values: dict[str, object] = dict((preset.tracker if preset else TrackerOptions()).as_dict())
     values.update(overrides or {})
     return TrackerOptions.from_mapping(values)
-
-
-def constants_for(fmt: str, object_class: str, overrides: Mapping[str, int] | None = None,
-                  path: str | Path | None = None, use_preset: bool = True) -> dict[str, int]:
-    """The constants the tracker runs with beyond model/constants.lp: the preset of (format, class)
-    by :func:`resolve_preset` (unless ``use_preset`` is false), then overrides (ValueError for an
-    unknown name)."""
-    return merge_constants(resolve_preset(fmt, object_class, path) if use_preset else None, overrides)
-
-
-def options_for(fmt: str, object_class: str, overrides: Mapping[str, object] | None = None,
-                path: str | Path | None = None, use_preset: bool = True) -> TrackerOptions:
-    """The tracker options to run with: the preset's by :func:`resolve_preset` (unless
-    ``use_preset`` is false; the defaults without one), then overrides {name: value}."""
-    return merge_options(resolve_preset(fmt, object_class, path) if use_preset else None, overrides)
 
 
 def preset_entry(preset: Preset) -> dict[str, object]:

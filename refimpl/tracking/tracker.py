@@ -171,10 +171,10 @@ class AbductionTracker:
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True,
-                 frame_budget: float | None = None, **options: object):
-        """``**options``: the tracker options by name (refimpl.tracking.options.TRACKER_OPTIONS; the module
-        docstring says what the writing ones write; docs/tracking.md measures them); ValueError for
-        an unknown name or a bad value.
+                 frame_budget: float | None = None, options: TrackerOptions = TrackerOptions()):
+        """``options``: the tracker options (refimpl.tracking.options.TrackerOptions, which parses
+        and checks them; the module docstring says what the writing ones write; docs/tracking.md
+        measures them).
 
         ``sink``: results rows and events are handed to it as soon as they are final (a frame's
         rows once no later frame can add any: bridged-gap interpolation reaches back at most
@@ -190,15 +190,8 @@ class AbductionTracker:
         late), so a frame the fast path answers gets the same answer with any budget.  Counted:
         ``budget_hits`` (frames the budget stopped), ``over_budget`` (frames that took longer)."""
         self.solver = solver
-        chosen = TrackerOptions.from_mapping(options)  # ValueError if unknown or bad
-        self.written_box = chosen.written_box
-        self.velocity_noise = chosen.velocity_noise
-        self.area_noise = chosen.area_noise
-        self.backfill = chosen.backfill
-        self.scene_velocity = chosen.scene_velocity
-        self.fill_hidden = chosen.fill_hidden
-        self.hold_hidden = chosen.hold_hidden
-        self.reupdate_on_resume = chosen.reupdate_on_resume
+        self.options = options
+        """The tracker options (refimpl.tracking.options), read where they decide."""
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
         self.min_hits = min_hits
@@ -221,8 +214,8 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
-        self.delay = max(bridge_gap, min_hits if self.backfill else 0,
-                         self.fill_hidden + min_hits if self.fill_hidden else 0)
+        self.delay = max(bridge_gap, min_hits if self.options.backfill else 0,
+                         self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
         backfilled confirmations)."""
 
@@ -231,7 +224,7 @@ class AbductionTracker:
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        boxes_now = BoxKalman.predict_box_values([t.kalman for t in tracks], self.hold_hidden)  # one batch
+        boxes_now = BoxKalman.predict_box_values([t.kalman for t in tracks], self.options.hold_hidden)  # one batch
         bounded = self._bounded_values
         predicted = np.array([bounded(*(self._restarted(t).tolist() if b is None else b))
                               for t, b in zip(tracks, boxes_now)], dtype=float).reshape(-1, 4)
@@ -347,7 +340,7 @@ class AbductionTracker:
         """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
         self.finished.clear()
         self.events.clear()
-        keep = self.min_hits + 1 if self.backfill or self.fill_hidden else 1  # the streak's boxes
+        keep = self.min_hits + 1 if self.options.backfill or self.options.fill_hidden else 1  # the streak's boxes
         for trk in self.tracks.values():
             recent = sorted(trk.observed)[-keep:]
             if trk.episode is not None:  # the box before a pending occlusion episode
@@ -377,7 +370,7 @@ class AbductionTracker:
         assignments, resumes = acts.get("assign", ()), acts.get("resume", ())
         event_terms = hyp.event_terms
         self.owners = {index[d]: t for t, d in (*assignments, *resumes)}
-        scene = self._scene_velocity(frame) if self.scene_velocity else None
+        scene = self._scene_velocity(frame) if self.options.scene_velocity else None
         # every assigned track's filter corrected in one batch (the same bits as one by one), then
         # each track's streak and rows in sorted atom order: deterministic
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
@@ -386,14 +379,14 @@ class AbductionTracker:
         for trk, box in zip(assigned, detected):
             self._observed(trk, frame, box)
         unhidden = {args[0] for name, args in event_terms
-                    if name in _UNHIDING} if self.fill_hidden and resumes else set()
+                    if name in _UNHIDING} if self.options.fill_hidden and resumes else set()
         for trk_id, det_id in resumes:
             trk, j = self.tracks[trk_id], index[det_id]
             last = max(trk.observed)
             gap = frame - last - 1
             trk.bridged = (gap <= self.bridge_gap and int(confidences[j]) >= self.bridge_conf
                            and last in trk.confirmed)
-            hidden = (not trk.bridged and last in trk.confirmed and gap <= self.fill_hidden
+            hidden = (not trk.bridged and last in trk.confirmed and gap <= self.options.fill_hidden
                       and trk_id in unhidden and self._hid_after(trk, last))
             trk.episode = (last, frame) if hidden else None
             if trk.bridged:
@@ -410,7 +403,7 @@ class AbductionTracker:
         for j in sorted(index[d] for (d,) in acts.get("start", ())):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
-            kalman = BoxKalman(boxes[j], self.velocity_noise, scene, self.area_noise)
+            kalman = BoxKalman(boxes[j], self.options.velocity_noise, scene, self.options.area_noise)
             trk = _Track(trk_id, types[j], kalman, at_rest=None if scene is None else boxes[j].copy())
             trk.observed[frame] = self._written(kalman, boxes[j])
             self._confirm(trk, frame)
@@ -459,7 +452,7 @@ class AbductionTracker:
 
     def _observe(self, trk: _Track, frame: int, box: np.ndarray, resumed: bool = False) -> None:
         """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
-        if resumed and self.reupdate_on_resume:
+        if resumed and self.options.reupdate_on_resume:
             trk.kalman.reupdate(box)  # observation-centric re-update along the gap
         else:
             trk.kalman.update(box)
@@ -474,7 +467,7 @@ class AbductionTracker:
 
     def _written(self, kalman: BoxKalman, box: np.ndarray) -> np.ndarray:
         """The box an observed frame writes: the filter's state after the update, or the detection."""
-        if self.written_box is WrittenBox.DETECTION:
+        if self.options.written_box is WrittenBox.DETECTION:
             return np.array(box, dtype=float).reshape(4)  # a copy: the frame's array is the caller's
         return kalman.box  # a new (4,) float array already
 
@@ -487,7 +480,7 @@ class AbductionTracker:
         if not (trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged):
             return
         first = frame
-        if self.backfill and trk.streak == self.min_hits:  # the streak's frames, a new track's first included
+        if self.options.backfill and trk.streak == self.min_hits:  # the streak's frames, a new track's first included
             while first - 1 in trk.observed and first - 1 not in trk.confirmed and frame - first < self.min_hits:
                 first -= 1
         if trk.episode is not None and trk.streak >= self.min_hits:

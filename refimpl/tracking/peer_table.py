@@ -1,7 +1,8 @@
 """The registry of peer trackers (``refimpl benchmark --peers``): one ``Peer`` row per tracker, the
 optional package it comes from (``PACKAGES``) and what it runs with beyond its constructor's
-defaults.  Running and scoring them is refimpl.experiments.peers; the command line reads only this
-table (its ``--peers`` help), so it does not import the scorers to build its parser.
+defaults.  Running and scoring them is refimpl.experiments.peers, the lab bench; the command line
+reads only this table (its ``--peers`` help), so building its parser imports neither the scorers
+nor the lab bench.
 """
 
 from __future__ import annotations

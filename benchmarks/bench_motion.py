@@ -1,6 +1,6 @@
 """Motion while hidden (issue 12, item 4): the tracker's two motion options off / on, on real benchmarks.
 
-    python -m refimpl.experiments.bench_motion [--datasets mot15,kitti-car] [--trackers cpsat,cpsat+hold,cpsat+oru,cpsat+hold+oru]
+    python benchmarks/bench_motion.py [--datasets mot15,kitti-car] [--trackers cpsat,cpsat+hold,cpsat+oru,cpsat+hold+oru]
 
 Prints one markdown table: MOTA, IDF1, IDs, Frag per dataset and variant; for KITTI also the 11
 sequences of evaluate_tracking.seqmap.val on their own (nothing here is tuned, so train/val only
@@ -15,10 +15,10 @@ import argparse
 import time
 from pathlib import Path
 
-from ..evaluation.evaluate import combine, evaluate_many
-from .occlusion_bench import parse_variant
-from ..io.datasets import load_dataset
-from ..tracking.pipeline import track_sequence
+from refimpl.evaluation.evaluate import combine, evaluate_many
+from refimpl.experiments.occlusion_bench import parse_variant
+from refimpl.io.datasets import load_dataset
+from refimpl.tracking.pipeline import track_sequence
 
 VAL_SEQMAP = Path("KITTI/tracking/training/evaluate_tracking.seqmap.val")
 

@@ -1,9 +1,9 @@
 """Peak memory of `refimpl track` on a long sequence, every tracker, with /usr/bin/time -v.
 
-    python -m refimpl.experiments.bench_long_memory [--frames 20000] [--objects 20] [--seed 0]
+    python benchmarks/bench_long_memory.py [--frames 20000] [--objects 20] [--seed 0]
                                       [--trackers baseline,cpsat,cpsat-full,clingo] [--dir DIR]
 
-Writes the sequence of refimpl/experiments/long_sequence.py (unless DIR already holds it), then runs, one
+Writes the sequence of benchmarks/long_sequence.py (unless DIR already holds it), then runs, one
 tracker after the other,
 
     /usr/bin/time -v python -m refimpl track --dets DIR/det/det.txt --backend B --out R --events E
@@ -42,10 +42,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..solvers import TRACKERS
-from .long_sequence import write_sequence
+from refimpl.experiments.walkers import write_sequence
+from refimpl.solvers import TRACKERS
 
-ROOT = Path(__file__).resolve().parents[2]  # the checkout (refimpl/ and model/ beside it)
+ROOT = Path(__file__).resolve().parents[1]  # the checkout (refimpl/ and model/ beside it)
 
 WORKER_MODULE = "refimpl.solvers.clingo_worker"
 

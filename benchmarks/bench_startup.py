@@ -1,6 +1,6 @@
 """Start-up of `refimpl track`: process start to the first frame solved (issue 27, item 1).
 
-    python -m refimpl.experiments.bench_startup [--data ../shared/data] [--dets FILE]
+    python benchmarks/bench_startup.py [--data ../shared/data] [--dets FILE]
                                                 [--format kitti] [--class Car] [--runs 5]
 
 Runs the command a user runs, ``python -m refimpl track --dets FILE ... --out TMP --quiet``, in a
@@ -32,9 +32,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from ..io import get_format
+from refimpl.io import get_format
 
-REPO = Path(__file__).resolve().parents[2]  # the checkout
+REPO = Path(__file__).resolve().parents[1]  # the checkout
 DEFAULT_DETS = "KITTI/tracking/training/det_02_pointrcnn/Car/0011.txt"
 
 

@@ -19,7 +19,9 @@ score rule, as a file of the shifted rows would be read (refimpl.io.detections).
 * ``half-fps``: every second frame (frame rate halved, ground truth of the kept frames);
 * ``half-res``: every box, the image size and the ground truth at half the resolution.
 
-Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.
+Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.  The
+table of their scores is refimpl.experiments.shift_table's; the command line reads the names here
+(``--shift``'s help) without importing the benchmarks.
 """
 
 from __future__ import annotations
@@ -35,10 +37,6 @@ from ..io import DetectionFrame, DetectionSequence, GroundTruth
 from ..io.detections import DEFAULT_SCORE_RULE, read_again, resolve_rule
 
 Shifted = tuple[DetectionSequence, GroundTruth]
-SHIFTS_BEGIN = "<!-- refimpl benchmark --shift: begin -->"
-SHIFTS_END = "<!-- refimpl benchmark --shift: end -->"
-"""The markers of the section ``--shift --out FILE`` writes."""
-
 
 @dataclass(frozen=True)
 class Shift:
@@ -172,19 +170,3 @@ def shifted_dataset(dataset: Sequence[tuple[str, DetectionSequence, GroundTruth]
         dets, truth = SHIFTS[shift].apply(seq, gt, np.random.default_rng([seed, index]))
         out.append((name, read_again(dets, rule), truth))
     return out
-
-
-def shift_table(results: dict[str, dict[str, tuple[float, float]]]) -> str:
-    """Markdown: a row per shift, a column per tracker (HOTA / IDF1), then each tracker's worst HOTA
-    and its largest drop from ``none``."""
-    shifts = list(results)
-    trackers = list(results[shifts[0]])
-    lines = ["| shift | " + " | ".join(trackers) + " |", "|---|" + "---:|" * len(trackers)]
-    for s in shifts:
-        lines.append(f"| {s} | " + " | ".join(f"{100 * h:.1f} / {100 * i:.1f}" for h, i in
-                                                (results[s][t] for t in trackers)) + " |")
-    worst = [min(results[s][t][0] for s in shifts) for t in trackers]
-    drop = [max(results["none"][t][0] - results[s][t][0] for s in shifts) for t in trackers]
-    lines.append("| worst HOTA | " + " | ".join(f"{100 * w:.1f}" for w in worst) + " |")
-    lines.append("| largest HOTA drop | " + " | ".join(f"{100 * d:.1f}" for d in drop) + " |")
-    return "\n".join(lines)
