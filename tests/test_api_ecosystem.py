@@ -214,7 +214,7 @@ def test_a_presets_durations_mean_the_same_seconds_at_another_frame_rate():
     def durations(**kw):
         t = refimpl.Tracker(**kw)._tracker
         c = {**default_constants(), **t.constant_map}
-        return [c[n] for n in ("lost_after_missing", "lost_after_hidden", "noise_max_age")] + [t.fill_hidden]
+        return [c[n] for n in ("lost_after_missing", "lost_after_hidden", "noise_max_age")] + [t.options.fill_hidden]
     assert durations(fps=25) == [10, 30, 3, 30]
     assert durations(fps=50) == [20, 60, 6, 60]
     assert durations(fps=5) == [2, 6, 1, 6]
