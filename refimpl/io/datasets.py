@@ -7,6 +7,9 @@ SIMULATED from ground truth (``refimpl.io.simulate``: MOT17 train and MOT20-01, 
 detections do not ship here; always labelled as such), whether it is HELD OUT (never tuned on:
 KITTI Cyclist, MOT15 with ACF; labelled as such too), and how to load it as
 ``[(sequence name, DetectionSequence, GroundTruth)]``.
+Each row also holds its role in the tuning rule (issue 39: tuned on, reported, held out; ``ROLES``)
+and whether docs/peers.md's peer tables and shift tables run it: ``refimpl bench-peers`` reads both
+lists here (``PEER_TABLE_DATASETS``, ``SHIFT_TABLE_DATASETS``) and prints the roles beside the presets.
 The CLI's choices, the benchmarks, Table 6, the sweeps, the calibration and the peer comparison
 all read it.  This is the one place a dataset name is spelled: a row holds where its files are
 (``io.Benchmark``: layout, class, detection file, sequences, split; or ``simulate.SimulatedBenchmark``:
@@ -27,6 +30,16 @@ from .simulate import MOT17, MOT20_01, SimulatedBenchmark, simulated_benchmark_s
 HELD_OUT = "held out: never used for tuning"
 """What the title of a held-out dataset says (Dataset.held_out)."""
 
+REPORTED, TUNING, MIXED, HELD_OUT_ROLE = "reported", "tuning", "tuning and reported", "held out"
+ROLES: dict[str, str] = {
+    REPORTED: "never tuned on: run to report",
+    TUNING: "tuned and designed on, with its shifts (refimpl benchmark --shift)",
+    MIXED: "a tuning split's sequences and reported ones together",
+    HELD_OUT_ROLE: "never used for tuning or for designing a rule: run only to report, after the defaults were fixed",
+}
+"""A dataset's role in the tuning rule (issue 39, docs/peers.md "What was tuned on what") -> what it
+means; docs/peers.md's peer tables list the datasets in this order of roles."""
+
 
 @dataclass(frozen=True)
 class Dataset:
@@ -35,6 +48,9 @@ class Dataset:
     files: Benchmark | SimulatedBenchmark
     """Its public benchmark files (io.Benchmark), or the ground truth its detections are simulated
     from (simulate.SimulatedBenchmark)."""
+    role: str
+    """Its role in the tuning rule, a key of ROLES: tuned on, reported, both (a KITTI set of all 21
+    sequences) or held out."""
     table6: bool = False
     """A row of the paper's Table 6 on our data (refimpl table6)."""
     throughput: bool = False
@@ -43,12 +59,26 @@ class Dataset:
     detectors: tuple[tuple[str, str | None, str], ...] = ()
     """Real detectors side by side (refimpl detectors): (key, file name beside the dataset's detection
     file or None for that file itself, label)."""
-    held_out: bool = False
-    """Never used for tuning or for designing a rule: run only to report (issue 25's rule; refimpl
-    calibrate and refimpl sweep refuse it).  Its title says so."""
+    peer_table: bool = False
+    """Run beside the peers in docs/peers.md's peer tables (refimpl bench-peers)."""
+    shift_table: bool = False
+    """Run under every shift in docs/peers.md's shift tables (refimpl bench-peers): a tuning set,
+    since the defaults are chosen by the worst case over its shifts."""
     tune_on: str | None = None
     """The dataset anything tuned for this one is tuned on instead (a KITTI benchmark holding val
     sequences); None where there is none."""
+
+    def __post_init__(self) -> None:
+        if self.role not in ROLES:
+            raise ValueError(f"dataset {self.name}: role {self.role!r} is none of {', '.join(ROLES)}")
+        if self.shift_table and self.role != TUNING:
+            raise ValueError(f"dataset {self.name}: the shift tables are of tuning sets, not of a {self.role} one")
+
+    @property
+    def held_out(self) -> bool:
+        """Never used for tuning or for designing a rule: run only to report (issue 25's rule; refimpl
+        calibrate and refimpl sweep refuse it).  Its title says so."""
+        return self.role == HELD_OUT_ROLE
 
     @property
     def simulated(self) -> bool:
@@ -58,33 +88,39 @@ class Dataset:
 
 _ROWS = (
     Dataset("mot15", "MOT15 train, 11 sequences (SORT's Faster R-CNN detections)",
-            Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_TRAIN), table6=True, throughput=True,
+            Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_TRAIN), TUNING, table6=True, throughput=True,
+            peer_table=True, shift_table=True,
             detectors=(("acf", "det.txt", "ACF (official MOT15 public detections)"),
                        ("frcnn", "det_sort_frcnn.txt", "Faster R-CNN (SORT's detections)"))),
     Dataset("mot15-sort6", "MOT15 train, SORT's six sequences (SORT's Faster R-CNN detections)",
-            Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_SORT6)),
+            Benchmark(MOT, "pedestrian", "det_sort_frcnn.txt", MOT15_SORT6), TUNING),
     Dataset("kitti-car", "KITTI tracking train, Car, 21 sequences (PointRCNN detections)",
-            Benchmark(KITTI, "car", "Car", KITTI_TRAIN), table6=True, throughput=True,
-            detectors=(("pointrcnn", None, "PointRCNN (AB3DMOT's detections)"),), tune_on="kitti-car-train"),
+            Benchmark(KITTI, "car", "Car", KITTI_TRAIN), MIXED, table6=True, throughput=True,
+            detectors=(("pointrcnn", None, "PointRCNN (AB3DMOT's detections)"),), tune_on="kitti-car-train",
+            peer_table=True),
     Dataset("kitti-ped", "KITTI tracking train, Pedestrian, 21 sequences (PointRCNN detections)",
-            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN), table6=True, tune_on="kitti-ped-train"),
+            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN), MIXED, table6=True, tune_on="kitti-ped-train"),
     Dataset("kitti-car-val", "KITTI tracking train, Car, the 11 val-split sequences (PointRCNN detections)",
-            Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "val"), tune_on="kitti-car-train"),
+            Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "val"), REPORTED, tune_on="kitti-car-train", peer_table=True),
     Dataset("kitti-ped-val", "KITTI tracking train, Pedestrian, the 11 val-split sequences (PointRCNN detections)",
-            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "val"), tune_on="kitti-ped-train"),
+            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "val"), REPORTED, tune_on="kitti-ped-train",
+            peer_table=True),
     Dataset("kitti-car-train",
             "KITTI tracking train, Car, the 10 sequences outside the val split (PointRCNN detections)",
-            Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "train"), tune_on="kitti-car-train"),
+            Benchmark(KITTI, "car", "Car", KITTI_TRAIN, "train"), TUNING, tune_on="kitti-car-train", shift_table=True),
     Dataset("kitti-ped-train",
             "KITTI tracking train, Pedestrian, the 10 sequences outside the val split (PointRCNN detections)",
-            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "train"), tune_on="kitti-ped-train"),
+            Benchmark(KITTI, "pedestrian", "Pedestrian", KITTI_TRAIN, "train"), TUNING, tune_on="kitti-ped-train",
+            shift_table=True),
     Dataset("kitti-cyc", f"KITTI tracking train, Cyclist, 21 sequences (PointRCNN detections; {HELD_OUT})",
-            Benchmark(KITTI, "cyclist", "Cyclist", KITTI_TRAIN), held_out=True),
+            Benchmark(KITTI, "cyclist", "Cyclist", KITTI_TRAIN), HELD_OUT_ROLE, peer_table=True),
     Dataset("mot15-acf",
             f"MOT15 train, the 7 sequences with the official ACF detections (det/det.txt; {HELD_OUT})",
-            Benchmark(MOT, "pedestrian", "det.txt", MOT15_ACF), held_out=True),
-    Dataset("mot17-sim", "MOT17 train, 7 sequences (SIMULATED detections, seed 0)", MOT17, table6=True),
-    Dataset("mot20-01-sim", "MOT20-01 (SIMULATED detections, seed 0)", MOT20_01, table6=True),
+            Benchmark(MOT, "pedestrian", "det.txt", MOT15_ACF), HELD_OUT_ROLE, peer_table=True),
+    Dataset("mot17-sim", "MOT17 train, 7 sequences (SIMULATED detections, seed 0)", MOT17, TUNING, table6=True,
+            peer_table=True),
+    Dataset("mot20-01-sim", "MOT20-01 (SIMULATED detections, seed 0)", MOT20_01, TUNING, table6=True,
+            peer_table=True),
 )
 
 CATALOGUE: dict[str, Dataset] = {d.name: d for d in _ROWS}
@@ -100,6 +136,13 @@ TABLE6_DATASETS = tuple(d.name for d in _ROWS if d.table6)
 THROUGHPUT_DATASETS = tuple(d.name for d in _ROWS if d.throughput)
 HELD_OUT_DATASETS = tuple(d.name for d in _ROWS if d.held_out)
 """The datasets run only to report, never tuned on (Dataset.held_out)."""
+TUNING_DATASETS = tuple(d.name for d in _ROWS if d.role == TUNING)
+"""The datasets tuned and designed on (issue 39's tuning rule)."""
+PEER_TABLE_DATASETS = tuple(d.name for role in ROLES for d in _ROWS if d.peer_table and d.role == role)
+"""The datasets of docs/peers.md's peer tables, by role (reported, tuning, both, held out), then in
+catalogue order: what ``refimpl bench-peers`` runs beside the peers."""
+SHIFT_TABLE_DATASETS = tuple(d.name for d in _ROWS if d.shift_table)
+"""The tuning sets of docs/peers.md's shift tables: what ``refimpl bench-peers`` runs under every shift."""
 REAL_DETECTORS: dict[str, tuple[tuple[str, str | None, str], ...]] = {d.name: d.detectors for d in _ROWS if d.detectors}
 """dataset -> its real detectors side by side (Dataset.detectors)."""
 
