@@ -1,5 +1,5 @@
-"""The measuring commands: `benchmark`, `calibrate`, `table6`, `sweep`, `bench-scale`, `detectors`,
-`occlusion-suite` and `bench-occlusion`."""
+"""The measuring commands: `benchmark`, `calibrate`, `table6`, `sweep`, `bench-scale`, `bench-latency`,
+`bench-peers`, `detectors`, `occlusion-suite` and `bench-occlusion`."""
 
 from __future__ import annotations
 
@@ -19,19 +19,21 @@ from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, 
 from ..experiments.occlusion import SCENARIOS, write_suite
 from ..experiments.occlusion_bench import format_results, parse_variant, run_suite
 from ..experiments.shift_table import SHIFTS_BEGIN, SHIFTS_END, shift_table
-from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table, parse_peers,
-                                 peer_class, per_sequence_table)
+from ..experiments.peers import (PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table,
+                                 parse_peers, peer_class, per_sequence_table)
+from ..experiments.peers_report import TUNED_BEGIN, TUNED_END, installed_peers, not_run_note, tuned_on_report
 from ..runs.progress import Progress
 from ..experiments.sweep import format_sweep, plan_sweep, run_sweep, sweep_json
 from ..experiments.table6 import BenchmarkRun, format_table6
 from ..experiments.benchmark_tasks import RunRequest, run_requests
 from ..io import InputFormatError, write_text_atomic
-from ..io.datasets import DATASETS, TABLE6_DATASETS, TITLES, dataset_kind, load_dataset
+from ..io.datasets import (DATASETS, PEER_TABLE_DATASETS, SHIFT_TABLE_DATASETS, TABLE6_DATASETS, TITLES,
+                            dataset_kind, load_dataset)
 from ..io.outputs import OutputSet, check_outputs
 from ..io.shifts import parse_shifts, shifted_dataset
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, TRACKERS
 from ..tracking.options import option_flags
-from ..tracking.presets import startable_share
+from ..tracking.presets import load_presets, startable_share
 from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
 
 
@@ -103,8 +105,21 @@ def _benchmark_shifts(args: argparse.Namespace) -> int:
     for p in peers:
         peer_class(p)
     backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
+    tables, report = _shift_tables(args, args.names, shifts, peers, backend)
+    if args.out:
+        write_section(args.out, SHIFTS_BEGIN, SHIFTS_END, _shifts_section(tables))
+        print(f"written: {args.out}")
+    if args.json:
+        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "shifts": report}, indent=2,
+                                                default=float))
+    return EXIT_OK
+
+
+def _shift_tables(args: argparse.Namespace, names, shifts, peers, backend: str) -> tuple[list[str], dict]:
+    """Every dataset under every shift, each table printed: (the tables, {dataset: {shift: {tracker:
+    (HOTA, IDF1)}}})."""
     tables, report = [], {}
-    for name in args.names:
+    for name in names:
         dataset = load_dataset(name, args.data)
         setup = _setup(argparse.Namespace(**{**vars(args), "backend": backend}), *dataset_kind(name, args.data))
         progress = Progress(len(shifts) * len(dataset) * (2 + len(peers)), f"{name}/shifts", enabled=not args.quiet)
@@ -117,14 +132,13 @@ def _benchmark_shifts(args: argparse.Namespace) -> int:
         print(table)
         tables.append(table)
         report[name] = results
-    if args.out:
-        write_section(args.out, SHIFTS_BEGIN, SHIFTS_END,
-                      f"Made by `{format_command(sys.argv[1:])}`; {machine_note()}\n\n" + "\n".join(tables))
-        print(f"written: {args.out}")
-    if args.json:
-        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "shifts": report}, indent=2,
-                                                default=float))
-    return EXIT_OK
+    return tables, report
+
+
+def _shifts_section(tables: list[str], note: str = "") -> str:
+    """The shift section of a markdown file: the command and the machine, any note, the tables."""
+    return (f"Made by `{format_command(sys.argv[1:])}`; {machine_note()}\n\n" + (f"Peers {note}.\n\n" if note else "")
+            + "\n".join(tables))
 
 
 def _benchmark_peers(args: argparse.Namespace) -> int:
@@ -138,8 +152,23 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     if args.repeat < 1:
         raise UserError(f"--repeat must be >= 1, got {args.repeat}")
     backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
+    comparisons, report = _peer_tables(args, args.names, peers, backend)
+    if args.out:
+        write_section(args.out, PEERS_BEGIN, PEERS_END,
+                      comparison_report(comparisons, format_command(sys.argv[1:]), machine_note(),
+                                        args.per_sequence))
+        print(f"written: {args.out}")
+    if args.json:
+        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "benchmarks": report},
+                                                indent=2, default=float))
+    return EXIT_OK
+
+
+def _peer_tables(args: argparse.Namespace, names, peers, backend: str) -> tuple[list, dict]:
+    """Baseline, abduction and the peers on every dataset, each table printed: (the Comparisons,
+    the JSON report {dataset: {tracker: scores}})."""
     comparisons, report = [], {}
-    for name in args.names:
+    for name in names:
         dataset = load_dataset(name, args.data)
         setup = _setup(argparse.Namespace(**{**vars(args), "backend": backend}), *dataset_kind(name, args.data))
         constants, options = dict(setup.constants), setup.options
@@ -156,13 +185,41 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
                                   "seconds": s.seconds, "parameters": s.parameters} for s in c.scores}
         report[name]["constants"] = c.constants
         report[name]["tracker_options"] = dict(c.options)
-    if args.out:
-        write_section(args.out, PEERS_BEGIN, PEERS_END,
-                      comparison_report(comparisons, format_command(sys.argv[1:]), machine_note(),
-                                        args.per_sequence))
-        print(f"written: {args.out}")
+    return comparisons, report
+
+
+def cmd_bench_peers(args: argparse.Namespace) -> int:
+    """bench-peers: every generated section of docs/peers.md in one run (a command of its own rather
+    than a mode of ``benchmark``: it takes no dataset names, it runs the ones the dataset registry
+    puts in the report, like bench-scale and bench-latency regenerate docs/benchmarks.md)."""
+    out = None if args.out == "-" else args.out
+    check_outputs({"--out": out, "--json": args.json})
+    try:
+        asked = parse_peers(args.peers) if args.peers is not None else tuple(PEERS)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if args.peers is not None:
+        for p in asked:
+            peer_class(p)  # a peer asked for by name must run: its missing package is one line, exit 2
+    peers, missing = installed_peers(asked)
+    note = not_run_note(missing)
+    if note:
+        print(f"refimpl bench-peers: {note}", file=sys.stderr)
+    command = format_command(sys.argv[1:])
+    tuned = tuned_on_report(load_presets(), command)
+    print(tuned)
+    run = argparse.Namespace(**{**vars(args), "backend": DEFAULT_BACKEND, "const": None, "repeat": 1,
+                                "per_sequence": True})  # the defaults a user gets
+    comparisons, peer_report = _peer_tables(run, PEER_TABLE_DATASETS, list(peers), DEFAULT_BACKEND)
+    tables, shift_report = _shift_tables(run, SHIFT_TABLE_DATASETS, parse_shifts("all"), list(peers), DEFAULT_BACKEND)
+    if out:  # every section is made before the first is written; the prose around them stays
+        write_section(out, TUNED_BEGIN, TUNED_END, tuned)
+        write_section(out, PEERS_BEGIN, PEERS_END, comparison_report(comparisons, command, machine_note(), True, note))
+        write_section(out, SHIFTS_BEGIN, SHIFTS_END, _shifts_section(tables, note))
+        print(f"written: {out}")
     if args.json:
-        write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "benchmarks": report},
+        write_text_atomic(args.json, json.dumps({"backend": DEFAULT_BACKEND, "peers": list(peers), "not_run": missing,
+                                                 "benchmarks": peer_report, "shifts": shift_report},
                                                 indent=2, default=float))
     return EXIT_OK
 

@@ -343,6 +343,20 @@ def _add_bench_latency(sub: "argparse._SubParsersAction") -> None:
     la.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+def _add_bench_peers(sub: "argparse._SubParsersAction") -> None:
+    bp = sub.add_parser("bench-peers", help="every generated section of docs/peers.md in one run: what was tuned on "
+                                            "what, the peer tables and the shift tables, on the datasets the dataset "
+                                            "registry names for them (refimpl/io/datasets.py)")
+    bp.add_argument("--peers", metavar="LIST",
+                    help=f"only these peers, a comma-separated list out of {','.join(PEERS)} (default: every one "
+                         "whose package is installed; the others are named on stderr and in the sections)")
+    bp.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
+    bp.add_argument("--out", default="docs/peers.md",
+                    help="markdown file whose generated sections are replaced (default docs/peers.md; - for none)")
+    bp.add_argument("--json", help="also write the metrics as JSON")
+    bp.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def _add_detectors(sub: "argparse._SubParsersAction") -> None:
     dt = sub.add_parser("detectors", help="which detector, and how much abduction helps it: real detectors side "
                                           "by side, or (--sweep) a simulated detector-quality grid")
@@ -452,6 +466,7 @@ _COMMANDS = (
     _add_demo,
     _add_bench_scale,
     _add_bench_latency,
+    _add_bench_peers,
     _add_detectors,
     _add_occlusion_suite,
     _add_bench_occlusion,
@@ -476,6 +491,7 @@ COMMANDS: dict[str, str] = {
     "demo": "refimpl.cli.demo:cmd_demo",
     "bench-scale": "refimpl.cli.benchmarks:cmd_bench_scale",
     "bench-latency": "refimpl.cli.benchmarks:cmd_bench_latency",
+    "bench-peers": "refimpl.cli.benchmarks:cmd_bench_peers",
     "detectors": "refimpl.cli.benchmarks:cmd_detectors",
     "occlusion-suite": "refimpl.cli.benchmarks:cmd_occlusion_suite",
     "bench-occlusion": "refimpl.cli.benchmarks:cmd_bench_occlusion",

@@ -427,9 +427,10 @@ def per_sequence_table(c: Comparison) -> str:
     return "\n".join(lines) + "\n"
 
 
-def comparison_report(comparisons, command: str, machine: str, per_sequence: bool = False) -> str:
-    """The generated section of docs/peers.md: the command, then a table per dataset."""
-    out = [f"Command: `{command}`  \nMachine: {machine}.\n"]
+def comparison_report(comparisons, command: str, machine: str, per_sequence: bool = False, note: str = "") -> str:
+    """The generated section of docs/peers.md: the command, any note (the peers not run), then a table
+    per dataset."""
+    out = [f"Command: `{command}`  \nMachine: {machine}." + (f"  \nPeers {note}." if note else "") + "\n"]
     for c in comparisons:
         o = c.scores[0].overall
         out.append(f"### {c.title}\n\n{c.scores[0].frames} frames, {o['num_unique_objects']} targets, "
