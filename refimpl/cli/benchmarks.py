@@ -201,6 +201,8 @@ def cmd_bench_peers(args: argparse.Namespace) -> int:
     if args.peers is not None:
         for p in asked:
             peer_class(p)  # a peer asked for by name must run: its missing package is one line, exit 2
+    for name in dict.fromkeys((*PEER_TABLE_DATASETS, *SHIFT_TABLE_DATASETS)):
+        dataset_kind(name, args.data)  # every set's files are there before the first of a long run is tracked
     peers, missing = installed_peers(asked)
     note = not_run_note(missing)
     if note:
