@@ -51,3 +51,29 @@ def kitti_car_0011(tmp_path_factory) -> dict[str, Path]:
                  "--out", str(files["results"]), "--out-format", "kitti", "--scene", str(files["scene"]),
                  "--quiet"]) == 0
     return files
+
+
+@pytest.fixture(scope="session")
+def data_root_with_val(shared_data, tmp_path_factory):
+    """make(*sequences): a benchmark data root whose KITTI val split (kitti-*-val) is the given
+    training sequences and its train split (kitti-*-train) the other ones: the shared MOT15 and
+    KITTI files linked, only KITTI's val seqmap its own.  A test that needs the benchmark commands'
+    code on a few KITTI sequences runs them on these instead of the 11 of the shared split."""
+    shared = shared_data / "KITTI" / "tracking" / "training"
+
+    def make(*sequences: str) -> Path:
+        root = tmp_path_factory.mktemp("data_root")
+        training = root / "KITTI" / "tracking" / "training"
+        training.mkdir(parents=True)
+        for sub in ("det_02_pointrcnn", "label_02"):
+            (training / sub).symlink_to(shared / sub, target_is_directory=True)
+        (root / "MOT15").symlink_to(shared_data / "MOT15", target_is_directory=True)
+        # the seqmap's line: name, 'empty', first and one past the last frame (only the name is read)
+        lines = []
+        for s in sequences:
+            last = max(int(line.split()[0]) for line in (shared / "label_02" / f"{s}.txt").read_text().splitlines())
+            lines.append(f"{s} empty 000000 {last + 1:06d}\n")
+        (training / "evaluate_tracking.seqmap.val").write_text("".join(lines))
+        return root
+
+    return make

@@ -1,4 +1,4 @@
-"""Seeded random small frame problems for the backend tests (tests/test_equivalence.py, test_cpsat.py)."""
+"""Seeded random small frame problems for the backend tests (tests/test_backend_equivalence.py, test_cpsat.py)."""
 
 from __future__ import annotations
 

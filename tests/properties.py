@@ -7,7 +7,7 @@ arrays of any shape and dtype with such values.  Each ``check_*`` function runs 
 returns ``"tracked"`` or ``"refused"``; anything else (another exception, a refusal message of
 more than one line, an output with non-finite or non-positive boxes) fails an assertion.
 
-tests/test_properties.py runs them under hypothesis with a bounded number of examples (CI);
+tests/test_property_based_inputs.py runs them under hypothesis with a bounded number of examples (CI);
 tests/tools/properties.py runs them longer and counts the outcomes (docs/robustness.md).
 """
 

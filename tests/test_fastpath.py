@@ -390,15 +390,15 @@ def test_bench_scale_writes_tables_plot_and_json(tmp_path):
     assert main(["bench-scale", "--backends", "cpsat,nope", "--out", "-"]) == 2
 
 
-def test_bench_throughput_counts_frames(shared_data):
+def test_bench_throughput_counts_frames(data_root_with_val):
     from refimpl.experiments import benchmarks as bm
 
-    # mot15-sort6: the six MOT15 sequences of SORT's table; their seqinfo.ini seqLength values are
-    # TUD-Campus 71, ETH-Sunnyday 354, ETH-Pedcross2 837, ADL-Rundle-8 654, Venice-2 600, KITTI-17 145:
-    # 2661 frames, every one tracked by each tracker
-    result = bm.bench_throughput(shared_data, benchmarks=("mot15-sort6",), trackers=("baseline", "cpsat"))
+    # kitti-car-val on a data root whose val split is 0012 and 0014: their label_02 files end at
+    # frames 77 and 105 (0-based), 78 + 106 = 184 frames, every one tracked by each tracker
+    root = data_root_with_val("0012", "0014")
+    result = bm.bench_throughput(root, benchmarks=("kitti-car-val",), trackers=("baseline", "cpsat"))
     frames = {r.tracker: sum(x.frames for x in result.runs if x.tracker == r.tracker) for r in result.runs}
-    assert frames == {"baseline": 2661, "cpsat": 2661}
+    assert frames == {"baseline": 184, "cpsat": 184}
     assert all(r.not_optimal == 0 for r in result.runs)
     table = bm.throughput_table(result)
-    assert "| mot15-sort6 | 6 | 2661 |" in table
+    assert "| kitti-car-val | 2 | 184 |" in table

@@ -15,7 +15,7 @@ from refimpl.evaluation import evaluate as ev
 from refimpl import io
 from refimpl.cli import main
 
-from test_evaluate import make_gt
+from test_clear_mot_idf1 import make_gt
 
 # ---------------------------------------------------------------------------------------
 # A hand-derived case.

@@ -28,15 +28,19 @@ def test_run_sequence_times_every_frame(backend):
     assert len(times) == len(seq.frames) and all(t >= 0 for t in times) and sum(times) > 0
 
 
-def test_measure_latency_times_every_frame_with_each_heap_and_hands_the_heap_back(shared_data):
+def test_measure_latency_times_every_frame_with_each_heap_and_hands_the_heap_back(data_root_with_val):
+    # KITTI Car val on a data root whose val split is 0012 and 0014 (78 + 106 frames: two sequences
+    # of the bench's own dataset, its preset and its default budget, not the shared split's 3,900)
     import gc
     from refimpl.experiments.latency import latency_table, measure_latency
     from refimpl.io.datasets import load_dataset
-    frames = sum(len(d.frames) for _, d, _ in load_dataset("mot15-sort6", shared_data))
-    runs = measure_latency(["mot15-sort6"], shared_data)
+    root = str(data_root_with_val("0012", "0014"))
+    frames = sum(len(d.frames) for _, d, _ in load_dataset("kitti-car-val", root))
+    assert frames == 78 + 106
+    runs = measure_latency(["kitti-car-val"], root)
     assert [r.heap for r in runs] == ["as is", "frozen"]
     for r in runs:
-        assert r.latency.frames == frames  # every frame of the six sequences, once per heap
+        assert r.latency.frames == frames  # every frame of the two sequences, once per heap
         assert r.latency.median_ms <= r.latency.p99_ms <= r.latency.worst_ms
         assert r.frame_budget == 25.0 and r.budget_hits == 0  # the defaults; the fast path answers every frame
     assert gc.get_freeze_count() == 0 and gc.isenabled()

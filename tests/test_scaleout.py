@@ -178,9 +178,11 @@ def test_a_cluster_started_with_the_dask_commands_writes_the_same_bytes(inputs, 
         assert [r.args for r in done] == items
         assert finished[-1] == "sleep"
     finally:
+        # one at a time, each worker before the scheduler: a worker sent SIGTERM while the scheduler
+        # closes at the same moment could hang in its own close (distributed's CancelledError after
+        # "scheduler connection broken") until it was killed, 10 s per worker in one run of two
         for p in reversed(procs):
             p.terminate()
-        for p in reversed(procs):
             try:
                 p.wait(timeout=10)
             except subprocess.TimeoutExpired:

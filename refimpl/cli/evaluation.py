@@ -18,7 +18,7 @@ from .common import EXIT_OK, UserError
 def cmd_eval(args: argparse.Namespace) -> int:
     check_outputs({"--json": args.json}, {"results": args.results, "--gt": args.gt})
     if io.get_format(args.format).needs_class and args.cls is None:
-        raise UserError(f"--format {args.format} needs --class Car|Pedestrian")
+        raise UserError(f"--format {args.format} needs --class Car|Pedestrian|Cyclist")
     try:
         check_devkit(args.devkit, args.format, args.cls)
     except ValueError as exc:

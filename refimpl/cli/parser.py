@@ -170,7 +170,7 @@ def _add_eval(sub: "argparse._SubParsersAction") -> None:
     e.add_argument("--gt", required=True, help="ground truth: MOTChallenge gt.txt or KITTI label_02 file; for a "
                    "results folder the root: ROOT/<SEQ>/gt/gt.txt (mot), ROOT/label_02/<SEQ>.txt or ROOT/<SEQ>.txt (kitti)")
     e.add_argument("--format", choices=FORMAT_NAMES, default=MOT)
-    e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian")
+    e.add_argument("--class", dest="cls", type=_class_name, help="object class for KITTI: Car|Pedestrian|Cyclist")
     e.add_argument("--json", help="also write {\"devkit\", \"convention\", \"sequences\": {...}, \"overall\": {...}} "
                                   "(HOTA, DetA, AssA, MOTA, MOTP, IDF1 as fractions; IDs, Frag, FP, FN, MT, ML) to "
                                   "this file")

@@ -16,7 +16,7 @@ truncated / occluded targets and unmatched boxes up to 25 px high: the numbers d
 and ``refimpl eval --devkit trackeval`` (``refimpl.evaluation.devkits``), which must equal the Evaluator.
 
 ``trackeval_mot`` / ``trackeval_kitti`` run TrackEval's Evaluator directly on a layout; the tests
-of ``refimpl eval --devkit trackeval`` (tests/test_devkits.py) compare with them.  Run it as
+of ``refimpl eval --devkit trackeval`` (tests/test_eval_devkits.py) compare with them.  Run it as
 ``python tests/tools/trackeval_agreement.py`` from the checkout, so that this checkout's refimpl is used.
 """
 

@@ -1,4 +1,4 @@
-"""Seeded, bounded fuzzing of refimpl's readers and command line, importable (tests/test_fuzz.py,
+"""Seeded, bounded fuzzing of refimpl's readers and command line, importable (tests/test_fuzz_readers.py,
 tests/test_fuzz_cli.py) and run by two scripts:
 
     python tests/tools/fuzz.py --inputs 10000 --seed 0      (the fact, MOTChallenge and KITTI readers)

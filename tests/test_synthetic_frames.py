@@ -116,7 +116,7 @@ def test_any_arguments_give_a_valid_problem(n, overlap, seed, time, miss, halted
 
 def test_histories_explain_the_track_states():
     # the fluents at curr_time after each track's history, by the event calculus (refimpl.knowledge.events,
-    # tested on its own in test_events.py); roles from the event table, so a new event of a role
+    # tested on its own in test_event_calculus.py); roles from the event table, so a new event of a role
     # the generator draws from is checked too
     starting = {e.name for e in explaining("start")}
     kinds = set()

@@ -13,8 +13,8 @@ from refimpl.tracking.options import TRACKER_OPTIONS, TrackerOptions, WrittenBox
 from refimpl.solvers import get_solver
 from refimpl.tracking.pipeline import track_sequence
 from refimpl.tracking.tracker import AbductionTracker
-from test_streaming import _walk
-from test_tracker import _occlusion_sequence
+from test_streaming_output import _walk
+from test_abduction_tracker import _occlusion_sequence
 
 
 PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "fill_hidden": 0}

@@ -4,7 +4,7 @@
     linear_sum_assignment, weight IoU + 1 on the admissible assign pairs): without history every
     track and detection has a fallback action, so level 10 is exactly that matching.
 (b) clingo and CP-SAT give equal cost vectors and equal answers (sorted atom strings), with and
-    without event history.  Where the answers differ with equal costs, the test checks whether
+    without event history, on the first N_AGREE_PLAIN / N_AGREE_HISTORY frames.  Where the answers differ with equal costs, the test checks whether
     the tie is genuine (clingo's answer is admissible in the CP-SAT model with the same cost
     vector: docs/model-spec.md admits that the tie-break is not a proof of uniqueness); genuine
     ties are counted and reported, any other difference fails with the frame's facts.
@@ -29,6 +29,12 @@ from refimpl.core.facts import parse_term
 
 N_PLAIN = 1600
 N_HISTORY = 600
+# clingo solves the first 200 / 150 of them (21 / 33 ms a frame): on 24 mutants of model/*.lp (a
+# rule line deleted or a cost constant changed; 2026-12 measurement, issue 40), the 15 the whole
+# 1600 + 600 frames tell from CP-SAT are each told within the first 7 frames of a set that tells it; the
+# other 9 no frame tells (constants the solver passes itself, redundant possVal lines)
+N_AGREE_PLAIN = 200
+N_AGREE_HISTORY = 150
 CLINGO_BACKEND = Path(__file__).resolve().parent.parent / "refimpl" / "solvers" / "clingo_backend.py"
 
 
@@ -150,14 +156,18 @@ def _compare(frames, answers, clingo_solver, label: str) -> None:
         for f in failures[:5]:
             print(f)
     assert not failures, f"{len(failures)} of {len(frames)} frames differ ({label}); first:\n{failures[0]}"
+    return infeasible
 
 
 def test_backends_agree_without_history(plain, clingo_solver):
-    _compare(*plain, clingo_solver, "no history")
+    frames, answers = plain
+    _compare(frames[:N_AGREE_PLAIN], answers[:N_AGREE_PLAIN], clingo_solver, "no history")
 
 
 def test_backends_agree_with_history(historic, clingo_solver):
-    _compare(*historic, clingo_solver, "with history")
+    frames, answers = historic
+    infeasible = _compare(frames[:N_AGREE_HISTORY], answers[:N_AGREE_HISTORY], clingo_solver, "with history")
+    assert infeasible > 0  # the frames no hypothesis admits are compared too (a fifth of them)
 
 
 def test_examples_agree(examples, clingo_solver):
