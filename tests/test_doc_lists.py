@@ -13,7 +13,7 @@ registry and the text and fail, naming the place, where they differ:
 * the README's dataset names (`benchmark NAME...`), its extras and its solvers row; the backend
   paragraphs of docs/model.md and docs/benchmarks.md; the option table, flags and count of
   docs/tracking.md; the `--peers` table of docs/peers.md;
-* the docstrings that list a registry: the shifts (refimpl/experiments/shifts.py), the public
+* the docstrings that list a registry: the shifts (refimpl/io/shifts.py), the public
   benchmarks (refimpl.io.datasets.benchmark_sequences), the held-out datasets (calibrate, sweep);
 * the command line's help texts that spell names (`--class`, `table6 --datasets`, `--preset`).
 """
@@ -31,8 +31,8 @@ import pytest
 
 from refimpl.cli import build_parser
 from refimpl.cli.common import CLASSES
-from refimpl.experiments.peer_table import PEERS
-from refimpl.experiments.shifts import SHIFTS
+from refimpl.tracking.peer_table import PEERS
+from refimpl.io.shifts import SHIFTS
 from refimpl.io.datasets import BENCHMARKS, DATASETS, HELD_OUT_DATASETS, TABLE6_DATASETS
 from refimpl.solvers import BACKENDS, TRACKERS
 from refimpl.tracking.options import TRACKER_OPTIONS, TrackerOptions
@@ -312,7 +312,7 @@ def _rst_names(text: str) -> list[str]:
 
 
 def test_the_shifts_docstring_describes_every_shift():
-    names = set(_rst_names(_docstring("refimpl/experiments/shifts.py")))
+    names = set(_rst_names(_docstring("refimpl/io/shifts.py")))
     assert set(SHIFTS) - {"none"} <= names, sorted(set(SHIFTS) - names)
     # and no name that is not one (a renamed shift): the literals that look like a shift's name
     assert {n for n in names if re.fullmatch(r"[a-z]+-[\w.-]+", n)} <= set(SHIFTS)

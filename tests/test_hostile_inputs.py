@@ -18,6 +18,7 @@ import pytest
 
 from refimpl import Tracker
 from refimpl.cli import main
+from refimpl.scene.plots import MIN_OBSERVED
 from refimpl.core import confidence, geometry
 from refimpl.core.confidence import SortedWindow
 from refimpl.core.records import MAX_LINE_CHARS, MAX_TEXT_CHARS, RecordTooLong, bounded_lines, read_text
@@ -330,7 +331,10 @@ def test_a_dollar_sign_in_a_scene_is_not_mathtext(hostile_scene, tmp_path, capsy
     scene.write_text(json.dumps(data))
     assert main(["plot", str(scene), "--out", str(tmp_path / "a.png")]) == 0
     assert main(["plot", str(scene), "--out", str(tmp_path / "b.png"), "--frame", "5"]) == 0
-    assert capsys.readouterr().out.splitlines() == [f"a$\\x$ frames 1-71: 9 tracks -> {tmp_path / 'a.png'}",
+    # the plot names how many of the scene's tracks it draws: those observed in at least MIN_OBSERVED
+    # frames (refimpl.scene.plots; the file says how often each was)
+    drawn = sum(1 for t in data["tracks"] if len(t["observed"]) >= MIN_OBSERVED)
+    assert capsys.readouterr().out.splitlines() == [f"a$\\x$ frames 1-71: {drawn} tracks -> {tmp_path / 'a.png'}",
                                                     f"a$\\x$ frame 5: 3 boxes -> {tmp_path / 'b.png'}"]
 
 

@@ -575,7 +575,8 @@ def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[in
     if image_size is not None:
         merged.setdefault("img_width", int(image_size[0]))
         merged.setdefault("img_height", int(image_size[1]))
-        for name, value in image_relative(image_size).items():
+    if merged.get("img_width", 0) > 0 and merged.get("img_height", 0) > 0:  # also given as constants
+        for name, value in image_relative((merged["img_width"], merged["img_height"])).items():
             merged.setdefault(name, value)
     if fps:
         merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * fps))))
