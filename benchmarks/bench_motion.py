@@ -18,7 +18,9 @@ from pathlib import Path
 from refimpl.evaluation.evaluate import combine, evaluate_many
 from refimpl.experiments.occlusion_bench import parse_variant
 from refimpl.io.datasets import load_dataset
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.solvers import BASELINE
+from refimpl.tracking.options import TrackerOptions
+from refimpl.tracking.pipeline import Setup, run_sequence
 
 VAL_SEQMAP = Path("KITTI/tracking/training/evaluate_tracking.seqmap.val")
 
@@ -26,6 +28,15 @@ VAL_SEQMAP = Path("KITTI/tracking/training/evaluate_tracking.seqmap.val")
 def _row(label: str, variant: str, r: dict) -> str:
     return (f"| {label} | {variant} | {100 * r['mota']:.1f} | {100 * r['idf1']:.1f} | {r['idsw']} | {r['frag']} | "
             f"{r['idsw'] + r['frag']} |")
+
+
+def _setup(backend: str, options: dict) -> Setup:
+    """The Setup of a parsed variant: no preset, its model constants ('+persist') and tracker options."""
+    if backend == BASELINE:
+        return Setup(BASELINE)
+    options = dict(options)
+    constants = options.pop("constants", {})
+    return Setup(backend, tuple(constants.items()), TrackerOptions.from_mapping(options))
 
 
 def main() -> None:
@@ -42,7 +53,8 @@ def main() -> None:
         dataset = load_dataset(name, args.data)
         for variant, backend, options in variants:
             t0 = time.perf_counter()
-            triples = [(s, gt, track_sequence(dets, backend=backend, **options).rows) for s, dets, gt in dataset]
+            setup = _setup(backend, options)
+            triples = [(s, gt, run_sequence(dets, setup).rows) for s, dets, gt in dataset]
             per_seq, overall = evaluate_many(triples)
             print(_row(f"{name} ({len(per_seq)})", variant, overall), flush=True)
             if name.startswith("kitti"):

@@ -122,7 +122,9 @@ class Tracker:
         field-of-view border) and scales the pixel constants to the image (docs/model.md 3.22).  Without it the first frame's image (``update(dets, img)``) gives
         it; without either the border is not tested, as for a det.txt without seqinfo.ini
         (format "kitti": 1242 x 375 until an image says otherwise).
-    min_hits, bridge_gap, bridge_conf, time_limit: as for ``refimpl.tracking.pipeline.track_sequence``.
+    min_hits, bridge_gap, bridge_conf: the abduction tracker's own, as for
+        ``refimpl.tracking.pipeline.run_sequence``; time_limit: the per-frame solver limit in seconds
+        (``Setup.time_limit``, ``refimpl track --time-limit``).
     **options: tracker option overrides by name (refimpl.tracking.options.TRACKER_OPTIONS), e.g.
         ``written_box="detection"``, on top of the preset.
     scores: how a score becomes the model's confidence, as the file readers do it (refimpl.io.SCORE_RULES,
@@ -486,7 +488,7 @@ class Tracker:
         return FrameCounts(t.frames, t.not_optimal, t.budget_hits, t.over_budget)
 
     def result(self) -> TrackingResult:
-        """Everything so far as ``refimpl.tracking.pipeline.track_sequence`` returns it (rows in MOT order
+        """Everything so far as ``refimpl.tracking.pipeline.run_sequence`` returns it (rows in MOT order
         frame, id, x, y, w, h, including the interpolated rows of bridged gaps); ``history=True`` only."""
         self._kept("result()")
         return self._tracker.result()

@@ -12,7 +12,7 @@ from refimpl import io
 from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.io import write_event_log, write_event_log_json
 from refimpl.solvers import BACKENDS
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import Setup, run_sequence
 
 
 def _occlusion_sequence() -> DetectionSequence:
@@ -35,7 +35,7 @@ def _occlusion_sequence() -> DetectionSequence:
 
 
 def test_car_hidden_behind_bus_keeps_its_identity(backend):
-    result = track_sequence(_occlusion_sequence(), backend=backend)
+    result = run_sequence(_occlusion_sequence(), Setup(backend))
     events = [str(e) for e in result.events]
     # ids are handed out in detection order: the bus is det_0 of frame 1 -> trk_1, the car trk_2
     assert events == [
@@ -57,7 +57,7 @@ def test_car_hidden_behind_bus_keeps_its_identity(backend):
 
 def test_hidden_span_is_bridged_by_interpolation_when_asked():
     # bridge_gap >= 19 (the car is hidden in frames 9..27): it stays confirmed through the resume
-    result = track_sequence(_occlusion_sequence(), backend="cpsat", bridge_gap=19)
+    result = run_sequence(_occlusion_sequence(), Setup("cpsat"), bridge_gap=19)
     car = {int(f): b for f, i, *b in result.rows.tolist() if i == 2}
     assert sorted(car) == list(range(1, 33))
     # frame 18 lies 10/20 of the way from frame 8 to frame 28: x halfway between the two written boxes
@@ -69,14 +69,14 @@ def test_one_frame_noise_never_reaches_the_results():
                              ("pedestrian",)) for f in range(1, 11)]
     frames[6] = DetectionFrame(7, np.array([[70.0, 50.0, 40.0, 80.0], [500.0, 300.0, 40.0, 80.0]]),
                                np.ones(2), np.full(2, 90), ("pedestrian", "pedestrian"))
-    result = track_sequence(DetectionSequence("noise", tuple(frames), 1, (1000, 600), 25.0))
+    result = run_sequence(DetectionSequence("noise", tuple(frames), 1, (1000, 600), 25.0), Setup())
     # the stray detection at frame 7 starts trk_2, which is never observed again: not written
     assert set(result.rows[:, 1].tolist()) == {1}
     assert "occurs_at(enters_fov(trk_2),7)" in [str(e) for e in result.events]
 
 
 def test_event_log_files_use_the_papers_syntax(tmp_path):
-    result = track_sequence(_occlusion_sequence(), backend="cpsat")
+    result = run_sequence(_occlusion_sequence(), Setup("cpsat"))
     write_event_log(str(tmp_path / "events.lp"), result.events)
     write_event_log_json(str(tmp_path / "events.jsonl"), result.events)
     lines = (tmp_path / "events.lp").read_text().splitlines()
@@ -87,8 +87,8 @@ def test_event_log_files_use_the_papers_syntax(tmp_path):
 
 
 def test_same_run_twice_gives_identical_results():
-    a = track_sequence(_occlusion_sequence(), backend="cpsat")
-    b = track_sequence(_occlusion_sequence(), backend="cpsat")
+    a = run_sequence(_occlusion_sequence(), Setup("cpsat"))
+    b = run_sequence(_occlusion_sequence(), Setup("cpsat"))
     assert a.rows.tobytes() == b.rows.tobytes() and a.events == b.events
 
 
@@ -101,7 +101,7 @@ def test_every_backend_writes_identical_results_files(shared_data, tmp_path):
     pytest.importorskip("clingo")
     seq = _real_sequence(shared_data, "TUD-Campus")
     for backend in BACKENDS:
-        result = track_sequence(seq, backend=backend)
+        result = run_sequence(seq, Setup(backend))
         io.write_mot_results(tmp_path / f"{backend}.txt", result.rows)
         write_event_log(str(tmp_path / f"{backend}.lp"), result.events)
     for ext in ("txt", "lp"):
@@ -110,7 +110,7 @@ def test_every_backend_writes_identical_results_files(shared_data, tmp_path):
 
 
 def test_every_reappearance_follows_its_hiding_on_the_same_pair(shared_data):
-    result = track_sequence(_real_sequence(shared_data, "PETS09-S2L1"), backend="cpsat")
+    result = run_sequence(_real_sequence(shared_data, "PETS09-S2L1"), Setup("cpsat"))
     hidden: dict[str, tuple[str, int]] = {}
     pairs = 0
     for e in result.events:
@@ -128,7 +128,7 @@ def test_every_reappearance_follows_its_hiding_on_the_same_pair(shared_data):
 
 
 def test_a_gap_longer_than_bridge_gap_is_not_bridged():
-    result = track_sequence(_occlusion_sequence(), backend="cpsat", bridge_gap=18)
+    result = run_sequence(_occlusion_sequence(), Setup("cpsat"), bridge_gap=18)
     car = sorted(int(f) for f, i, *_ in result.rows.tolist() if i == 2)
     assert car == list(range(1, 9)) + list(range(30, 33))
 
@@ -155,8 +155,8 @@ def test_compacted_history_gives_the_same_answers_as_the_full_one(shared_data, n
             per_track[e.event.args[0].name] = per_track.get(e.event.args[0].name, 0) + 1
         sizes.append(max(per_track.values(), default=0))
 
-    full = track_sequence(seq, backend="cpsat", compact_history=False)
-    compact = track_sequence(seq, backend="cpsat", observer=observe)
+    full = run_sequence(seq, Setup("cpsat"), compact_history=False)
+    compact = run_sequence(seq, Setup("cpsat"), observer=observe)
     assert compact.events == full.events
     assert compact.rows.tobytes() == full.rows.tobytes()
     # a track keeps at most its start event and the halting events since its last resume: one,

@@ -11,7 +11,7 @@ import refimpl
 from refimpl import io
 from refimpl.api import confidences_from_scores
 from refimpl.cli import main
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import Setup, run_sequence
 from refimpl.tracking.tracker import DEFAULT_BRIDGE_GAP
 from refimpl.solvers import BACKENDS, LIBRARIES
 
@@ -74,7 +74,7 @@ def test_update_frame_by_frame_gives_the_rows_refimpl_track_writes(shared_data, 
         assert after - before - 1 <= DEFAULT_BRIDGE_GAP
     assert {(int(r[0]), int(r[1])) for r in tracker.interpolated_rows()} == missing
     # the finished result equals the batch run's rows to float rounding of x2 - x1
-    batch = track_sequence(seq, backend="cpsat")
+    batch = run_sequence(seq, Setup("cpsat"))
     assert tracker.result().rows.shape == batch.rows.shape
     assert np.allclose(tracker.result().rows, batch.rows, rtol=0, atol=1e-9)
     assert tracker.events == batch.events
@@ -83,7 +83,7 @@ def test_update_frame_by_frame_gives_the_rows_refimpl_track_writes(shared_data, 
 def test_demo_sequence_events_and_scene():
     seq = io.load_detections(io.demo_sequence_paths())
     tracker, online = _online(seq)
-    batch = track_sequence(seq, backend="cpsat")
+    batch = run_sequence(seq, Setup("cpsat"))
     assert tracker.events == batch.events and len(tracker.events) > 0
     scene = tracker.scene()
     assert scene.name == "sequence" and scene.image_size == (640, 480)

@@ -335,7 +335,7 @@ REAL = [("mot15", "TUD-Campus"), ("mot15", "KITTI-17"), ("kitti-car", "0000")]
 @pytest.mark.parametrize("suite,name", REAL)
 def test_fast_path_equals_full_model_on_every_frame_of_a_real_sequence(shared_data, suite, name):
     from refimpl import io
-    from refimpl.tracking.pipeline import track_sequence
+    from refimpl.tracking.pipeline import Setup, run_sequence
 
     seqs = {s.name: s for s in benchmark_sequences(suite, shared_data)}
     if name not in seqs:
@@ -352,7 +352,7 @@ def test_fast_path_equals_full_model_on_every_frame_of_a_real_sequence(shared_da
                                                                     other.optimal), problem.to_facts()
         frames.append(problem.time)
 
-    track_sequence(seq, solver=fast, observer=observe)
+    run_sequence(seq, Setup(), solver=fast, observer=observe)
     assert len(frames) == len(seq.frames) > 50
     assert fast.stats["fast"] >= 0.95 * len(frames), fast.stats
 

@@ -7,7 +7,8 @@ import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.tracking.motion import HIDDEN_MAX_SPEED, BoxKalman
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import Setup, run_sequence
+from tracking_helpers import setup_with
 
 
 def _moving(n: int, x0: float = 100.0, vx: float = 10.0, w: float = 40.0, h: float = 80.0, grow: float = 0.0):
@@ -101,8 +102,8 @@ def _growing_car_behind_bus() -> DetectionSequence:
 
 def test_tracker_option_holds_the_size_of_a_halted_track():
     seq = _growing_car_behind_bus()
-    plain = next(t for t in track_sequence(seq).tracks if t.id == "trk_2")
-    held = next(t for t in track_sequence(seq, hold_hidden=True).tracks if t.id == "trk_2")
+    plain = next(t for t in run_sequence(seq, Setup()).tracks if t.id == "trk_2")
+    held = next(t for t in run_sequence(seq, setup_with(hold_hidden=True)).tracks if t.id == "trk_2")
     area = lambda rec: [round(b[2] * b[3]) for _, b in rec.halted]  # noqa: E731
     assert [f for f, _ in held.halted] == [f for f, _ in plain.halted] and len(held.halted) >= 10
     # halted frame 1 was predicted while the track was still active; from the 2nd on the size is held

@@ -239,14 +239,15 @@ def test_run_requests_regroups_tasks_per_request():
     from refimpl.evaluation.evaluate import evaluate_many
     from refimpl.runs.scaleout import Plan
     from refimpl.experiments.benchmark_tasks import RunRequest, run_requests
-    from refimpl.tracking.pipeline import track_sequence
+    from refimpl.tracking.pipeline import Setup, run_sequence
 
     seq = io.demo_sequence_paths()
     dets, gt = io.load_detections(seq), io.load_ground_truth(seq)
     data = [(seq.name, dets, gt)]
     runs = run_requests([RunRequest("demo", data, "baseline"), RunRequest("demo", data, "cpsat"),
                          RunRequest("demo", data, "baseline")], Plan(), quiet=True)
-    direct = [evaluate_many([(seq.name, gt, rows)])[1] for rows in (sort_track(dets), track_sequence(dets).rows)]
+    direct = [evaluate_many([(seq.name, gt, rows)])[1]
+              for rows in (sort_track(dets), run_sequence(dets, Setup()).rows)]
     for run, expected in zip(runs, direct + direct[:1]):
         for key in ("mota", "idf1", "fp", "fn", "idsw", "num_gt"):
             a, b = run.overall[key], expected[key]

@@ -457,10 +457,10 @@ def test_real_sequence_hides_and_unhides_pair_up_on_the_same_track_pair(shared_d
     # MOT15 TUD-Campus (71 frames) tracked with cpsat: people walking past each other
     from refimpl import io
     from refimpl.scene import scene_from_result
-    from refimpl.tracking.pipeline import track_sequence
+    from refimpl.tracking.pipeline import Setup, run_sequence
     seq = next(s for s in benchmark_sequences("mot15", shared_data) if s.name == "TUD-Campus")
     dets = io.load_detections(seq)
-    s = scene_from_result(dets, track_sequence(dets, backend="cpsat"))
+    s = scene_from_result(dets, run_sequence(dets, Setup("cpsat")))
     pairs = [h for h in hiding_episodes(s) if h.how == "unhides_from_behind"]
     assert pairs, "no hides_behind -> unhides_from_behind pair in TUD-Campus"
     for h in pairs:

@@ -11,7 +11,7 @@ import pytest
 
 from refimpl.io import (DetectionSequence, ResultWriter, event_json_line, event_line, format_mot_results,
                         read_mot_detections)
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import Setup, run_sequence
 from refimpl.tracking.tracker import AbductionTracker
 from refimpl.solvers import get_solver
 
@@ -28,12 +28,12 @@ def _walk(n_frames: int, n_objects: int, seed: int) -> DetectionSequence:
 def _streamed(seq, keep_records: bool):
     res, lp, js = stdio.StringIO(), stdio.StringIO(), stdio.StringIO()
     sink = ResultWriter(res, lp, js, seq.first_frame)
-    track_sequence(seq, backend="cpsat", sink=sink, keep_records=keep_records)
+    run_sequence(seq, Setup("cpsat"), sink=sink, keep_records=keep_records)
     return res.getvalue(), lp.getvalue(), js.getvalue()
 
 
 def _at_the_end(seq):
-    result = track_sequence(seq, backend="cpsat")
+    result = run_sequence(seq, Setup("cpsat"))
     return (format_mot_results(result.rows, seq.first_frame), "".join(event_line(e) for e in result.events),
             "".join(event_json_line(e) for e in result.events), result)
 

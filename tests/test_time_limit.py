@@ -12,7 +12,8 @@ from refimpl.solvers.check import check_answer
 from refimpl.solvers import get_solver
 from refimpl.solvers.fallback import obvious_hypothesis
 from refimpl.core.facts import read_problem
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import run_sequence
+from tracking_helpers import setup_with
 
 
 def test_obvious_hypothesis_ignores_detections_and_halts_active_tracks(examples):
@@ -45,7 +46,7 @@ def test_tracking_with_a_tiny_time_limit_runs_on_and_counts_unproven_frames(shar
 
     # the CP-SAT backend's exact fast path needs no search; the full model is what can time out
     solver = get_solver(backend, fast_path=False) if backend == "cpsat" else get_solver(backend)
-    result = track_sequence(seq, backend=backend, time_limit=1e-6, observer=observe, solver=solver)
+    result = run_sequence(seq, setup_with(backend, time_limit=1e-6), observer=observe, solver=solver)
     assert result.frames == len(seq.frames) == len(checked) == 71
     assert result.not_optimal_frames == checked.count(False) > 0
 

@@ -18,7 +18,7 @@ import pytest
 
 from refimpl import io
 from refimpl.solvers.cpsat import CpSatSolver
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import Setup, run_sequence
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -66,7 +66,7 @@ def test_track_with_cpsat_imports_neither_scipy_stats_nor_pandas_nor_ortools(tmp
     # --no-preset: the model's default constants and the default options, as here
     solver = CpSatSolver()
     seq = io.read_mot_detections(demo.dets_path)
-    track_sequence(seq, solver=solver)
+    run_sequence(seq, Setup(), solver=solver)
     assert dict(solver.stats) == {"fast": len(seq.frames)}
 
     out = tmp_path / "a.txt"

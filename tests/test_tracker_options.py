@@ -11,7 +11,8 @@ import pytest
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
 from refimpl.tracking.options import TRACKER_OPTIONS, TrackerOptions, WrittenBox, option_flags
 from refimpl.solvers import get_solver
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import Setup, run_sequence
+from tracking_helpers import setup_with
 from refimpl.tracking.tracker import AbductionTracker
 from test_streaming_output import _walk
 from test_abduction_tracker import _occlusion_sequence
@@ -71,8 +72,8 @@ def test_backfill_writes_the_frames_that_confirmed_a_resumed_track():
     # the car of _occlusion_sequence (trk_2) resumes at frame 28 after hiding in 9-27: its streak
     # restarts at 1 (28), 2 (29), 3 (30) = min_hits, so it is written again from 30.  With backfill,
     # frame 30 also writes 28 and 29 (the walk back stops at 27, not observed).
-    plain = track_sequence(_occlusion_sequence(), backend="cpsat")
-    back = track_sequence(_occlusion_sequence(), backend="cpsat", backfill=True)
+    plain = run_sequence(_occlusion_sequence(), Setup("cpsat"))
+    back = run_sequence(_occlusion_sequence(), setup_with("cpsat", backfill=True))
     assert _rows_of(plain, 2) == list(range(1, 9)) + list(range(30, 33))
     assert _rows_of(back, 2) == list(range(1, 9)) + list(range(28, 33))
     assert [str(e) for e in back.events] == [str(e) for e in plain.events]  # the same hypotheses
@@ -97,8 +98,8 @@ def test_backfill_writes_a_new_tracks_first_frames_but_never_a_one_frame_detecti
     # the second walker starts trk_2 at frame 6 (hit streak 0) and is updated at 7, 8, 9: streak 3
     # = min_hits at frame 9, SORT's first written frame.  Backfill also writes 6, 7 and 8.  The
     # false detection of frame 9 starts trk_3, which is never updated, never confirmed, never written.
-    plain = track_sequence(_late_pedestrian(), backend="cpsat")
-    back = track_sequence(_late_pedestrian(), backend="cpsat", backfill=True)
+    plain = run_sequence(_late_pedestrian(), Setup("cpsat"))
+    back = run_sequence(_late_pedestrian(), setup_with("cpsat", backfill=True))
     assert _rows_of(plain, 2) == list(range(9, 13))
     assert _rows_of(back, 2) == list(range(6, 13))
     assert _rows_of(back, 1) == _rows_of(plain, 1) == list(range(1, 13))
@@ -110,12 +111,12 @@ def test_backfilled_rows_stream_to_the_same_file(keep_records):
     # the sink holds a frame until no later frame can add a row to it (min_hits = 3 frames late
     # with backfill): the streamed file equals the one written at the end
     seq = _walk(120, 8, seed=3)
-    result = track_sequence(seq, backend="cpsat", backfill=True)
+    result = run_sequence(seq, setup_with("cpsat", backfill=True))
     out = stdio.StringIO()
-    track_sequence(seq, backend="cpsat", backfill=True, sink=ResultWriter(out, first_frame=1),
-                   keep_records=keep_records)
+    run_sequence(seq, setup_with("cpsat", backfill=True), sink=ResultWriter(out, first_frame=1),
+                 keep_records=keep_records)
     assert out.getvalue() == format_mot_results(result.rows, 1)
-    assert len(result.rows) > len(track_sequence(seq, backend="cpsat").rows)
+    assert len(result.rows) > len(run_sequence(seq, Setup("cpsat")).rows)
 
 
 def _turning_camera() -> DetectionSequence:
@@ -148,9 +149,10 @@ def _row_cars_per_track(result) -> list[set[int]]:
 
 
 def test_scene_velocity_keeps_each_car_of_a_sliding_row_on_its_own_track():
-    kw = dict(backend="cpsat", written_box="detection", velocity_noise=10)
-    plain = _row_cars_per_track(track_sequence(_turning_camera(), **kw))
-    scene = _row_cars_per_track(track_sequence(_turning_camera(), scene_velocity=True, **kw))
+    kw = dict(written_box="detection", velocity_noise=10)
+    plain = _row_cars_per_track(run_sequence(_turning_camera(), setup_with("cpsat", **kw)))
+    scene = _row_cars_per_track(run_sequence(_turning_camera(),
+                                             setup_with("cpsat", scene_velocity=True, **kw)))
     assert any(len(ks) > 1 for ks in plain)  # started at rest: tracks hop to the neighbouring car
     assert sorted(scene, key=min) == [{0}, {1}, {2}, {3}]  # one track per car, from frame 6 to 12
 
@@ -226,8 +228,8 @@ def test_fill_hidden_writes_an_occlusion_episode_once_the_track_is_confirmed_aga
     # comes out at 28 (unhides_from_behind): a 19-frame episode.  fill_hidden >= 19 fills it when the
     # resumed track is confirmed again at 30 (streak 3), with the frames 28 and 29 that confirmed it;
     # 18 is too short, so the rows are those of the plain tracker
-    filled = track_sequence(_occlusion_sequence(), backend="cpsat", fill_hidden=19)
-    short = track_sequence(_occlusion_sequence(), backend="cpsat", fill_hidden=18)
+    filled = run_sequence(_occlusion_sequence(), setup_with("cpsat", fill_hidden=19))
+    short = run_sequence(_occlusion_sequence(), setup_with("cpsat", fill_hidden=18))
     assert _rows_of(filled, 2) == list(range(1, 33))
     assert _rows_of(short, 2) == list(range(1, 9)) + list(range(30, 33))
     car = {int(f): b for f, i, *b in filled.rows.tolist() if i == 2}
@@ -243,8 +245,8 @@ def test_fill_hidden_needs_the_resumed_track_to_be_confirmed_again():
     frames = tuple(fr if fr.frame <= 28 else DetectionFrame(fr.frame, fr.boxes[:1], fr.scores[:1],
                                                              fr.confidences[:1], fr.types[:1])
                    for fr in seq.frames)
-    result = track_sequence(DetectionSequence(seq.name, frames, 1, seq.image_size, seq.fps), backend="cpsat",
-                            fill_hidden=30)
+    result = run_sequence(DetectionSequence(seq.name, frames, 1, seq.image_size, seq.fps),
+                          setup_with("cpsat", fill_hidden=30))
     assert "occurs_at(unhides_from_behind(trk_2,trk_1),28)" in [str(e) for e in result.events]
     assert _rows_of(result, 2) == list(range(1, 9))
 
@@ -253,10 +255,10 @@ def test_fill_hidden_needs_the_resumed_track_to_be_confirmed_again():
 def test_filled_episodes_stream_to_the_same_file(keep_records):
     # rows of a filled episode are final fill_hidden + min_hits frames late; the sink waits that long
     seq = _occlusion_sequence()
-    result = track_sequence(seq, backend="cpsat", fill_hidden=19)
+    result = run_sequence(seq, setup_with("cpsat", fill_hidden=19))
     out = stdio.StringIO()
-    track_sequence(seq, backend="cpsat", fill_hidden=19, sink=ResultWriter(out, first_frame=1),
-                   keep_records=keep_records)
+    run_sequence(seq, setup_with("cpsat", fill_hidden=19), sink=ResultWriter(out, first_frame=1),
+                 keep_records=keep_records)
     assert out.getvalue() == format_mot_results(result.rows, 1)
 
 
@@ -269,7 +271,7 @@ def test_motion_options_are_rows_of_the_table_parsed_like_the_others():
     with pytest.raises(ValueError, match="hold_hidden"):
         TrackerOptions(hold_hidden="maybe")
     with pytest.raises(ValueError, match="unknown tracker option"):
-        track_sequence(_occlusion_sequence(), backend="cpsat", hold=True)
+        run_sequence(_occlusion_sequence(), setup_with("cpsat", hold=True))
     assert _option("reupdate_on_resume").flag == "--reupdate-on-resume"
 
 
@@ -307,6 +309,6 @@ def test_a_car_started_with_the_scene_motion_is_matched_where_it_stands():
     assert moved < 30000  # that prediction alone could not be assigned (iou_thresh 30000) ...
     assert (newborn.id, "det_2", 100000) in problem.iou  # ... the car where it stands: IoU 1
     # so one identity holds the standing car from frame 6 to 12 (7 frames, none restarted)
-    result = track_sequence(seq, backend="cpsat", scene_velocity=True)
+    result = run_sequence(seq, setup_with("cpsat", scene_velocity=True))
     standing = [[f for f, box in rec.observed if box[1] == 250.0] for rec in result.tracks]
     assert [f for f in standing if f] == [list(range(6, 13))]

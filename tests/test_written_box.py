@@ -11,7 +11,8 @@ import pytest
 
 from refimpl.io import DetectionFrame, DetectionSequence, ResultWriter, format_mot_results
 from refimpl.tracking.options import TRACKER_OPTIONS, TrackerOptions, WrittenBox
-from refimpl.tracking.pipeline import track_sequence
+from refimpl.tracking.pipeline import Setup, run_sequence
+from tracking_helpers import setup_with
 
 # one object over three frames, moving right and getting wider (x, y, w, h)
 BOXES = [(100.0, 100.0, 40.0, 80.0), (104.0, 100.0, 44.0, 80.0), (109.0, 101.0, 46.0, 80.0)]
@@ -24,14 +25,14 @@ def _three_frames() -> DetectionSequence:
 
 
 def test_detection_mode_writes_the_detection_boxes_exactly_under_the_same_identity():
-    result = track_sequence(_three_frames(), backend="cpsat", written_box="detection")
+    result = run_sequence(_three_frames(), setup_with("cpsat", written_box="detection"))
     # frames 1-3 are within the first min_hits = 3 frames: all written, one track (number 1)
     assert result.rows.tolist() == [[f, 1, *b] for f, b in enumerate(BOXES, start=1)]
     assert [b for _, b in result.tracks[0].observed] == BOXES
 
 
 def test_filtered_mode_writes_the_kalman_state_after_the_update():
-    result = track_sequence(_three_frames(), backend="cpsat")  # the default: filtered
+    result = run_sequence(_three_frames(), Setup("cpsat"))  # the default: filtered
     rows = {int(r[0]): r[2:] for r in result.rows}
     assert set(result.rows[:, 1].tolist()) == {1}
     # frame 2, derived by hand from SORT's filter (refimpl/tracking/motion.py): a new track starts at
@@ -54,15 +55,15 @@ def test_filtered_mode_writes_the_kalman_state_after_the_update():
 
 def test_both_modes_abduce_the_same_hypotheses_and_identities():
     seq = _three_frames()
-    a = track_sequence(seq, backend="cpsat", written_box=WrittenBox.FILTERED)
-    b = track_sequence(seq, backend="cpsat", written_box=WrittenBox.DETECTION)
+    a = run_sequence(seq, setup_with("cpsat", written_box=WrittenBox.FILTERED))
+    b = run_sequence(seq, setup_with("cpsat", written_box=WrittenBox.DETECTION))
     assert a.events == b.events
     assert a.rows[:, :2].tolist() == b.rows[:, :2].tolist()
 
 
 def test_unknown_written_box_is_a_value_error_naming_the_choices():
     with pytest.raises(ValueError, match="filtered, detection"):
-        track_sequence(_three_frames(), backend="cpsat", written_box="smoothed")
+        run_sequence(_three_frames(), setup_with("cpsat", written_box="smoothed"))
     with pytest.raises(ValueError, match="unknown tracker option"):
         TrackerOptions.from_mapping({"box": "detection"})
 
@@ -71,10 +72,10 @@ def test_streamed_rows_equal_result_rows_with_detection_boxes():
     # a walker missed now and then: bridged gaps interpolate between written (detection) boxes
     from refimpl.experiments.walkers import frames as walk_frames
     seq = DetectionSequence("walk", tuple(walk_frames(80, 6, 3)), 1, (1920, 1080), 30.0)
-    at_end = track_sequence(seq, backend="cpsat", written_box="detection")
+    at_end = run_sequence(seq, setup_with("cpsat", written_box="detection"))
     out = stdio.StringIO()
-    track_sequence(seq, backend="cpsat", written_box="detection", keep_records=False,
-                   sink=ResultWriter(out, None, None, seq.first_frame))
+    run_sequence(seq, setup_with("cpsat", written_box="detection"), keep_records=False,
+                 sink=ResultWriter(out, None, None, seq.first_frame))
     assert out.getvalue() == format_mot_results(at_end.rows, seq.first_frame)
     # and the observed rows are detection boxes of their frame
     dets = {fr.frame: {tuple(b) for b in fr.boxes.tolist()} for fr in seq.frames}

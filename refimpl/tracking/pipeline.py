@@ -12,8 +12,8 @@ published tables measured.
 * :func:`setup_for` is the one rule that picks it: the preset of (format, class) (refimpl.tracking.presets;
   the robust default where that pair has none), unless asked for none or for another by name, then
   the caller's constants and options on top;
-* :func:`run_sequence` tracks one sequence with a Setup, optionally streaming to a sink.
-* :func:`track_sequence` is :func:`run_sequence` with the Setup spelled as keywords (no preset).
+* :func:`run_sequence` tracks one sequence with a Setup, optionally streaming to a sink (a
+  Setup of one's own, without a preset: ``Setup("cpsat", options=TrackerOptions(...))``).
 """
 
 from __future__ import annotations
@@ -137,15 +137,18 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
                  min_hits: int | None = None, bridge_gap: int | None = None, bridge_conf: int | None = None,
                  compact_history: bool = True):
     """Track one DetectionSequence (or a refimpl.io.DetectionStream: its frames are read once, as
-    they arrive) with ``setup``: a refimpl.tracking.tracker.TrackingResult.
+    they arrive) with ``setup``: a refimpl.tracking.tracker.TrackingResult.  The sequence's image
+    size feeds the field-of-view border and its frame rate the safety bound on halts
+    (refimpl.tracking.tracker.sequence_constants).
 
     ``observer(problem, hypothesis)`` sees every frame's answer (abduction only); ``on_frame()`` is
-    called once per frame (progress); with a ``sink`` (refimpl.tracking.tracker.ResultSink) rows and events
-    are handed over as they become final and the result's rows are empty (as for
-    :func:`track_sequence`); ``solver``: a solver instance to use instead of the backend's; ``frame_times``: a list that
-    receives each frame's CPU seconds of tracking (time.process_time around the frame's update:
-    latency, issue 27); ``min_hits``, ``bridge_gap``, ``bridge_conf``, ``compact_history``: the
-    abduction tracker's own (refimpl.tracking.tracker.AbductionTracker; None: its defaults)."""
+    called once per frame (progress); with a ``sink`` (refimpl.tracking.tracker.ResultSink) rows
+    and events are handed over as they become final and the result's rows are empty (its events
+    and tracks too unless ``keep_records``); ``solver``: a solver instance to use instead of the
+    backend's; ``frame_times``: a list that receives each frame's CPU seconds of tracking
+    (time.process_time around the frame's update: latency, issue 27); ``min_hits``,
+    ``bridge_gap``, ``bridge_conf``, ``compact_history``: the abduction tracker's own
+    (refimpl.tracking.tracker.AbductionTracker; None: its defaults)."""
     if setup.baseline:
         kept, frames = [], 0
         for rows in _timed(stream_sequence(seq), frame_times):  # seq.frames may be a stream, read once
@@ -179,29 +182,6 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     return TrackingResult(np.zeros((0, 6)), tuple(tracker.events) if keep_records else (),
                           tracker.track_records() if keep_records else (), tracker.frames, tracker.not_optimal,
                           tracker.solve_ms, tracker.budget_hits, tracker.over_budget)
-
-
-def track_sequence(seq, backend: str = DEFAULT_BACKEND, constants: Mapping[str, int] | None = None,
-                   min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
-                   observer=None, solver=None, bridge_gap: int | None = None, bridge_conf: int | None = None,
-                   compact_history: bool = True, sink=None, keep_records: bool = True,
-                   frame_budget: float | None = None, **options: object) -> TrackingResult:
-    """Track a DetectionSequence by abduction, the Setup spelled as keywords: :func:`run_sequence`
-    with ``backend``, ``constants`` (no preset), ``time_limit``, ``frame_budget`` and ``**options``,
-    the tracker options by name (refimpl.tracking.options.TRACKER_OPTIONS; ValueError for an unknown
-    name or a bad value).  The image size feeds the field-of-view border and the frame rate the
-    safety bound on halts (refimpl.tracking.tracker.sequence_constants).  With a ``sink`` the rows
-    and events go to it as they are decided and the result's rows are empty (its events and tracks
-    too unless ``keep_records``)."""
-    solver = solver or get_solver(backend)  # ValueError for a name that is no abduction backend
-    chosen = TrackerOptions.from_mapping(options)  # ValueError if unknown or bad
-    # the solver decides; 'baseline' with a solver of one's own is that solver, as it always was
-    setup = Setup(backend=DEFAULT_BACKEND if backend == BASELINE else backend,
-                  constants=tuple((constants or {}).items()), options=chosen, time_limit=time_limit,
-                  frame_budget=frame_budget)
-    return run_sequence(seq, setup, observer=observer, sink=sink, keep_records=keep_records, solver=solver,
-                        min_hits=min_hits, bridge_gap=bridge_gap, bridge_conf=bridge_conf,
-                        compact_history=compact_history)
 
 
 def _timed(frames, frame_times: list | None):

@@ -76,10 +76,10 @@ def make_fixtures(root: Path) -> dict:
     """A scene of the first 25 TUD-Campus frames (cpsat), a results file, a bench-scale JSON."""
     from refimpl import io
     from refimpl.scene import scene_from_result, scene_to_json
-    from refimpl.tracking.pipeline import track_sequence
+    from refimpl.tracking.pipeline import Setup, run_sequence
     seq = io.read_mot_detections(DEMO / "det" / "det.txt")
     seq = type(seq)(seq.name, seq.frames[:25], seq.first_frame, seq.image_size, seq.fps)
-    scene = scene_to_json(scene_from_result(seq, track_sequence(seq, backend="cpsat")))
+    scene = scene_to_json(scene_from_result(seq, run_sequence(seq, Setup("cpsat"))))
     res = root / "fixture-results.txt"
     with contextlib.redirect_stdout(stdio.StringIO()), contextlib.redirect_stderr(stdio.StringIO()):
         cli.main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(res)])
