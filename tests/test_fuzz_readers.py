@@ -73,13 +73,15 @@ def facts_fail(path, line, fragment):
 
 def test_seeded_fuzz_run_ends_without_tracebacks():
     t0 = time.perf_counter()
-    summary = fuzz.run(600, seed=0, cli_every=20, timeout=30)
-    assert summary.inputs == 600 and summary.cli_runs == 30
+    summary = fuzz.run(300, seed=0, cli_every=20, timeout=30)
+    # inputs come in groups of one per target (6); every 20th group also runs the CLI: groups 0, 20 and 40
+    # of the 50, so 3 x 6 CLI runs, every target through the command line
+    assert summary.inputs == 300 and summary.cli_runs == 18
     details = "\n".join(f"{r.outcome}: {fuzz.describe(r.case)}\n{r.detail}" for r in summary.failures[:3])
     assert summary.failures == [], details
     accepted = sum(v for (_, o), v in summary.counts.items() if o == "accepted")
     errors = sum(v for (_, o), v in summary.counts.items() if o == "error")
-    assert accepted > 50 and errors > 300  # both paths are exercised
+    assert accepted > 25 and errors > 150  # both paths are exercised (84 and 234 at seed 0)
     assert time.perf_counter() - t0 < 60
 
 

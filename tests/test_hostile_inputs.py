@@ -354,7 +354,7 @@ def test_a_detection_file_named_with_control_characters_is_named_escaped(tmp_pat
 
 def test_a_frame_of_a_users_encoding_beyond_its_memory_cap_is_refused_in_one_line(tmp_path):
     # a rule that grounds 10^8 atoms for every detection: nothing without a frame (the check passes),
-    # gigabytes on the first frame with a detection; under a cap of 768 MiB the child's clingo runs
+    # gigabytes on the first frame with a detection; under a cap of 512 MiB the child's clingo runs
     # out and the frame is refused in one line (EncodingMemoryError, a UserFacingError)
     pytest.importorskip("clingo")
     from refimpl.core.errors import UserFacingError
@@ -365,9 +365,9 @@ def test_a_frame_of_a_users_encoding_beyond_its_memory_cap_is_refused_in_one_lin
     for lp in default_model_files():
         extra = "huge(D, X) :- det(D, _, _), X = 1..100000000.\n" if lp.name == "association.lp" else ""
         (folder / lp.name).write_text(lp.read_text() + extra)
-    solver = ClingoSolver(model_files=sorted(folder.glob("*.lp")), memory_cap=768 * 2 ** 20, inline_solves=0)
+    solver = ClingoSolver(model_files=sorted(folder.glob("*.lp")), memory_cap=512 * 2 ** 20, inline_solves=0)
     problem = parse_facts("#const curr_time=1.\ndet(det_0, car, 90).\nbox2d(det_0, 10, 10, 40, 40).\n")
     with pytest.raises(UserFacingError) as err:
         solver.solve(problem, time_limit=120)
-    assert "frame 1: the encoding went beyond its memory cap of 0.75 GiB" in str(err.value)
+    assert "frame 1: the encoding went beyond its memory cap of 0.5 GiB" in str(err.value)
     assert "\n" not in str(err.value)
