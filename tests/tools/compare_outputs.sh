@@ -2,8 +2,8 @@
 # Does a change alter what refimpl writes?  Tracks every MOT15 sequence (SORT's Faster R-CNN
 # detections) and every KITTI tracking training sequence (Car, Pedestrian and Cyclist, PointRCNN)
 # with the baseline and the default abduction backend, at two commits, through the command line,
-# and compares every results file and event log byte for byte: 74 of the 81 shared sequences (the
-# 7 MOT17 ones have ground truth only).  KITTI_CLASSES="Cyclist" MOT15=no narrows a run.
+# and MOT15's 7 ACF detection files too, and compares every results file and event log byte for
+# byte: the 81 shared sequences with detections.  KITTI_CLASSES="Cyclist" MOT15=no (or KITTI_CLASSES="") narrows a run.
 #
 #   tests/tools/compare_outputs.sh BASE [HEAD] [DATA]     (HEAD defaults to the working tree's HEAD,
 #                                                    DATA to ../shared/data)
@@ -26,9 +26,13 @@ track_all() {  # TREE OUT
       ev=(); [ "$b" != baseline ] && ev=(--events "$out/$n.$b.lp")
       (cd "$tree" && python -m refimpl track --dets "$s/det/det_sort_frcnn.txt" --backend "$b" \
         --out "$out/$n.$b.txt" "${ev[@]}" --quiet 2>/dev/null)
+      [ -f "$s/det/det.txt" ] || continue  # MOT15's ACF detections (7 of the 11 sequences)
+      ev=(); [ "$b" != baseline ] && ev=(--events "$out/$n-acf.$b.lp")
+      (cd "$tree" && python -m refimpl track --dets "$s/det/det.txt" --backend "$b" \
+        --out "$out/$n-acf.$b.txt" "${ev[@]}" --quiet 2>/dev/null)
     done
   done
-  for c in ${KITTI_CLASSES:-Car Pedestrian Cyclist}; do
+  for c in ${KITTI_CLASSES-Car Pedestrian Cyclist}; do
     for f in "$DATA"/KITTI/tracking/training/det_02_pointrcnn/$c/*.txt; do
       n=$(basename "$f" .txt)
       for b in baseline cpsat; do
