@@ -26,6 +26,13 @@ def _class_name(text: str) -> str:
     return CLASSES[key]
 
 
+def _add_markdown_out(p: argparse.ArgumentParser, doc: str, sections: bool = False) -> None:
+    """--out of a benchmark command that rewrites its generated part of a document (write_section)."""
+    part = "sections are" if sections else "section is"
+    p.add_argument("--out", default=doc,
+                   help=f"markdown file whose generated {part} replaced (default {doc}; - for none)")
+
+
 def _add_preset(p: argparse.ArgumentParser) -> None:
     """--preset and --no-preset (refimpl.tracking.pipeline.setup_for: which preset the abduction tracker runs)."""
     p.add_argument("--preset", default=None, metavar="NAME",
@@ -305,8 +312,7 @@ def _add_bench_scale(sub: "argparse._SubParsersAction") -> None:
                     help=f"solvers to time (default {','.join(BACKENDS)})")
     sc.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                     help="per-frame time limit of every backend (default 20)")
-    sc.add_argument("--out", default="docs/benchmarks.md",
-                    help="markdown file whose generated section is replaced (default docs/benchmarks.md; - for none)")
+    _add_markdown_out(sc, "docs/benchmarks.md")
     sc.add_argument("--plot", help="PNG plot of a scalability run (default scalability.png beside --out)")
     sc.add_argument("--json", help="also save the raw per-frame (per-sequence) results as JSON")
     sc.add_argument("--from-json", metavar="PATH", help="redraw tables and plot from saved JSON, solving nothing")
@@ -338,8 +344,7 @@ def _add_bench_latency(sub: "argparse._SubParsersAction") -> None:
                     help="--crowds: per-frame limit of the abduction backends (default none)")
     la.add_argument("--seed", type=int, default=0, help="--crowds: simulation seed (default 0)")
     la.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    la.add_argument("--out", default="docs/benchmarks.md",
-                    help="markdown file whose generated section is replaced (default docs/benchmarks.md; - for none)")
+    _add_markdown_out(la, "docs/benchmarks.md")
     la.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -351,8 +356,7 @@ def _add_bench_peers(sub: "argparse._SubParsersAction") -> None:
                     help=f"only these peers, a comma-separated list out of {','.join(PEERS)} (default: every one "
                          "whose package is installed; the others are named on stderr and in the sections)")
     bp.add_argument("--data", default="../shared/data", help="benchmark data root (default ../shared/data)")
-    bp.add_argument("--out", default="docs/peers.md",
-                    help="markdown file whose generated sections are replaced (default docs/peers.md; - for none)")
+    _add_markdown_out(bp, "docs/peers.md", sections=True)
     bp.add_argument("--json", help="also write the metrics as JSON")
     bp.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -396,8 +400,7 @@ def _add_bench_occlusion(sub: "argparse._SubParsersAction") -> None:
                     help="comma-separated variants: baseline, a backend, backend+hold, backend+oru, "
                          f"backend+hold+oru (default {BASELINE},{DEFAULT_BACKEND})")
     bo.add_argument("--seed", type=int, default=0, help="suite seed (default 0)")
-    bo.add_argument("--out", default="docs/occlusion.md",
-                    help="markdown file whose generated section is replaced (default docs/occlusion.md; - for none)")
+    _add_markdown_out(bo, "docs/occlusion.md")
     bo.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
