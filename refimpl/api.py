@@ -13,7 +13,7 @@ One call per frame, in the shapes of the ecosystem:
 Behind it is the paper's Algorithm 1 (refimpl.tracking.tracker.AbductionTracker), so the rows
 returned for a frame are exactly the rows ``refimpl track`` writes for that frame, with one
 documented exception: the boxes ``refimpl track`` interpolates inside a *bridged* gap (a confirmed
-track resumed after at most ``bridge_gap`` hidden frames) are only known once the track resumes,
+track resumed after at most ``bridge_gap`` unobserved frames, a tracker option) are only known once the track resumes,
 so an online caller never gets them, nor (with the tracker options ``backfill`` and
 ``fill_hidden``) the earlier frames a confirmation writes and the filled frames of an occlusion
 episode; ``result().rows`` (or ``interpolated_rows()``, every row ``update`` did not report) has
@@ -69,7 +69,7 @@ from .scene import Scene, scene_from_result
 from .solvers import BACKENDS, DEFAULT_BACKEND
 from .tracking.options import TrackerOptions
 from .tracking.pipeline import AUTO, new_tracker, setup_for
-from .tracking.tracker import DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, ResultSink, TrackingResult
+from .tracking.tracker import DEFAULT_MIN_HITS, ResultSink, TrackingResult
 
 DEFAULT_CLASS_TYPES = COCO_CLASS_TYPES
 """COCO's class ids (what YOLO-family detectors, supervision and BoxMOT use): 0 person (pedestrian),
@@ -122,11 +122,11 @@ class Tracker:
         field-of-view border) and scales the pixel constants to the image (docs/model.md 3.22).  Without it the first frame's image (``update(dets, img)``) gives
         it; without either the border is not tested, as for a det.txt without seqinfo.ini
         (format "kitti": 1242 x 375 until an image says otherwise).
-    min_hits, bridge_gap, bridge_conf: the abduction tracker's own, as for
+    min_hits: the abduction tracker's own, as for
         ``refimpl.tracking.pipeline.run_sequence``; time_limit: the per-frame solver limit in seconds
         (``Setup.time_limit``, ``refimpl track --time-limit``).
     **options: tracker option overrides by name (refimpl.tracking.options.TRACKER_OPTIONS), e.g.
-        ``written_box="detection"``, on top of the preset.
+        ``written_box="detection"`` or ``bridge_gap=19``, on top of the preset.
     scores: how a score becomes the model's confidence, as the file readers do it (refimpl.io.SCORE_RULES,
         the same on every format): "auto" (default) is "evidence" (refimpl.core.confidence), or
         "rank", "probability" (scores in 0..1, times 100), "sigmoid" (logits), "raw" (0..100).
@@ -164,8 +164,7 @@ class Tracker:
 
     def __init__(self, backend: str = DEFAULT_BACKEND, *, format: str = "mot", preset: str | None = AUTO,
                  constants: Mapping[str, int] | None = None, img_size: tuple[int, int] | None = None,
-                 min_hits: int = DEFAULT_MIN_HITS, bridge_gap: int = DEFAULT_BRIDGE_GAP,
-                 bridge_conf: int = DEFAULT_BRIDGE_CONF, time_limit: float | None = None,
+                 min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  object_type: str | None = None, first_frame: int | None = None, name: str = "sequence",
                  fps: float | None = None, scores: str = "auto",
                  class_types: Mapping[int, str] | None = None, history: bool = False,
@@ -192,8 +191,7 @@ class Tracker:
             fps = self._fps(fps)
         if first_frame is None:
             first_frame = fmt.first_frame
-        for label, value in (("min_hits", min_hits), ("bridge_gap", bridge_gap), ("bridge_conf", bridge_conf),
-                             ("first_frame", first_frame)):
+        for label, value in (("min_hits", min_hits), ("first_frame", first_frame)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
                 raise ValueError(f"{label} must be a non-negative integer, got {value!r}")
         if time_limit is not None and not time_limit > 0:
@@ -208,7 +206,7 @@ class Tracker:
         self.first_frame = int(first_frame)
         self.scores = resolve_rule(scores, fmt.score_rule)
         """The score rule in use: ``auto`` is the format's own scale, as the file readers read it."""
-        self._params = (int(min_hits), int(bridge_gap), int(bridge_conf))
+        self._min_hits = int(min_hits)
         if not isinstance(history, bool):
             raise ValueError(f"history must be True or False, got {history!r}")
         self.history = history
@@ -230,9 +228,9 @@ class Tracker:
 
     def _new_tracker(self, size):
         if self.history:
-            return new_tracker(self.setup, size, self.fps, *self._params)
+            return new_tracker(self.setup, size, self.fps, self._min_hits)
         # the pipe's streaming mode: rows handed to a sink that keeps none (update reports them)
-        return new_tracker(self.setup, size, self.fps, *self._params, sink=ResultSink(), keep_records=False)
+        return new_tracker(self.setup, size, self.fps, self._min_hits, sink=ResultSink(), keep_records=False)
 
     def _kept(self, what: str) -> None:
         if not self.history:

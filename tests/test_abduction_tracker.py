@@ -13,6 +13,7 @@ from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.io import write_event_log, write_event_log_json
 from refimpl.solvers import BACKENDS
 from refimpl.tracking.pipeline import Setup, run_sequence
+from tracking_helpers import setup_with
 
 
 def _occlusion_sequence() -> DetectionSequence:
@@ -57,7 +58,7 @@ def test_car_hidden_behind_bus_keeps_its_identity(backend):
 
 def test_hidden_span_is_bridged_by_interpolation_when_asked():
     # bridge_gap >= 19 (the car is hidden in frames 9..27): it stays confirmed through the resume
-    result = run_sequence(_occlusion_sequence(), Setup("cpsat"), bridge_gap=19)
+    result = run_sequence(_occlusion_sequence(), setup_with("cpsat", bridge_gap=19))
     car = {int(f): b for f, i, *b in result.rows.tolist() if i == 2}
     assert sorted(car) == list(range(1, 33))
     # frame 18 lies 10/20 of the way from frame 8 to frame 28: x halfway between the two written boxes
@@ -128,7 +129,7 @@ def test_every_reappearance_follows_its_hiding_on_the_same_pair(shared_data):
 
 
 def test_a_gap_longer_than_bridge_gap_is_not_bridged():
-    result = run_sequence(_occlusion_sequence(), Setup("cpsat"), bridge_gap=18)
+    result = run_sequence(_occlusion_sequence(), setup_with("cpsat", bridge_gap=18))
     car = sorted(int(f) for f, i, *_ in result.rows.tolist() if i == 2)
     assert car == list(range(1, 9)) + list(range(30, 33))
 

@@ -12,7 +12,7 @@ from refimpl import io
 from refimpl.api import confidences_from_scores
 from refimpl.cli import main
 from refimpl.tracking.pipeline import Setup, run_sequence
-from refimpl.tracking.tracker import DEFAULT_BRIDGE_GAP
+from refimpl.tracking.options import TrackerOptions
 from refimpl.solvers import BACKENDS, LIBRARIES
 
 
@@ -60,7 +60,7 @@ def test_update_frame_by_frame_gives_the_rows_refimpl_track_writes(shared_data, 
     assert set(online_file.read_text().splitlines()) <= set(file_lines)
 
     # The rows missing online are exactly the interpolated rows of bridged gaps: frames at which
-    # the track was not observed, strictly inside a gap of at most bridge_gap frames between two
+    # the track was not observed, strictly inside a gap of at most bridge_gap frames (a tracker option) between two
     # observed frames of that track, and halted there.
     missing = set(filed) - set(on)
     assert missing, "KITTI-17 should exercise a bridged gap"
@@ -71,7 +71,7 @@ def test_update_frame_by_frame_gives_the_rows_refimpl_track_writes(shared_data, 
         assert frame not in observed and frame in halted
         before = max(f for f in observed if f < frame)
         after = min(f for f in observed if f > frame)
-        assert after - before - 1 <= DEFAULT_BRIDGE_GAP
+        assert after - before - 1 <= TrackerOptions().bridge_gap  # no preset: the option's default, 2
     assert {(int(r[0]), int(r[1])) for r in tracker.interpolated_rows()} == missing
     # the finished result equals the batch run's rows to float rounding of x2 - x1
     batch = run_sequence(seq, Setup("cpsat"))

@@ -71,6 +71,6 @@ def test_streaming_tracker_state_does_not_grow_with_the_sequence():
         assert not tracker.finished and not tracker.events
         assert all(len(t.observed) == 1 and not t.halted and not t.gaps for t in tracker.tracks.values())
         # pending rows: at most bridge_gap + 1 frames (the ones a later resume may still fill)
-        assert len(tracker._pending) <= tracker.bridge_gap + 1
+        assert len(tracker._pending) <= tracker.options.bridge_gap + 1
     tracker.finish()
     assert not tracker._pending and len(sink.track_ids) >= 6

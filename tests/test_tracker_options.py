@@ -18,9 +18,11 @@ from test_streaming_output import _walk
 from test_abduction_tracker import _occlusion_sequence
 
 
-PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "fill_hidden": 0}
-"""The values that make the plain tracker (SORT's filter and output, nothing filled in) for the
-options that are not switches; every switch (choices yes/no) is off."""
+PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "fill_hidden": 0,
+                 "bridge_gap": 2, "bridge_conf": 90}
+"""The values that make the plain tracker (SORT's filter and output, no occlusion filled in, and
+the tracker's bridge of old: gaps of at most 2 frames resumed at confidence >= 90, docs/tracking.md)
+for the options that are not switches; every switch (choices yes/no) is off."""
 
 
 

@@ -89,6 +89,18 @@ def _frames(name: str) -> Callable[[object], int]:
     return parse
 
 
+def _confidence(name: str) -> Callable[[object], int]:
+    def parse(value: object) -> int:
+        try:
+            v = _frames(name)(value)
+        except ValueError:
+            v = None
+        if v is None or v > 100:
+            raise ValueError(f"{name} must be a confidence 0..100, got {value!r}")
+        return v
+    return parse
+
+
 @dataclass(frozen=True)
 class TrackerOption:
     """One tracker option: how it is named, parsed, written and explained."""
@@ -128,6 +140,12 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "write the interpolated boxes of a confirmed track's occlusion episode of at most this many "
                   "frames (halted by hides_behind, resumed by unhides_from_behind); 0: never (results final "
                   "that many frames late)"),
+    TrackerOption("bridge_gap", _frames("bridge_gap"), None,
+                  "a confirmed track resumed after at most this many unobserved frames, by a detection of "
+                  "confidence >= bridge_conf, stays confirmed and writes the frames between, interpolated: the "
+                  "object was there, missed (results final that many frames late)"),
+    TrackerOption("bridge_conf", _confidence("bridge_conf"), None,
+                  "the confidence (0..100) a resuming detection needs to bridge a gap (bridge_gap)"),
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero; until it is "
@@ -152,6 +170,8 @@ class TrackerOptions:
     area_noise: float = 1.0
     backfill: bool = False
     fill_hidden: int = 0
+    bridge_gap: int = 2
+    bridge_conf: int = 90
     scene_velocity: bool = False
     hold_hidden: bool = False
     reupdate_on_resume: bool = False

@@ -28,7 +28,7 @@ from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
-from .tracker import (AbductionTracker, DEFAULT_BRIDGE_CONF, DEFAULT_BRIDGE_GAP, DEFAULT_MIN_HITS, DURATIONS,
+from .tracker import (AbductionTracker, DEFAULT_MIN_HITS, DURATIONS, FRAME_OPTIONS,
                       TrackingResult, check_frame_budget, frames_at, sequence_constants)
 
 AUTO = "auto"
@@ -57,7 +57,7 @@ class Setup:
     """The frame rate the preset's durations were tuned at (refimpl.tracking.presets.Preset.fps): a
     sequence of another frame rate gets them converted (refimpl.tracking.tracker.frames_at)."""
     in_frames: tuple[str, ...] = ()
-    """The durations the caller gave (constants of DURATIONS, ``fill_hidden``): frames as given."""
+    """The durations the caller gave (constants of DURATIONS, options of FRAME_OPTIONS): frames as given."""
     frame_budget: float | None = None
     """Milliseconds a frame may take (refimpl.tracking.tracker.AbductionTracker), None: no budget.
     setup_for gives a real-time backend DEFAULT_FRAME_BUDGET_MS unless told otherwise."""
@@ -104,7 +104,7 @@ def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND
         frame_budget = DEFAULT_FRAME_BUDGET_MS if backend in REAL_TIME else None
     given = set(constants or {}) | set(options or {})
     return Setup(backend, tuple(merged.items()), opts, time_limit, chosen.name if chosen else NONE,
-                 chosen.fps if chosen else None, tuple(sorted(given & {*DURATIONS, "fill_hidden"})),
+                 chosen.fps if chosen else None, tuple(sorted(given & {*DURATIONS, *FRAME_OPTIONS})),
                  check_frame_budget(frame_budget))
 
 
@@ -112,30 +112,28 @@ FrameCallback = Callable[[], None]
 
 
 def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: float | None = None,
-                min_hits: int | None = None, bridge_gap: int | None = None, bridge_conf: int | None = None,
-                solver=None, sink=None, keep_records: bool = True, compact_history: bool = True):
+                min_hits: int | None = None, solver=None, sink=None, keep_records: bool = True, compact_history: bool = True):
     """The abduction tracker (refimpl.tracking.tracker.AbductionTracker) of a Setup for a sequence of this
     image size and frame rate, exactly as :func:`run_sequence` builds it (the library's
     refimpl.Tracker steps it frame by frame)."""
     if setup.baseline:
         raise ValueError("the baseline is SORT (refimpl.tracking.baseline), not an abduction tracker")
     options = setup.options
-    if fps and setup.tuned_fps and "fill_hidden" not in setup.in_frames:
-        options = replace(options, fill_hidden=frames_at(options.fill_hidden, fps, setup.tuned_fps))
+    if fps and setup.tuned_fps:
+        options = replace(options, **{name: frames_at(getattr(options, name), fps, setup.tuned_fps)
+                                      for name in FRAME_OPTIONS if name not in setup.in_frames})
     return AbductionTracker(solver or get_solver(setup.backend),
                             sequence_constants(dict(setup.constants), image_size, fps, setup.tuned_fps,
                                                setup.in_frames),
                             DEFAULT_MIN_HITS if min_hits is None else min_hits, setup.time_limit,
-                            DEFAULT_BRIDGE_GAP if bridge_gap is None else bridge_gap,
-                            DEFAULT_BRIDGE_CONF if bridge_conf is None else bridge_conf, compact_history,
+                            compact_history,
                             sink=sink, keep_records=keep_records, frame_budget=setup.frame_budget,
                             options=options)
 
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,
                  solver=None, on_frame: FrameCallback | None = None, frame_times: list | None = None,
-                 min_hits: int | None = None, bridge_gap: int | None = None, bridge_conf: int | None = None,
-                 compact_history: bool = True):
+                 min_hits: int | None = None, compact_history: bool = True):
     """Track one DetectionSequence (or a refimpl.io.DetectionStream: its frames are read once, as
     they arrive) with ``setup``: a refimpl.tracking.tracker.TrackingResult.  The sequence's image
     size feeds the field-of-view border and its frame rate the safety bound on halts
@@ -147,7 +145,7 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     and tracks too unless ``keep_records``); ``solver``: a solver instance to use instead of the
     backend's; ``frame_times``: a list that receives each frame's CPU seconds of tracking
     (time.process_time around the frame's update: latency, issue 27); ``min_hits``,
-    ``bridge_gap``, ``bridge_conf``, ``compact_history``: the abduction tracker's own
+    ``compact_history``: the abduction tracker's own
     (refimpl.tracking.tracker.AbductionTracker; None: its defaults)."""
     if setup.baseline:
         kept, frames = [], 0
@@ -168,8 +166,8 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
         if on_frame is not None:
             on_frame()
 
-    tracker = new_tracker(setup, seq.image_size, getattr(seq, "fps", None), min_hits, bridge_gap, bridge_conf,
-                          solver=solver, sink=sink, keep_records=keep_records, compact_history=compact_history)
+    tracker = new_tracker(setup, seq.image_size, getattr(seq, "fps", None), min_hits, solver=solver,
+                          sink=sink, keep_records=keep_records, compact_history=compact_history)
     watch = observe if (observer is not None or on_frame is not None) else None
     for fr in seq.frames:
         start = process_time() if frame_times is not None else 0.0

@@ -14,10 +14,11 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
   (WrittenBox): the Kalman state after the update (FILTERED, as SORT writes it, the default) or
   the detection's own box (DETECTION, as ByteTrack and OC-SORT write it; the KITTI Car preset
   chooses it, docs/peers.md);
-- a resumed track must be re-confirmed the same way, unless the gap was short (<= bridge_gap
-  frames) and the resuming detection confident (>= bridge_conf): then it stays confirmed and its
-  hidden frames are filled by linear interpolation between the boxes around the gap (the paper's
-  commonsense interpolation of a hidden object's position);
+- a resumed track must be re-confirmed the same way, unless the gap was short (<= the tracker
+  option ``bridge_gap`` frames) and the resuming detection confident (>= ``bridge_conf``): then it
+  stays confirmed and its unobserved frames are filled by linear interpolation between the boxes
+  around the gap (the paper's commonsense interpolation of a hidden object's position; the presets
+  bridge a second, docs/tracking.md);
 - a halted track writes nothing for its halted frames otherwise;
 - with the tracker option ``fill_hidden`` (refimpl.tracking.options), an occlusion episode of a confirmed
   track (halted with hides_behind right after its last observed frame, resumed with
@@ -53,8 +54,6 @@ from ..solvers import Solver
 from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, is_symbol, track_number
 
 DEFAULT_MIN_HITS = 3
-DEFAULT_BRIDGE_GAP = 2
-DEFAULT_BRIDGE_CONF = 90
 _RESUMING = frozenset(e.name for e in explaining("resume"))
 _STARTING = frozenset(e.name for e in explaining("start"))
 _UNHIDING = frozenset(e.name for e in explaining("resume") if e.unhides)
@@ -169,7 +168,6 @@ class AbductionTracker:
 
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
-                 bridge_gap: int = DEFAULT_BRIDGE_GAP, bridge_conf: int = DEFAULT_BRIDGE_CONF,
                  compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True,
                  frame_budget: float | None = None, options: TrackerOptions = TrackerOptions()):
         """``options``: the tracker options (refimpl.tracking.options.TrackerOptions, which parses
@@ -178,7 +176,7 @@ class AbductionTracker:
 
         ``sink``: results rows and events are handed to it as soon as they are final (a frame's
         rows once no later frame can add any: bridged-gap interpolation reaches back at most
-        ``bridge_gap`` frames, a backfilled confirmation min_hits; ``delay``), instead of being kept; with ``keep_records=False`` as well, the
+        the option ``bridge_gap`` frames, a backfilled confirmation min_hits; ``delay``), instead of being kept; with ``keep_records=False`` as well, the
         tracker forgets everything a later frame does not need (finished tracks, all but the last
         observed box of a live one), so its memory does not grow with the sequence; then
         :meth:`track_records` is empty.  :meth:`finish` hands over the rest.
@@ -196,8 +194,6 @@ class AbductionTracker:
         self.constant_map = dict(self.constants)
         self.min_hits = min_hits
         self.time_limit = time_limit
-        self.bridge_gap = bridge_gap
-        self.bridge_conf = bridge_conf
         self.compact_history = compact_history
         self.tracks: dict[str, _Track] = {}
         self.finished: list[_Track] = []
@@ -214,7 +210,7 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
-        self.delay = max(bridge_gap, min_hits if self.options.backfill else 0,
+        self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
         backfilled confirmations)."""
@@ -384,7 +380,7 @@ class AbductionTracker:
             trk, j = self.tracks[trk_id], index[det_id]
             last = max(trk.observed)
             gap = frame - last - 1
-            trk.bridged = (gap <= self.bridge_gap and int(confidences[j]) >= self.bridge_conf
+            trk.bridged = (gap <= self.options.bridge_gap and int(confidences[j]) >= self.options.bridge_conf
                            and last in trk.confirmed)
             hidden = (not trk.bridged and last in trk.confirmed and gap <= self.options.fill_hidden
                       and trk_id in unhidden and self._hid_after(trk, last))
@@ -545,8 +541,10 @@ def check_frame_budget(ms: object) -> float | None:
 
 DURATIONS = ("lost_after_missing", "lost_after_hidden", "noise_max_age")
 """The model constants that are durations in frames: a preset's are converted from the frame rate
-it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as is the tracker option
-``fill_hidden``."""
+it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as are the tracker
+options of FRAME_OPTIONS."""
+FRAME_OPTIONS = ("fill_hidden", "bridge_gap")
+"""The tracker options that are durations in frames, converted as DURATIONS are."""
 
 
 def frames_at(frames: int, fps: float, tuned_fps: float) -> int:
