@@ -155,3 +155,41 @@ def test_resolved_constants_are_a_fresh_dict_and_an_unknown_name_fails_every_tim
     for _ in range(2):
         with pytest.raises(ProblemFormatError, match="unknown constant 'nosuch'"):
             resolve_constants(bad)
+
+
+_FRAME = ("#const curr_time=5.\ntrk(trk_1,car). trk_state(trk_1,active). box2d(trk_1,0,0,10,20).\n"
+          "det(det_1,car,90). box2d(det_1,1,1,10,20).\n")
+
+
+@pytest.mark.parametrize("line", [
+    "iou(trk_1,det_1,500).",
+    "iou(trk_1,det_1,0500).",  # the integer as written is normalised: 500
+    "iou(trk_1,det_1,-0).",
+    "iou(trk_1,det_1,500). match_type(car,car).",  # two facts on a line
+    "iou(trk_1,det_1,500).% a comment",
+    "iou( trk_1,det_1,500).",  # spaces: the general reader
+    "occurs_at(hides_behind(trk_1,trk_1),3).",  # a nested term: the general reader
+    "iou(trk_1,det_1,99999999999).",  # out of range: the general reader words the error
+    "iou(trk_1,det_1,5x).",
+    "iou(not,det_1,5).",
+    "not(trk_1,det_1,5).",
+    "iou(_t,det_1,5).",
+    "iou(trk_1,det_1,5)",
+    "iou(trk_1,det_1,500)..",
+    "iou(trk_1,det_1,500,1).",
+    "iou().",
+])
+def test_the_flat_fact_reader_reads_what_the_general_reader_reads(monkeypatch, line):
+    # facts.py reads a flat fact (names and integers, no spaces) with one regular expression and
+    # everything else term by term: the same FrameProblem, or the same error, either way
+    from refimpl.core import facts
+
+    def read():
+        try:
+            return parse_facts(_FRAME + line + "\n", "f.lp")
+        except ProblemFormatError as exc:
+            return str(exc)
+
+    fast = read()
+    monkeypatch.setattr(facts, "_flat_fact", lambda text: None)
+    assert fast == read()

@@ -67,3 +67,22 @@ def test_every_backend_stops_within_a_tenth_of_the_limit_and_a_second_on_a_dense
     assert time.perf_counter() - started < 1.1 * limit + 1.0
     report = check_answer(p, h)  # flagged or not, the answer keeps every rule
     assert report.ok and report.cost == h.cost
+
+
+def test_a_clingo_worker_still_grounding_at_its_limit_is_killed_then_not_after_the_grace():
+    # the child tells its parent when grounding is done; one that has not by its limit could only
+    # answer None (refimpl.solvers.clingo_process), so it is killed at the limit: a 400-track pile
+    # under --time-limit 10 ended 0.1 s past limit + 10 % + 1 s before, waiting out the grace
+    pytest.importorskip("clingo")
+    from refimpl.experiments.synthetic import dense_frame
+    from refimpl.solvers.clingo_process import grace
+    solver = get_solver("clingo")
+    small = dense_frame(3, 0)
+    assert solver._worker.solve_one(small, 30.0) is not None  # the child is up and has answered
+    p = dense_frame(200, 0)  # ~6 s to ground here
+    limit = 3.0
+    started = time.perf_counter()
+    assert solver._worker.solve_one(p, limit) is None
+    elapsed = time.perf_counter() - started
+    assert limit <= elapsed < limit + 0.6 * grace(limit)
+    solver._worker.close()

@@ -305,9 +305,11 @@ class ClingoSolver(Solver):
             solve_ms=(time.perf_counter() - started) * 1000.0,
         )
 
-    def _solve_one(self, problem: FrameProblem, time_limit: float | None):
+    def _solve_one(self, problem: FrameProblem, time_limit: float | None, grounded=None):
         """(shown atoms, cost by priority, proven optimal) of one clingo call, or None when the
-        time ran out before any model; NoAdmissibleHypothesis when the program has no model."""
+        time ran out before any model; NoAdmissibleHypothesis when the program has no model.
+        ``grounded``: called once grounding is done (the worker process tells its parent, which
+        kills a child still grounding at its limit at once: refimpl.solvers.clingo_process)."""
         started = time.perf_counter()
         deadline = None if time_limit is None else started + time_limit
         ctl, messages = self._control(problem, certificate_facts(certificate(problem)) if self.certify else "")
@@ -316,6 +318,8 @@ class ClingoSolver(Solver):
         except RuntimeError as exc:
             msgs = "; ".join(messages) or str(exc)
             raise RuntimeError(f"clingo could not ground the model: {msgs}") from None
+        if grounded is not None:
+            grounded()
         if deadline is not None and time.perf_counter() >= deadline:
             return None  # grounding used the time up (it counts; it cannot be stopped half-way)
 

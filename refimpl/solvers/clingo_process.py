@@ -26,7 +26,9 @@ CHILD_MODULE = "refimpl.solvers.clingo_worker"
 POLL = 0.1
 """Seconds between two checks of the pipe (time limit, SIGINT)."""
 GRACE = 1.0
-"""Seconds a child may overrun its time limit (finishing its search, reporting) before it is killed;
+"""Seconds a child that has grounded its problem may overrun its time limit (finishing its search,
+reporting) before it is killed (one still grounding at its limit is killed then: it could only
+answer None);
 under a short limit less, 0.5 s + 5 % of it (``grace``): the child stops its own search at the limit
 (its POLL is 0.1 s) and what is left is sending the answer."""
 
@@ -129,22 +131,31 @@ class ClingoWorker:
 
     def solve_one(self, problem: FrameProblem, time_limit: float | None) -> Any:
         """ClingoSolver._solve_one(problem, time_limit) in the child: its result, or None when the
-        child overran the limit by GRACE (killed); its exceptions are raised here again."""
+        child was killed: still grounding at the limit, or past it by ``grace`` after grounding;
+        its exceptions are raised here again."""
         if self._proc is not None and (self._served >= self.recycle or self._proc.poll() is not None):
             self.close()
         if self._proc is None:
             self._start()
         self._served += 1
-        deadline = None if time_limit is None else time.perf_counter() + time_limit + grace(time_limit)
+        limit = None if time_limit is None else time.perf_counter() + time_limit
+        deadline = None if limit is None else limit + grace(time_limit)
+        grounded = False  # a child still grounding at its limit can only answer None: killed then
         try:
             self._conn.send((problem, time_limit, time.monotonic()))
-            while not self._conn.poll(POLL):
-                if deadline is not None and time.perf_counter() > deadline:
-                    self._kill()
-                    return None
-                if self._proc.poll() is not None:
-                    raise RuntimeError(f"the clingo worker process ended (exit code {self._proc.returncode})")
-            reply = self._conn.recv()
+            while True:
+                while not self._conn.poll(POLL if grounded or limit is None else
+                                          max(0.0, min(POLL, limit - time.perf_counter()))):
+                    now = time.perf_counter()
+                    if limit is not None and (now > deadline or (not grounded and now >= limit)):
+                        self._kill()
+                        return None
+                    if self._proc.poll() is not None:
+                        raise RuntimeError(f"the clingo worker process ended (exit code {self._proc.returncode})")
+                reply = self._conn.recv()
+                if reply[0] != "grounded":
+                    break
+                grounded = True
         except BaseException:  # KeyboardInterrupt included: the child's state is unknown
             self._kill()
             raise

@@ -32,8 +32,8 @@ from .clingo_backend import ClingoSolver
 
 def _serve(conn) -> None:
     """The child's loop: its options first, then (problem, time limit, time.monotonic() of the
-    send) in, ("ok", result, cpu
-    seconds) or ("error", type, message) out; None or a closed pipe ends it."""
+    send) in, ("grounded",) once the problem is grounded, then ("ok", result, cpu seconds) or
+    ("error", type, message) out; None or a closed pipe ends it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides about interrupts
     options = conn.recv()
     cap = options.pop("memory_cap", None)
@@ -54,7 +54,7 @@ def _serve(conn) -> None:
             time_limit = max(0.0, time_limit - (time.monotonic() - sent))
         cpu = time.process_time()
         try:
-            result = solver._solve_one(problem, time_limit)
+            result = solver._solve_one(problem, time_limit, grounded=lambda: conn.send(("grounded",)))
             conn.send(("ok", result, time.process_time() - cpu))
         except MemoryError:
             conn.send(("error", "MemoryError", f"frame {problem.time}: the encoding went beyond its memory cap of "

@@ -64,9 +64,10 @@ def _prune(am, problem: FrameProblem, zero: set[int]) -> tuple[bool, bool]:
     cert = certificate(problem)
     if cert is None:
         return False, False
-    assigns = {pair: am.actions[f"assign({pair[0]},{pair[1]})"] for pair in assign_weights(problem)
+    weights = assign_weights(problem)
+    assigns = {pair: am.actions[f"assign({pair[0]},{pair[1]})"] for pair in weights
                if f"assign({pair[0]},{pair[1]})" in am.actions}
-    tight = _checked(cert, {p: w for p, w in assign_weights(problem).items() if p in assigns}, am, problem, None)
+    tight = _checked(cert, {p: w for p, w in weights.items() if p in assigns}, am, problem, None)
     if tight is None:
         return False, False
     _add(am, cert, assigns, tight, zero)
@@ -129,11 +130,15 @@ def _add(am, cert: Certificate, variables: Mapping[tuple[str, str], object], tig
     """Only tight pairs (the others' variables into ``zero``), and every node of positive potential
     in one of them."""
     model = am.model
+    at: tuple[dict[str, list], dict[str, list]] = ({}, {})  # each node's tight pairs' variables, per side
     for pair, var in variables.items():
         if pair not in tight:
             model.add(var == 0)
             zero.add(var.index)
+        else:
+            at[0].setdefault(pair[0], []).append(var)
+            at[1].setdefault(pair[1], []).append(var)
     for side, potentials in ((0, cert.trk), (1, cert.det)):
         for node, x in potentials:
             if x > 0:
-                model.add(sum(var for pair, var in variables.items() if pair[side] == node and pair in tight) == 1)
+                model.add(sum(at[side].get(node, [])) == 1)

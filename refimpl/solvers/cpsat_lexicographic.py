@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 from ..core.hypothesis import PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, parse_atom
 from . import NoAdmissibleHypothesis, SolveTimeout
+from .cpsat_matching import UPPER, PairStructure, lexmin_pairs, pair_structure
 from .cpsat_model import EXPLANATION, OBJECTIVE_BITS, PAIR_ORDER, AbductionModel, CpSatFailure
 from .fallback import obvious_answer
 
@@ -36,7 +37,8 @@ class LexResult:
     CERTIFIED / UNCERTIFIED: a level too large for CP-SAT's doubles whose OPTIMAL was (or, out of
     time, was not) confirmed in exact arithmetic (_certify); UNIQUE: a chunk of the tie-break's
     pair part not solved because no other set of pair actions is optimal at levels 10..1
-    (_only_pair_set)."""
+    (_only_pair_set); MATCHED: one whose pairs the alternating cycles of cpsat_matching decided
+    (proven as the chunk's solve would be)."""
 
 
 def _solution(solver: cp_model.CpSolver, indices: list[int]) -> dict[int, int]:
@@ -263,6 +265,28 @@ class _Levels:
             self.model.add(v == self.solution[v.index])
         return True
 
+    def pairs_matched(self, st: PairStructure, pair_terms: LevelTerms, chunks: int) -> bool:
+        """The pair part's minimum among the optima of levels 10..1 by cpsat_matching (instead of
+        ``chunks`` solves), fixed, with the whole answer it gives as the solution; out of time, the
+        solution's pairs fixed, not proven (NO_TIME).  False: the matching does not apply (the
+        chunks are solved)."""
+        assert self.solution is not None
+        choice = lexmin_pairs(st, self.solution, self.deadline)
+        if choice is None:
+            return False
+        values, status = choice.values, "MATCHED"
+        if values is None:
+            self.optimal = False
+            values, status = self.solution, "NO_TIME"
+        elif any(_level_value(self.am.objectives[p], values) != _level_value(self.am.objectives[p], self.solution)
+                 for p in UPPER):
+            return False  # not the levels CP-SAT proved: never the case if the structure holds
+        for _, v in pair_terms:
+            self.model.add(v == values[v.index])
+        self.solution = values
+        self.statuses += [status] * chunks
+        return True
+
     def minimise(self, group: list[tuple[int, LevelTerms]], left: int) -> None:
         """Solve one group's objective with the time left shared over the ``left`` objectives
         still to solve (this one included), then fix it (``_settle``)."""
@@ -356,7 +380,7 @@ class _Levels:
 
 def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: float | None = None,
                         workers: int = 1, seed: int = 0, objective_bits: int = OBJECTIVE_BITS,
-                        unique_pairs: bool = True) -> LexResult:
+                        unique_pairs: bool = True, matching: bool = True) -> LexResult:
     """Minimise the objectives of PRIORITIES one after another (see the module docstring).
 
     Each level is solved with the previous level's solution as a complete hint.  A level proven
@@ -372,6 +396,8 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
 
     The pair chunks are not solved (UNIQUE) when ``_only_pair_set`` proves the optima of levels
     10..1 share one pair set; ``unique_pairs=False`` solves them all (tests: same answers).
+    Before that, where the model is a matching (cpsat_matching.pair_structure) and ``matching``,
+    the chunks are decided by alternating cycles (MATCHED) and the question is not asked.
 
     With a time limit, the remaining budget is split evenly over the levels still to solve.  A
     level that ends FEASIBLE, or UNKNOWN (no solution in its share), makes the answer not optimal
@@ -384,10 +410,16 @@ def solve_lexicographic(am: AbductionModel, problem: FrameProblem, time_limit: f
     upper, chunks, lower = objective_plan(am, objective_bits, unique_pairs)
     groups = upper + chunks + lower
     first_chunk, after_chunks = len(upper), len(upper) + len(chunks)
-    fresh = am.model.clone() if chunks else None  # before any level is fixed: _only_pair_set
+    structure = pair_structure(am) if chunks and matching else None
+    # before any level is fixed: _only_pair_set's model
+    fresh = am.model.clone() if chunks and structure is None else None
     i = -1
     while i + 1 < len(groups):
         i += 1
+        if i == first_chunk and structure is not None and run.optimal and run.solution is not None:
+            if run.pairs_matched(structure, am.objectives[TIEBREAK_LEVEL], len(chunks)):
+                i = after_chunks - 1
+                continue
         if i == first_chunk and fresh is not None and run.optimal and run.solution is not None:
             if run.pairs_unique(fresh, upper, am.objectives[TIEBREAK_LEVEL], len(lower)):
                 run.statuses += ["UNIQUE"] * len(chunks)

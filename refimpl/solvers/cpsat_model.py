@@ -138,6 +138,15 @@ class AbductionModel:
     witness: tuple[tuple[str, str], ...] = ()
     """Assign pairs of a level-10 optimum known before any solve (the accepted certificate's witness,
     cpsat_certificate): the stand-in answer of a level without time takes them (_trivial_solution)."""
+    track_actions: list[list[cp_model.IntVar]] = field(default_factory=list)
+    """Each track's actions, in problem order: exactly one is taken."""
+    det_actions: list[list[cp_model.IntVar]] = field(default_factory=list)
+    """Each detection's actions, in problem order: exactly one is taken."""
+    explained: list[tuple[list[cp_model.IntVar], list[cp_model.IntVar]]] = field(default_factory=list)
+    """(actions, events) of each explanation rule, sum(events) == sum(actions): with the two lists
+    above, every constraint build_model adds (cpsat_matching reads the model's structure here)."""
+    built_constraints: int = 0
+    """How many constraints build_model added (cpsat_matching checks the lists above hold them all)."""
 
     def all_vars(self) -> list[cp_model.IntVar]:
         return list(self.actions.values()) + list(self.events.values())
@@ -209,6 +218,11 @@ class _Builder:
             self.am.objectives[EXPLANATION].append((tie, v))
         return v
 
+    def explain(self, actions: list[cp_model.IntVar], events: list[cp_model.IntVar]) -> None:
+        """The explanation rule: exactly one of the events iff (one of) the actions."""
+        self.model.add(sum(events) == sum(actions))
+        self.am.explained.append((actions, events))
+
     def explanations(self, action: str, i: int) -> list[tuple[EventType, tuple[str, ...]]]:
         return _explanations(action, i, self.problem.tracks, self.top, self.state, self.constants, self.by_id)
 
@@ -230,7 +244,7 @@ class _Builder:
         if halts:
             h = self.action(f"halt({t.id})", "halt")
             self.per_trk[t.id].append(h)
-            self.model.add(sum(self.event(spec, args) for spec, args in halts) == h)
+            self.explain([h], [self.event(spec, args) for spec, args in halts])
 
     def halted_track(self, i: int, t: TrackPrediction) -> None:
         # end(T) <=> exactly one of its possible explanations   (explain_end)
@@ -238,20 +252,20 @@ class _Builder:
         if ends:
             en = self.action(f"end({t.id})", "end")
             self.per_trk[t.id].append(en)
-            self.model.add(sum(self.event(spec, args) for spec, args in ends) == en)
+            self.explain([en], [self.event(spec, args) for spec, args in ends])
         ig = self.action(f"ignore_trk({t.id})", "ignore_trk")
         self.per_trk[t.id].append(ig)
         # ignore_trk(T) of a missing track <=> exactly one possible re-explanation, if any   (explain_ignore)
         again = self.explanations("ignore_trk", i) if reexplained(self.state, t.id) else []
         if again:
-            self.model.add(sum(self.event(spec, args) for spec, args in again) == ig)
+            self.explain([ig], [self.event(spec, args) for spec, args in again])
         # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
         resumable = [d for d in self.partners.get(t.id, ())
                      if resume_constraints(self.problem, self.constants, self.iou, t, d, self.state, self.by_id)]
         expl = self.explanations("resume", i) if resumable else []
         if resumable and expl:
             res = [self.pair("resume", t, d) for d in resumable]
-            self.model.add(sum(self.event(spec, args) for spec, args in expl) == sum(res))
+            self.explain(res, [self.event(spec, args) for spec, args in expl])
 
     def detections(self) -> None:
         taken = occupied(self.problem, self.constants)  # [start_occupied]
@@ -261,7 +275,7 @@ class _Builder:
             if start_constraints(self.constants, d, taken) and starts:
                 s = self.action(f"start({d.id})", "start")
                 self.per_det[d.id].append(s)
-                self.model.add(sum(self.event(spec, (d.id,)) for spec in starts) == s)
+                self.explain([s], [self.event(spec, (d.id,)) for spec in starts])
             self.per_det[d.id].append(self.action(f"ignore_det({d.id})", "ignore_det"))
 
     def exactly_one(self) -> None:
@@ -271,8 +285,10 @@ class _Builder:
                 raise NoAdmissibleHypothesis(
                     f"track {t.id} ({t.state}) has no admissible action at time {self.problem.time}")
             self.model.add_exactly_one(self.per_trk[t.id])
+            self.am.track_actions.append(self.per_trk[t.id])
         for d in self.problem.detections:
             self.model.add_exactly_one(self.per_det[d.id])
+            self.am.det_actions.append(self.per_det[d.id])
 
 
 def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str, int]) -> AbductionModel:
@@ -291,4 +307,5 @@ def build_model(problem: FrameProblem, state: EventState, constants: Mapping[str
             build.halted_track(i, t)
     build.detections()
     build.exactly_one()
+    am.built_constraints = len(model.proto.constraints)
     return am
