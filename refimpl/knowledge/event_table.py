@@ -27,6 +27,8 @@ class FluentState(Protocol):
 
     def holds_at(self, fluent, value: str) -> bool: ...
 
+    def hidden_by_holding(self, trk: str, value: str) -> frozenset[str] | None: ...
+
     def started_at(self, trk: str) -> int | None: ...
 
     def halted_at(self, trk: str) -> int | None: ...
@@ -216,8 +218,10 @@ class EventType:
     prefilter: str = ""
     """For a pair event: a condition its precondition implies that the CP-SAT model tests for all
     pairs at once before calling ``poss`` (a speed-up only, the same answers):
-    'overlapping_top' (position(overlapping_top, T1, T2)) or 'hidden' (visibility(T1) = not_visible);
-    empty: every other track is tested.  tests/test_event_table.py checks the implication."""
+    'overlapping_top' (position(overlapping_top, T1, T2)) or 'hidden_by' (visibility(T1) =
+    not_visible and hidden_by(T1, T2) = true: only T1's partners of FluentState.hidden_by_holding
+    are tested, in the frame's track order, the order of testing every track); empty: every other
+    track is tested.  tests/test_event_table.py checks the implication."""
     says_since: bool = False
     """Its sentence says since when the track was seen ('..., seen since frame 12, was discarded
     as noise')."""
@@ -229,9 +233,9 @@ class EventType:
             raise ValueError(f"event {self.name}: a halt_kind is required for a halting event and only there")
         if self.occluder is not None and not 0 < self.occluder < self.arity:
             raise ValueError(f"event {self.name}: occluder {self.occluder} is not a second argument")
-        if self.prefilter not in ("", "overlapping_top", "hidden") or (self.prefilter and self.arity != 2):
+        if self.prefilter not in ("", "overlapping_top", "hidden_by") or (self.prefilter and self.arity != 2):
             raise ValueError(f"event {self.name}: prefilter {self.prefilter!r} (pair events: '', "
-                             "'overlapping_top' or 'hidden')")
+                             "'overlapping_top' or 'hidden_by')")
         if not self.closing:
             object.__setattr__(self, "closing", self.halt_kind or self.phrase)
 
@@ -270,7 +274,7 @@ EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
               effects=(("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false"),
                        ("clipped", (0,), "false")),
               phrase="came out from behind", closing="reappeared", marker="^", colour="#9467bd",
-              occluder=1, prefilter="hidden"),
+              occluder=1, prefilter="hidden_by"),
     # refimpl decision (docs/model-spec.md): recover resets everything halting may have set.
     EventType("recover", 1, "resume", poss_recover,
               effects=(("clipped", (0,), "false"), ("visibility", (0,), "fully_visible"),

@@ -260,6 +260,18 @@ class EventState:
         """holds_at(F, V, curr_time)."""
         return value in self.values(fluent)
 
+    def hidden_by_holding(self, trk: str, value: str) -> frozenset[str] | None:
+        """Every X with holds_at(hidden_by(trk, X), value), when they are finitely many: the X set
+        explicitly whose values include it; None when X's default (the initial value, or what a
+        recover(trk) set for every X) includes it, so that any other track may hold it.  Lets a
+        caller test a precondition that needs hidden_by(trk, X) = value for those X alone, instead
+        of every other track."""
+        default = self._others.get(trk)
+        if value in (frozenset((INITIAL_VALUE["hidden_by"],)) if default is None else default):
+            return None
+        explicit = self._hb_index.get(trk, ())
+        return frozenset(x for x in explicit if x != trk and value in self._values[("hidden_by", trk, x)])
+
     def occurs_at(self, event: Union[Term, str], t: int) -> bool:
         """occurs_at(E, t) is in the history folded so far."""
         name, args = _event_parts(event)

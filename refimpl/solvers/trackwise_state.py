@@ -64,6 +64,16 @@ class TrackwiseState:
             got = memo[memo_key] = value in st.values_of_key(key)
         return got
 
+    def hidden_by_holding(self, trk: str, value: str) -> frozenset[str] | None:
+        """EventState.hidden_by_holding from trk's own state (hidden_by(trk, X) is trk's fluent),
+        memoised with its holds_at answers (keyed (trk, value), where theirs are (fluent tuple, value))."""
+        st, memo = self._per.get(trk, self._empty)
+        memo_key = (trk, value)
+        if memo_key in memo:
+            return memo[memo_key]
+        got = memo[memo_key] = st.hidden_by_holding(trk, value)
+        return got
+
     def started_at(self, trk: str) -> int | None:
         return self._state(trk).started_at(trk)
 
