@@ -116,9 +116,19 @@ def kept_in_mind(state: FluentState, constants: Mapping[str, int], trk: TrackPre
     halt (the track was halted as missing_detections) keeps it in mind too."""
     if outside_fov(trk.box, constants["img_width"], constants["img_height"]):
         return False
-    return any(t2 != trk.id and (
-        (state.holds_at(("hidden_by", trk.id, t2), "true") and intersection_area(trk.box, other.box) > 0)
-        or overlapping_top(trk.box, other.box, constants["hide_overlap"])) for t2, other in tracks.items())
+    box, hide_overlap = trk.box, constants["hide_overlap"]
+    return (any(intersection_area(box, other.box) > 0 for other in _hidden_by(state, trk.id, tracks))
+            or any(t2 != trk.id and overlapping_top(box, other.box, hide_overlap) for t2, other in tracks.items()))
+
+
+def _hidden_by(state: FluentState, trk: str, tracks: Mapping[str, TrackPrediction]) -> list[TrackPrediction]:
+    """The current tracks T2 != trk with holds_at(hidden_by(trk, T2), true), for an any() over them
+    (in no order that matters): from the state's few partners (FluentState.hidden_by_holding) where
+    it names them, else by asking every track (a crowd's halted track has one or two among hundreds)."""
+    partners = state.hidden_by_holding(trk, "true")
+    if partners is None:
+        return [o for t2, o in tracks.items() if t2 != trk and state.holds_at(("hidden_by", trk, t2), "true")]
+    return [tracks[t2] for t2 in partners if t2 in tracks]
 
 
 def anticipated_unhide(state: FluentState, constants: Mapping[str, int], trk: TrackPrediction,
@@ -132,8 +142,7 @@ def anticipated_unhide(state: FluentState, constants: Mapping[str, int], trk: Tr
     if not state.holds_at(("visibility", trk.id), "not_visible"):
         return False
     w, h = trk.box[2], trk.box[3]
-    return any(t2 != trk.id and state.holds_at(("hidden_by", trk.id, t2), "true")
-               and 2 * intersection_area(trk.box, other.box) <= w * h for t2, other in tracks.items())
+    return any(2 * intersection_area(trk.box, other.box) <= w * h for other in _hidden_by(state, trk.id, tracks))
 
 
 def poss_lost(state: FluentState, constants: Mapping[str, int], trk: TrackPrediction, *,
