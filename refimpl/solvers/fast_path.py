@@ -288,8 +288,11 @@ def _candidate_pairs(problem: FrameProblem, state: EventState, constants: Mappin
     resume rules ask) fails the constraint without asking it: most overlaps in a crowd."""
     tracks, dets, iou = problem.tracks, problem.detections, problem.iou_map
     above = {"active": constants["iou_thresh"], "halted": constants["iou_thresh_resume"]}
+    lowest = min(above.values())
     pairs: list[tuple[int, int]] = []
     for (tid, did), v in iou.items():
+        if v <= lowest:
+            continue
         i, j = t_index.get(tid), d_index.get(did)
         if i is None or j is None:
             continue
