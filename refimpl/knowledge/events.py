@@ -100,7 +100,8 @@ def _fluent_key(fluent: FluentLike) -> FluentKey:
 def _event_parts(event: Union[Term, str]) -> tuple[str, tuple[str, ...]]:
     if isinstance(event, str):
         event = parse_term(event)
-    return event.name, tuple(str(a) for a in event.args)
+    # str(Term) of a constant is its name: read it without the call (this runs per folded event)
+    return event.name, tuple([a.name if type(a) is Term and not a.args else str(a) for a in event.args])
 
 
 # ---------------------------------------------------------------------------------------
@@ -211,7 +212,7 @@ class EventState:
             if OTHERS in positions:
                 self._set_others(args[positions[0]], value)  # type: ignore[index]
             else:
-                self._set((fluent,) + tuple(args[i] for i in positions), value)  # type: ignore[index]
+                self._set((fluent, *[args[i] for i in positions]), value)  # type: ignore[index]
 
     def _set(self, key: FluentKey, value: str) -> None:
         if key in self._group_keys:
