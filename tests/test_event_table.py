@@ -111,7 +111,40 @@ def test_a_pair_events_prefilter_is_implied_by_its_precondition():
                 assert overlapping_top(t1.box, t2.box, c["hide_overlap"]), atom
             else:
                 assert state.holds_at(("visibility", t1.id), "not_visible"), atom
+                partners = state.hidden_by_holding(t1.id, "true")
+                assert partners is None or t2.id in partners, atom
     assert all(seen.values()), seen  # each prefiltered event was possible somewhere
+
+
+def test_hidden_by_holding_is_the_set_of_tracks_holding_the_value():
+    # the 'hidden_by' prefilter tests only these partners: on random histories (hides_behind,
+    # recover's hidden_by(T, X) := false for every X, events at one time point, some inconsistent),
+    # for both states the CP-SAT backend queries, each value: the set is exactly the tracks X != T
+    # with holds_at(hidden_by(T, X), value), or None where the default value (that of a track no
+    # event named) is it
+    import random
+
+    from framegen import random_frame
+    from refimpl.solvers.trackwise_state import TrackwiseState
+
+    rng = random.Random(5)
+    counts = {"set": 0, "nonempty": 0, "none": 0}
+    for _ in range(300):
+        problem = random_frame(rng, with_history=True)
+        ids = [t.id for t in problem.tracks]
+        for state in (EventState.from_problem(problem), TrackwiseState(problem.history, ids)):
+            for t1 in ids:
+                for value in ("true", "false"):
+                    got = state.hidden_by_holding(t1, value)
+                    holding = {x for x in ids if x != t1 and state.holds_at(("hidden_by", t1, x), value)}
+                    if got is None:  # a track no event named holds it: the default does
+                        counts["none"] += 1
+                        assert state.holds_at(("hidden_by", t1, "trk_never_named"), value), (t1, value)
+                    else:
+                        counts["set"] += 1
+                        counts["nonempty"] += bool(got)
+                        assert set(got) & set(ids) == holding, (t1, value)
+    assert all(counts.values()), counts
 
 
 def test_the_action_costs_and_priorities_are_those_of_optimisation_lp():

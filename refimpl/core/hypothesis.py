@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from . import bigint
-from .spec import event_of, parse_atom
+from .spec import _FLAT_ARG, event_of, parse_atom
 
 PRIORITIES = (10, 5, 3, 2, 1, 0)
 """The cost levels, highest priority first (model/optimisation.lp, docs/model.md "Optimisation"):
@@ -155,6 +155,12 @@ def parse_action(atom: str) -> tuple[str, tuple[str, ...]]:
 
     Memoised as strings: a tuple of strings is no object the garbage collector walks (CPython
     stops tracking it), where parse_atom's memo keeps Terms, which it walks on every full
-    collection (docs/benchmarks.md, "The slowest frames")."""
+    collection (docs/benchmarks.md, "The slowest frames").  A flat atom ('name(a,b)', what every
+    backend's actions are) is split as parse_atom's flat case splits it, without making Terms."""
+    head, paren, rest = atom.partition("(")
+    if paren and "(" not in rest and rest.endswith(")") and _FLAT_ARG.fullmatch(head):
+        args = rest[:-1].split(",")
+        if all(_FLAT_ARG.fullmatch(a) for a in args):
+            return head, tuple(args)
     term = parse_atom(atom, memo=False)
     return term.name, term.arg_names

@@ -27,6 +27,8 @@ class FluentState(Protocol):
 
     def holds_at(self, fluent, value: str) -> bool: ...
 
+    def hidden_by_holding(self, trk: str, value: str) -> frozenset[str] | None: ...
+
     def started_at(self, trk: str) -> int | None: ...
 
     def halted_at(self, trk: str) -> int | None: ...
@@ -114,9 +116,19 @@ def kept_in_mind(state: FluentState, constants: Mapping[str, int], trk: TrackPre
     halt (the track was halted as missing_detections) keeps it in mind too."""
     if outside_fov(trk.box, constants["img_width"], constants["img_height"]):
         return False
-    return any(t2 != trk.id and (
-        (state.holds_at(("hidden_by", trk.id, t2), "true") and intersection_area(trk.box, other.box) > 0)
-        or overlapping_top(trk.box, other.box, constants["hide_overlap"])) for t2, other in tracks.items())
+    box, hide_overlap = trk.box, constants["hide_overlap"]
+    return (any(intersection_area(box, other.box) > 0 for other in _hidden_by(state, trk.id, tracks))
+            or any(t2 != trk.id and overlapping_top(box, other.box, hide_overlap) for t2, other in tracks.items()))
+
+
+def _hidden_by(state: FluentState, trk: str, tracks: Mapping[str, TrackPrediction]) -> list[TrackPrediction]:
+    """The current tracks T2 != trk with holds_at(hidden_by(trk, T2), true), for an any() over them
+    (in no order that matters): from the state's few partners (FluentState.hidden_by_holding) where
+    it names them, else by asking every track (a crowd's halted track has one or two among hundreds)."""
+    partners = state.hidden_by_holding(trk, "true")
+    if partners is None:
+        return [o for t2, o in tracks.items() if t2 != trk and state.holds_at(("hidden_by", trk, t2), "true")]
+    return [tracks[t2] for t2 in partners if t2 in tracks]
 
 
 def anticipated_unhide(state: FluentState, constants: Mapping[str, int], trk: TrackPrediction,
@@ -130,8 +142,7 @@ def anticipated_unhide(state: FluentState, constants: Mapping[str, int], trk: Tr
     if not state.holds_at(("visibility", trk.id), "not_visible"):
         return False
     w, h = trk.box[2], trk.box[3]
-    return any(t2 != trk.id and state.holds_at(("hidden_by", trk.id, t2), "true")
-               and 2 * intersection_area(trk.box, other.box) <= w * h for t2, other in tracks.items())
+    return any(2 * intersection_area(trk.box, other.box) <= w * h for other in _hidden_by(state, trk.id, tracks))
 
 
 def poss_lost(state: FluentState, constants: Mapping[str, int], trk: TrackPrediction, *,
@@ -216,8 +227,10 @@ class EventType:
     prefilter: str = ""
     """For a pair event: a condition its precondition implies that the CP-SAT model tests for all
     pairs at once before calling ``poss`` (a speed-up only, the same answers):
-    'overlapping_top' (position(overlapping_top, T1, T2)) or 'hidden' (visibility(T1) = not_visible);
-    empty: every other track is tested.  tests/test_event_table.py checks the implication."""
+    'overlapping_top' (position(overlapping_top, T1, T2)) or 'hidden_by' (visibility(T1) =
+    not_visible and hidden_by(T1, T2) = true: only T1's partners of FluentState.hidden_by_holding
+    are tested, in the frame's track order, the order of testing every track); empty: every other
+    track is tested.  tests/test_event_table.py checks the implication."""
     says_since: bool = False
     """Its sentence says since when the track was seen ('..., seen since frame 12, was discarded
     as noise')."""
@@ -229,9 +242,9 @@ class EventType:
             raise ValueError(f"event {self.name}: a halt_kind is required for a halting event and only there")
         if self.occluder is not None and not 0 < self.occluder < self.arity:
             raise ValueError(f"event {self.name}: occluder {self.occluder} is not a second argument")
-        if self.prefilter not in ("", "overlapping_top", "hidden") or (self.prefilter and self.arity != 2):
+        if self.prefilter not in ("", "overlapping_top", "hidden_by") or (self.prefilter and self.arity != 2):
             raise ValueError(f"event {self.name}: prefilter {self.prefilter!r} (pair events: '', "
-                             "'overlapping_top' or 'hidden')")
+                             "'overlapping_top' or 'hidden_by')")
         if not self.closing:
             object.__setattr__(self, "closing", self.halt_kind or self.phrase)
 
@@ -270,7 +283,7 @@ EVENT_TABLE: Mapping[str, EventType] = {e.name: e for e in (
               effects=(("visibility", (0,), "fully_visible"), ("hidden_by", (0, 1), "false"),
                        ("clipped", (0,), "false")),
               phrase="came out from behind", closing="reappeared", marker="^", colour="#9467bd",
-              occluder=1, prefilter="hidden"),
+              occluder=1, prefilter="hidden_by"),
     # refimpl decision (docs/model-spec.md): recover resets everything halting may have set.
     EventType("recover", 1, "resume", poss_recover,
               effects=(("clipped", (0,), "false"), ("visibility", (0,), "fully_visible"),

@@ -100,7 +100,8 @@ def _fluent_key(fluent: FluentLike) -> FluentKey:
 def _event_parts(event: Union[Term, str]) -> tuple[str, tuple[str, ...]]:
     if isinstance(event, str):
         event = parse_term(event)
-    return event.name, tuple(str(a) for a in event.args)
+    # str(Term) of a constant is its name: read it without the call (this runs per folded event)
+    return event.name, tuple([a.name if type(a) is Term and not a.args else str(a) for a in event.args])
 
 
 # ---------------------------------------------------------------------------------------
@@ -211,7 +212,7 @@ class EventState:
             if OTHERS in positions:
                 self._set_others(args[positions[0]], value)  # type: ignore[index]
             else:
-                self._set((fluent,) + tuple(args[i] for i in positions), value)  # type: ignore[index]
+                self._set((fluent, *[args[i] for i in positions]), value)  # type: ignore[index]
 
     def _set(self, key: FluentKey, value: str) -> None:
         if key in self._group_keys:
@@ -259,6 +260,18 @@ class EventState:
     def holds_at(self, fluent: FluentLike, value: str) -> bool:
         """holds_at(F, V, curr_time)."""
         return value in self.values(fluent)
+
+    def hidden_by_holding(self, trk: str, value: str) -> frozenset[str] | None:
+        """Every X with holds_at(hidden_by(trk, X), value), when they are finitely many: the X set
+        explicitly whose values include it; None when X's default (the initial value, or what a
+        recover(trk) set for every X) includes it, so that any other track may hold it.  Lets a
+        caller test a precondition that needs hidden_by(trk, X) = value for those X alone, instead
+        of every other track."""
+        default = self._others.get(trk)
+        if value in (frozenset((INITIAL_VALUE["hidden_by"],)) if default is None else default):
+            return None
+        explicit = self._hb_index.get(trk, ())
+        return frozenset(x for x in explicit if x != trk and value in self._values[("hidden_by", trk, x)])
 
     def occurs_at(self, event: Union[Term, str], t: int) -> bool:
         """occurs_at(E, t) is in the history folded so far."""

@@ -283,12 +283,12 @@ class LazyTiebreak:
         nonzero = inter != 0
         over = (nonzero.sum(axis=1) - nonzero.diagonal()).tolist() if len(tracks) else []
         bound = len(dets) * (nu - 1)
-        rows = inter.tolist() if named else None  # Python ints: the values of inter[i, j]
+        value = inter.item  # inter[i, j] as a Python int (of the few pairs named in the history)
         for i, t in enumerate(tracks):
             extra = named.get(t.id)
             n_others = over[i]
             if extra:  # named in the history, not overlapping now
-                n_others += sum(1 for x in extra if not rows[i][ids[x]])
+                n_others += sum(1 for x in extra if not value(i, ids[x]))
             bound += nu + nb * n_others - 1
         self.shift = max(bound, 0).bit_length()
         nt = len(tracks)

@@ -123,7 +123,7 @@ class CpSatSolver(Solver):
             # ImportError, not the KeyboardInterrupt that ends a command cleanly)
             from ortools.sat.python import cp_model  # noqa: F401
         self.stats: Counter[str] = Counter()
-        self._state_cache: dict[tuple[str, tuple], tuple[EventState, dict]] = {}
+        self._state_cache: dict[str, tuple[tuple, tuple[EventState, dict]]] = {}
 
     def _fallback(self, problem: FrameProblem, start: float, time_limit: float | None) -> Hypothesis:
         self.stats["timeout"] += 1

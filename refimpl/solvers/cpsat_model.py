@@ -52,15 +52,21 @@ def _pair_candidates(spec: EventType, i: int, tracks: Sequence[TrackPrediction],
                      state: EventState) -> Sequence[TrackPrediction]:
     """The second tracks worth testing poss for a pair event of tracks[i]: every other track, narrowed
     (as a speed-up only, same answers) by the condition its precondition implies (EventType.prefilter):
-    'overlapping_top' (hides_behind: the top matrix), 'hidden' (unhides_from_behind: the track
-    not_visible).  ``top``: the matrix, or its rows as lists of column indices (fast_path._rows,
-    computed once per frame)."""
+    'overlapping_top' (hides_behind: the top matrix), 'hidden_by' (unhides_from_behind: the track
+    not_visible, and only the tracks it is hidden_by, in the frame's order: in a crowd a hidden
+    track has one or two of those among hundreds of tracks).  ``top``: the matrix, or its rows as
+    lists of column indices (fast_path._rows, computed once per frame)."""
     if spec.prefilter == "overlapping_top":
         row = top[i]
         return [tracks[j] for j in (row if isinstance(row, list) else np.flatnonzero(row).tolist())]
-    if spec.prefilter == "hidden" and not _hidden(state, tracks[i].id):
-        return ()
-    return [t2 for t2 in tracks if t2.id != tracks[i].id]
+    trk = tracks[i].id
+    if spec.prefilter == "hidden_by":
+        if not _hidden(state, trk):
+            return ()
+        partners = state.hidden_by_holding(trk, "true")
+        if partners is not None:  # else every other track may be (a default of true)
+            return [t2 for t2 in tracks if t2.id in partners] if partners else ()
+    return [t2 for t2 in tracks if t2.id != trk]
 
 
 def _explanations(action: str, i: int, tracks: Sequence[TrackPrediction], top: np.ndarray,

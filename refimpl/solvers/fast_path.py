@@ -283,14 +283,23 @@ def _candidate_pairs(problem: FrameProblem, state: EventState, constants: Mappin
                      by_id: Mapping) -> list[tuple[int, int]]:
     """The candidate pairs (common.candidate_pairs: an iou/3 fact and the pair action's integrity
     constraint) as (track index, detection index) in iou/3 order: they rank the pair actions of the
-    tie-break, and an edge of the matching is one of them."""
+    tie-break, and an edge of the matching is one of them.  A pair at or below its action's IoU
+    threshold (iou_thresh for an active track, iou_thresh_resume for a halted one, which both
+    resume rules ask) fails the constraint without asking it: most overlaps in a crowd."""
     tracks, dets, iou = problem.tracks, problem.detections, problem.iou_map
+    above = {"active": constants["iou_thresh"], "halted": constants["iou_thresh_resume"]}
+    lowest = min(above.values())
     pairs: list[tuple[int, int]] = []
-    for (tid, did) in iou:
+    for (tid, did), v in iou.items():
+        if v <= lowest:
+            continue
         i, j = t_index.get(tid), d_index.get(did)
         if i is None or j is None:
             continue
         t, d = tracks[i], dets[j]
+        limit = above.get(t.state)
+        if limit is None or v <= limit:
+            continue
         if (assignment_constraints(problem, constants, iou, t, d) if t.state == "active"
                 else resume_constraints(problem, constants, iou, t, d, state, by_id)):
             pairs.append((i, j))

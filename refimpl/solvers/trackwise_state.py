@@ -20,12 +20,15 @@ class TrackwiseState:
     gives that track's fluents exactly.  Per-track states, with the holds_at answers they gave, are
     reused across frames while the track's events are unchanged (``cache``), so a tracker's frame
     folds only new events and asks each state only what no earlier frame asked;
-    ``used`` holds the entries this frame needed, the cache to pass to the next frame."""
+    ``used`` holds the entries this frame needed, the cache to pass to the next frame: track ->
+    (its events, their state and memo).  A track's entry is reused where its events are equal to
+    the entry's (a tuple comparison, which takes the tracker's own event objects, the same from
+    frame to frame, by identity: no event is hashed)."""
 
     _EMPTY = EventState()
 
     def __init__(self, history: Sequence, tracks: Sequence[str],
-                 cache: dict[tuple[str, tuple], tuple[EventState, dict]] | None = None):
+                 cache: dict[str, tuple[tuple, tuple[EventState, dict]]] | None = None):
         groups: dict[str, list] = {}
         for h in history:
             args = h.event.args
@@ -35,17 +38,20 @@ class TrackwiseState:
         cache = {} if cache is None else cache
         # per track: its EventState and the memo of its holds_at answers, which never change (the
         # state is folded once from the track's events; a new event makes a new key)
-        self.used: dict[tuple[str, tuple], tuple[EventState, dict]] = {}
+        self.used: dict[str, tuple[tuple, tuple[EventState, dict]]] = {}
         self._per: dict[str, tuple[EventState, dict]] = {}
         for trk in tracks:
             events = groups.get(trk)
             if not events:
                 continue
-            key = (trk, tuple(events))
-            entry = cache.get(key)
-            if entry is None:
+            key = tuple(events)
+            got = cache.get(trk)
+            if got is not None and got[0] == key:
+                entry = got[1]
+            else:
                 entry = (EventState(events, (trk,)), {})
-            self.used[key] = self._per[trk] = entry
+            self.used[trk] = (key, entry)
+            self._per[trk] = entry
         self._empty = (self._EMPTY, {})
 
     def _state(self, trk: str) -> EventState:
@@ -62,6 +68,16 @@ class TrackwiseState:
         got = memo.get(memo_key)
         if got is None:
             got = memo[memo_key] = value in st.values_of_key(key)
+        return got
+
+    def hidden_by_holding(self, trk: str, value: str) -> frozenset[str] | None:
+        """EventState.hidden_by_holding from trk's own state (hidden_by(trk, X) is trk's fluent),
+        memoised with its holds_at answers (keyed (trk, value), where theirs are (fluent tuple, value))."""
+        st, memo = self._per.get(trk, self._empty)
+        memo_key = (trk, value)
+        if memo_key in memo:
+            return memo[memo_key]
+        got = memo[memo_key] = st.hidden_by_holding(trk, value)
         return got
 
     def started_at(self, trk: str) -> int | None:

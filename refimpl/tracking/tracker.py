@@ -236,8 +236,9 @@ class AbductionTracker:
             ml = scale_iou(iou_matrix(predicted, boxes))
             self._either_motion(tracks, boxes, ml)
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
-            iou = tuple((tracks[k].id, det_ids[j], v)
-                        for k, j, v in zip(ks.tolist(), js.tolist(), ml[ks, js].tolist()))
+            track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
+            iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
+                            ml[ks, js].tolist()))
         history = tuple(e for t in tracks for e in t.history)
         # Built here, the problem holds what FrameProblem checks by construction (ids made here,
         # unique; integer boxes with w, h >= 1; one IoU fact per pair, 0..100000; track types
