@@ -51,9 +51,18 @@ def test_the_registry_holds_boxmots_five_motion_only_trackers_and_all_means_ever
 
 def test_a_missing_boxmot_is_one_line_before_any_data_is_read(monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "boxmot", None)  # this test only: `import boxmot` raises ImportError
-    assert main(["benchmark", "kitti-cyc", "--peers", "all", "--data", "/nonexistent"]) == 2
+    # a peer asked for by name must run: its missing package is the one line, exit 2
+    assert main(["benchmark", "kitti-cyc", "--peers", "sort,boxmot-ocsort", "--data", "/nonexistent"]) == 2
     err = capsys.readouterr().err.strip()
     assert "pip install 'refimpl[peers-boxmot]'" in err and "boxmot==25.0.0" in err and "\n" not in err
+    # 'all' is every peer whose package is installed: the five BoxMOT ones are named as not run, and
+    # the run goes on with the others, here into the missing data root (its own one line, exit 2)
+    pytest.importorskip("trackers")
+    assert main(["benchmark", "kitti-cyc", "--peers", "all", "--data", "/nonexistent"]) == 2
+    first, *rest = capsys.readouterr().err.strip().splitlines()
+    assert first == ("refimpl benchmark: not run: boxmot-bytetrack, boxmot-ocsort, boxmot-botsort, "
+                     "boxmot-hybridsort, boxmot-boosttrack (package not installed: boxmot)")
+    assert len(rest) == 1 and "/nonexistent" in rest[0]
 
 
 def test_boxmot_peers_run_on_detections_alone_and_write_the_detections_box(boxmot):

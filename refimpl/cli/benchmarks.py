@@ -19,7 +19,7 @@ from ..experiments.calibrate import (CALIBRATE_BEGIN, CALIBRATE_END, calibrate, 
 from ..experiments.occlusion import SCENARIOS, write_suite
 from ..experiments.occlusion_bench import format_results, parse_variant, run_suite
 from ..experiments.shift_table import SHIFTS_BEGIN, SHIFTS_END, shift_table
-from ..experiments.peers import (PEERS, PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table,
+from ..experiments.peers import (PEERS_BEGIN, PEERS_END, compare, comparison_report, comparison_table,
                                  parse_peers, peer_class, per_sequence_table)
 from ..experiments.peers_report import TUNED_BEGIN, TUNED_END, installed_peers, not_run_note, tuned_on_report
 from ..runs.progress import Progress
@@ -91,19 +91,38 @@ def _write_results(args: argparse.Namespace, runs) -> None:
     print(f"results: {args.results_dir}/<dataset>/<sequence>.txt", file=sys.stderr)
 
 
+def runnable_peers(text: str, command: str) -> tuple[list[str], dict[str, str]]:
+    """``--peers``: (the peers to run, {peer not run: its package}; not_run_note words it).  Peers named one by one must
+    run: a missing package is one line, exit 2, before any data is read.  ``all`` is every
+    registered peer whose package is installed; the others are named on stderr and in the note
+    (BoxMOT needs torch, which not every machine has); none installed is the first one's line."""
+    try:
+        asked = parse_peers(text)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    if text.strip() != "all":
+        for p in asked:
+            peer_class(p)
+        return list(asked), {}
+    run, missing = installed_peers(asked)
+    if not run:
+        peer_class(asked[0])
+    if missing:
+        print(f"refimpl {command}: {not_run_note(missing)}", file=sys.stderr)
+    return list(run), missing
+
+
 def _benchmark_shifts(args: argparse.Namespace) -> int:
     """benchmark --shift: baseline, abduction (and --peers) on every shift of every dataset
     (refimpl.io.shifts): HOTA / IDF1 per shift, the worst case and the largest drop."""
     try:
         shifts = parse_shifts(args.shift)
-        peers = list(parse_peers(args.peers)) if args.peers is not None else []
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if args.results_dir or args.per_sequence or args.repeat != 1:
         raise UserError("--shift prints one table of shifts per dataset: give it without --results-dir, "
                         "--per-sequence and --repeat")
-    for p in peers:
-        peer_class(p)
+    peers, _ = runnable_peers(args.peers, "benchmark") if args.peers is not None else ([], {})
     backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
     tables, report = _shift_tables(args, args.names, shifts, peers, backend)
     if args.out:
@@ -143,12 +162,7 @@ def _shifts_section(tables: list[str], note: str = "") -> str:
 
 def _benchmark_peers(args: argparse.Namespace) -> int:
     """benchmark --peers: baseline, abduction and the peers side by side on every dataset."""
-    try:
-        peers = list(parse_peers(args.peers))
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    for p in peers:
-        peer_class(p)  # a missing package (PeersUnavailable, one line) before any data is read
+    peers, missing = runnable_peers(args.peers, "benchmark")  # before any data is read
     if args.repeat < 1:
         raise UserError(f"--repeat must be >= 1, got {args.repeat}")
     backend = DEFAULT_BACKEND if args.backend == BASELINE else args.backend
@@ -156,7 +170,7 @@ def _benchmark_peers(args: argparse.Namespace) -> int:
     if args.out:
         write_section(args.out, PEERS_BEGIN, PEERS_END,
                       comparison_report(comparisons, format_command(sys.argv[1:]), machine_note(),
-                                        args.per_sequence))
+                                        args.per_sequence, not_run_note(missing)))
         print(f"written: {args.out}")
     if args.json:
         write_text_atomic(args.json, json.dumps({"backend": backend, "peers": peers, "benchmarks": report},
@@ -194,19 +208,10 @@ def cmd_bench_peers(args: argparse.Namespace) -> int:
     puts in the report, like bench-scale and bench-latency regenerate docs/benchmarks.md)."""
     out = None if args.out == "-" else args.out
     check_outputs({"--out": out, "--json": args.json})
-    try:
-        asked = parse_peers(args.peers) if args.peers is not None else tuple(PEERS)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    if args.peers is not None:
-        for p in asked:
-            peer_class(p)  # a peer asked for by name must run: its missing package is one line, exit 2
+    peers, missing = runnable_peers("all" if args.peers is None else args.peers, "bench-peers")
+    note = not_run_note(missing)
     for name in dict.fromkeys((*PEER_TABLE_DATASETS, *SHIFT_TABLE_DATASETS)):
         dataset_kind(name, args.data)  # every set's files are there before the first of a long run is tracked
-    peers, missing = installed_peers(asked)
-    note = not_run_note(missing)
-    if note:
-        print(f"refimpl bench-peers: {note}", file=sys.stderr)
     command = format_command(sys.argv[1:])
     tuned = tuned_on_report(load_presets(), command)
     print(tuned)
@@ -378,12 +383,7 @@ def _bench_crowds(args: argparse.Namespace, out: str | None, command: str) -> in
         raise UserError(f"--trackers takes a comma-separated list out of {', '.join(TRACKERS)}, got {args.trackers!r}")
     if not sizes or min(sizes) < 1 or args.frames < 1:
         raise UserError("--sizes must be objects per frame >= 1, --frames >= 1")
-    try:
-        peers = list(parse_peers(",".join(peers))) if peers else []
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-    for p in peers:
-        peer_class(p)  # a missing package: one line before anything runs
+    peers, _ = runnable_peers(",".join(peers), "bench-latency") if peers else ([], {})
     progress = Progress(len(sizes) * (len(trackers) + len(peers)), "crowds", enabled=not args.quiet)
     result = cr.bench_crowds(sizes, args.frames, trackers, peers, args.time_limit, args.seed, step=progress.step)
     progress.close()

@@ -201,7 +201,8 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
                         "lines refimpl track writes)")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     b.add_argument("--peers", metavar="LIST",
-                   help=f"compare with peer trackers, 'all' or a comma-separated list out of {','.join(PEERS)} "
+                   help="compare with peer trackers, 'all' (every one whose package is installed, the others "
+                        f"named) or a comma-separated list out of {','.join(PEERS)} "
                         "(sort, bytetrack, ocsort: the 'trackers' package, extra 'peers'; boxmot-*: BoxMOT's "
                         "motion-only trackers, extra 'peers-boxmot'): baseline, abduction (--backend, "
                         f"{DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
