@@ -50,6 +50,7 @@ def solve(backend: str, problem: FrameProblem, **kw) -> Hypothesis:
 # --- frame building -------------------------------------------------------------------------
 
 MID = (300, 300, 50, 50)  # a box far from every border
+LEAVING = (-30, 300, 50, 50)  # at the left border, 20 of its 50 columns inside: 40 % <= leave_visible 75 %
 
 
 def det(i: int, box=MID, typ: str = "car", conf: int = 90) -> Detection:
@@ -153,8 +154,9 @@ def test_kitti_0020_t79(backend):
         "assign(trk_7,det_8)", "assign(trk_11,det_0)", "assign(trk_12,det_3)", "assign(trk_13,det_5)",
         # trk_0 (halted, clipped since 70): its only candidate det_0 (resume IoU 0.35) is worth
         # more assigned to trk_11 (IoU 0.83, @10). Ending (5@2) beats ignoring (10@3); its box
-        # starts at x=-42 (near the border), so leaves_fov (cost 1) explains it, cheaper than
-        # lost (79-70 = 9 >= lost_after_missing = 3, cost 3).
+        # (-42, 227, 249, 159) starts at x=-42 (near the border) but 207 of its 249 columns are
+        # inside (83 % > leave_visible 75 %: it has not left, docs/model.md 3.25), so lost
+        # (79-70 = 9 >= lost_after_missing = 3, cost 3) explains it.
         "end(trk_0)",
         # trk_9 (halted, clipped since 69): resume IoU with det_2 is 0.076 <= 0.1; not near a
         # border; 79-69 = 10 >= lost_after_missing = 3, but trk_6's predicted box covers it from
@@ -170,14 +172,14 @@ def test_kitti_0020_t79(backend):
         # 154), det_13 and det_14 (trucks: no car track may take them) start new tracks.
         "start(det_6)", "start(det_9)", "start(det_13)", "start(det_14)"]))
     assert h.events == tuple(sorted([
-        "occurs_at(leaves_fov(trk_0),79)", "occurs_at(hides_behind(trk_9,trk_6),79)",
+        "occurs_at(lost(trk_0),79)", "occurs_at(hides_behind(trk_9,trk_6),79)",
         "occurs_at(enters_fov(det_6),79)", "occurs_at(enters_fov(det_9),79)",
         "occurs_at(enters_fov(det_13),79)", "occurs_at(enters_fov(det_14),79)"]))
     # @10: -(96879 + 84365 + 94824 + 71071 + 86273 + 83400 + 90971 + 84391 + 8) = -692182
     # @3: (3 ignore_det + 1 ignore_trk) * 10 = 40;  @2: 1 end * 5 + 4 starts * 5 = 25
-    # @1: leaves_fov 1 + hides_behind 1 + 4 enters_fov = 6
+    # @1: lost 3 + hides_behind 1 + 4 enters_fov = 8
     # @0: the canonical tie-break by its plain definition (tests/plain_tiebreak.py)
-    assert h.cost == ((10, -692182), (5, 0), (3, 40), (2, 25), (1, 6), (0, plain_level0(problem, h.actions, h.events)))
+    assert h.cost == ((10, -692182), (5, 0), (3, 40), (2, 25), (1, 8), (0, plain_level0(problem, h.actions, h.events)))
 
 
 def test_bus_t268_file_is_canonical_and_its_ious_are_computed():
@@ -370,14 +372,14 @@ def test_active_track_is_neither_ended_nor_ignored(backend):
     # clipped = false), near the left border (leaves_fov could explain an end) and has no
     # detection. end + leaves_fov, or ignore_trk, would be admissible without end_constraints /
     # ignore_trk_constraints; with them there is no admissible hypothesis.
-    p = frame([], [trk(1, box=(5, 300, 50, 50))], [], [hist("missing_detections(trk_1)", 5)])
+    p = frame([], [trk(1, box=LEAVING)], [], [hist("missing_detections(trk_1)", 5)])
     with pytest.raises(NoAdmissibleHypothesis):
         solve(backend, p)
 
 
 def test_halted_track_is_not_halted_again(backend):
     # halt + missing_detections (0@2, 2@1) would beat end + leaves_fov (5@2, 1@1)
-    p = frame([], [trk(1, "halted", box=(5, 300, 50, 50))])
+    p = frame([], [trk(1, "halted", box=LEAVING)])
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)")]))
     # @0: leaves_fov's index at trk_1 (3: missing_detections, recover, enters_fov, leaves_fov)
@@ -516,15 +518,27 @@ def _ended(box=MID, history=(), constants=(), time=10):
     return frame([], [trk(1, "halted", box=box)], [], history, constants, time)
 
 
+ALONE = (("leave_visible", 100),)  # the border alone: every box counts as out of view (3.25)
+
+
 @pytest.mark.parametrize("box,constants,leaves", [
-    ((300, 300, 50, 50), (), False),
-    ((10, 300, 50, 50), (), True),        # x <= border_margin
-    ((300, 11, 50, 50), (), False),       # y = 11 > border_margin
-    ((300, 10, 50, 50), (), True),
-    ((1180, 300, 52, 50), (), False),     # image width unknown: the right border is not tested
-    ((1180, 300, 52, 50), (("img_width", 1242),), True),   # 1232 >= 1242 - 10
-    ((1180, 300, 51, 50), (("img_width", 1242),), False),  # 1231 < 1232
-    ((300, 300, 50, 50), (("img_height", 360),), True),    # 350 >= 360 - 10
+    ((300, 300, 50, 50), ALONE, False),
+    ((10, 300, 50, 50), ALONE, True),        # x <= border_margin
+    ((300, 11, 50, 50), ALONE, False),       # y = 11 > border_margin
+    ((300, 10, 50, 50), ALONE, True),
+    ((1180, 300, 52, 50), ALONE, False),     # image width unknown: the right border is not tested
+    ((1180, 300, 52, 50), (("img_width", 1242),) + ALONE, True),   # 1232 >= 1242 - 10
+    ((1180, 300, 51, 50), (("img_width", 1242),) + ALONE, False),  # 1231 < 1232
+    ((300, 300, 50, 50), (("img_height", 360),) + ALONE, True),    # 350 >= 360 - 10
+    # docs/model.md 3.25, leave_visible 75: at most 75 % of the box inside the image
+    ((10, 300, 50, 50), (), False),          # near the border, but all of it inside
+    ((-13, 300, 50, 50), (), True),          # 37 of 50 columns inside: 100 * 37 * 50 <= 75 * 50 * 50
+    ((-12, 300, 50, 50), (), False),         # 38 of 50: 76 % > 75 %
+    ((1205, 300, 50, 50), (("img_width", 1242),), True),   # columns 1205..1241 inside: 37 of 50
+    ((1204, 300, 50, 50), (("img_width", 1242),), False),  # 38 of 50
+    ((1205, 300, 50, 50), (), False),        # image width unknown: the right border does not clip
+    ((-13, -13, 50, 50), (), True),          # 37 x 37 of 50 x 50 inside: 54.8 %
+    ((-13, 300, 50, 50), (("leave_visible", 0),), False),  # 0: only a box wholly outside
 ])
 def test_leaves_fov_needs_near_border(backend, box, constants, leaves):
     h = solve(backend, _ended(box, constants=constants))
@@ -535,7 +549,7 @@ def test_leaves_fov_needs_near_border(backend, box, constants, leaves):
 
 
 def test_leaves_fov_needs_in_fov(backend):
-    near = (5, 300, 50, 50)
+    near = LEAVING
     h = solve(backend, _ended(near, [hist("leaves_fov(trk_1)", 4)]))
     assert h.answer == ("ignore_trk(trk_1)",)
     # entering again makes in_fov true (enters_fov at 7 also starts it: noise needs 10-7 <= 3,
@@ -625,7 +639,7 @@ def test_noise_only_for_young_tracks(backend, started, noise):
 def test_end_takes_the_cheapest_explanation(backend):
     # leaves_fov (1), noise (2) and lost (3) are all possible
     history = [hist("enters_fov(trk_1)", 8), hist("missing_detections(trk_1)", 8)]
-    p = _ended((5, 300, 50, 50), history, time=11)
+    p = _ended(LEAVING, history, time=11)
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["end(trk_1)", ev("leaves_fov(trk_1)", 11)]))
     p = _ended(MID, history, time=11)

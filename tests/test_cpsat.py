@@ -99,10 +99,11 @@ def test_levels_are_lexicographic():
 
 def test_lower_levels_break_ties_of_higher_ones():
     # both halted tracks could end (5@2) or be ignored (10@3): level 3 decides for end; the end's
-    # explanation is the cheapest possible event at level 1 (leaves_fov 1 < noise 2 < lost 3)
+    # explanation is the cheapest possible event at level 1 (leaves_fov 1 < noise 2 < lost 3);
+    # trk_1 is at the left border with 10 of its 20 columns inside (50 % <= leave_visible 75 %)
     p = FrameProblem(
         time=10,
-        tracks=(TrackPrediction("trk_1", "car", "halted", (0, 50, 20, 20)),
+        tracks=(TrackPrediction("trk_1", "car", "halted", (-10, 50, 20, 20)),
                 TrackPrediction("trk_2", "car", "halted", (50, 50, 20, 20))),
         history=(H("enters_fov(trk_1)", 8), H("missing_detections(trk_1)", 2),
                  H("enters_fov(trk_2)", 8), H("missing_detections(trk_2)", 2)))

@@ -282,7 +282,7 @@ def _problem(history, t=20, tracks=None, consts=()):
     tracks = tracks or (
         TrackPrediction("trk_1", "car", "halted", (100, 100, 50, 40)),
         TrackPrediction("trk_2", "car", "active", (110, 105, 60, 50)),  # over trk_1, lower bottom edge
-        TrackPrediction("trk_3", "car", "active", (3, 300, 40, 40)),   # near the left border
+        TrackPrediction("trk_3", "car", "active", (-20, 300, 40, 40)),  # half beyond the left border
     )
     return FrameProblem(time=t, tracks=tracks, history=tuple(history), constants=tuple(consts))
 

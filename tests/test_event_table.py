@@ -171,7 +171,8 @@ def test_the_action_costs_and_priorities_are_those_of_optimisation_lp():
 #     hides_behind(trk_1,trk_2) and missing_detections(trk_1) are possible;
 #   trk_3 halted, hidden behind trk_2 since 95 (not_visible, hidden_by): unhides_from_behind
 #     (trk_3,trk_2) and recover(trk_3) are possible, and det_0 (iou 90000, conf 90) can resume it;
-#   trk_4 halted, started and missing at 97, near the right border (x+w = 998 > 1000-10): at
+#   trk_4 halted, started and missing at 97, at the right border and mostly beyond it (x+w =
+#     1010 > 1000-10; 10 of its 20 columns inside: 50 % <= leave_visible 75 %, out_of_view): at
 #     curr_time 100, noise (100-97 <= noise_max_age 3), lost (100-97 >= lost_after_missing 3)
 #     and leaves_fov are possible;
 #   det_0 cannot start a track (trk_3 is where it is: IoU 0.9 > iou_thresh_occupied 0.5,
@@ -188,7 +189,7 @@ box2d(det_1, 600, 300, 50, 50).
 trk(trk_1, car). trk_state(trk_1, active). box2d(trk_1, 100, 100, 100, 100).
 trk(trk_2, car). trk_state(trk_2, active). box2d(trk_2, 120, 110, 120, 100).
 trk(trk_3, car). trk_state(trk_3, halted). box2d(trk_3, 130, 120, 50, 50).
-trk(trk_4, car). trk_state(trk_4, halted). box2d(trk_4, 978, 100, 20, 20).
+trk(trk_4, car). trk_state(trk_4, halted). box2d(trk_4, 990, 100, 20, 20).
 iou(trk_3, det_0, 90000).
 occurs_at(enters_fov(trk_1), 10).
 occurs_at(enters_fov(trk_2), 10).

@@ -109,6 +109,16 @@ def test_hide_overlap_below_zero_is_refused_as_a_const_option(capsys):
     assert "hide_overlap=-1 must be >= 0" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("value,refused", [(-1, True), (0, False), (100, False), (101, True)])
+def test_leave_visible_must_be_a_percentage(capsys, value, refused):
+    # out_of_view (docs/model.md 3.25) compares 100 * VW * VH with leave_visible * W * H; only
+    # 0..100 keeps the right side within the 100 * W * H that check_ranges already bounds
+    code = cli.main(["solve", "data/examples/kitti_0020_t79.lp", "--const", f"leave_visible={value}"])
+    err = capsys.readouterr().err
+    assert code == (2 if refused else 0)
+    assert (f"leave_visible={value} must be within 0..100" in err) == refused
+
+
 def test_at_the_exact_limits_every_backend_still_agrees(solvers):
     # the largest accepted time difference: 2^30 - (-2^30 + 1) = 2^31 - 1.  The track halted at
     # -2^30 + 1 by missing_detections (cost 2), so at curr_time it may be lost (curr_time - T =

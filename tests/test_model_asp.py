@@ -9,6 +9,7 @@ The association behaviour shared with CP-SAT is in tests/test_association.py.
 from __future__ import annotations
 
 import random
+from dataclasses import replace
 import re
 import subprocess
 import sys
@@ -20,7 +21,7 @@ clingo = pytest.importorskip("clingo")
 
 from refimpl.core.constants import default_constants, model_dir  # noqa: E402
 from refimpl.core.geometry import intersection_area  # noqa: E402
-from refimpl.knowledge.relations import near_border, overlapping_top  # noqa: E402
+from refimpl.knowledge.relations import near_border, out_of_view, outside_fov, overlapping_top  # noqa: E402
 from refimpl.solvers import NoAdmissibleHypothesis, SolverUnavailable  # noqa: E402
 from refimpl.solvers.clingo_backend import (ClingoSolver, clingo_arguments,  # noqa: E402
                                             default_model_files, problem_facts)
@@ -201,6 +202,7 @@ def test_spatial_relations_match_python():
         facts = ground_facts(frame([], tracks, constants=list(consts.items())))
         for a in tracks:
             assert (f"near_border({a.id})" in facts) == near_border(a.box, 640, 480, 10)
+            assert (f"out_of_view({a.id})" in facts) == out_of_view(a.box, 640, 480, 75)
             assert f"area({a.id},{a.box[2] * a.box[3]})" in facts
             for b in tracks:
                 if a.id == b.id:
@@ -209,6 +211,20 @@ def test_spatial_relations_match_python():
                 assert f"inter({a.id},{b.id},{inter})" in facts
                 assert (f"overlap({a.id},{b.id})" in facts) == (inter > 0)
                 assert (f"position(overlapping_top,{a.id},{b.id})" in facts) == overlapping_top(a.box, b.box, 10)
+
+
+@pytest.mark.parametrize("width,height,leave_visible", [(640, 480, 0), (640, 480, 50), (640, 0, 75), (0, 0, 100)])
+def test_out_of_view_matches_python(width, height, leave_visible):
+    # boxes straddling every border, inside, outside and beyond; an image size of 0 does not clip
+    rng = random.Random(leave_visible + width)
+    tracks = [trk(i, box=(rng.randrange(-150, 700), rng.randrange(-150, 550), rng.randrange(1, 200),
+                          rng.randrange(1, 200))) for i in range(30)]
+    consts = {"img_width": width, "img_height": height, "leave_visible": leave_visible}
+    facts = ground_facts(frame([], tracks, constants=list(consts.items())))
+    got = {a.id for a in tracks if f"out_of_view({a.id})" in facts}
+    assert got == {a.id for a in tracks if out_of_view(a.box, width, height, leave_visible)}
+    if leave_visible == 0:   # only a box with no pixel inside: outside_fov (spatial.lp) exactly
+        assert got == {a.id for a in tracks if outside_fov(a.box, width, height)}
 
 
 def test_near_border_ignores_unknown_image_size():
@@ -250,8 +266,27 @@ def test_kitti_history():
     assert values(facts, "clipped(trk_9)", 79) == {"true"}
     assert values(facts, "clipped(trk_7)", 79) == {"false"}   # missing at 72, recovered at 73
     assert {"halted_at(trk_0,70)", "halted_at(trk_7,72)", "halted_at(trk_9,69)"} <= facts
-    assert {f for f in facts if f.startswith("poss(leaves_fov")} == {
-        "poss(leaves_fov(trk_0))", "poss(leaves_fov(trk_11))"}
+    # Both tracks are near the left border (x = -42 and -26 <= border_margin), but the image size is
+    # unknown in this file, so only the left border clips: trk_0 (-42, 227, 249, 159) has
+    # 207 / 249 = 83.1 % of its box inside, trk_11 (-26, 188, 235, 113) 209 / 235 = 88.9 %.
+    # leaves_fov needs at most leave_visible = 75 % inside (docs/model.md 3.25): neither has left.
+    assert {f for f in facts if f.startswith("poss(leaves_fov")} == set()
+
+
+@pytest.mark.parametrize("leave_visible,expected", [
+    (100, {"poss(leaves_fov(trk_0))", "poss(leaves_fov(trk_11))"}),   # the border alone (before 3.25)
+    (85, {"poss(leaves_fov(trk_0))"}),                                 # 83.1 % <= 85 < 88.9 %
+    (83, set()),                                                       # 100 * 207 * 159 > 83 * 249 * 159
+])
+def test_leaves_fov_needs_the_box_mostly_out_of_view(leave_visible, expected):
+    problem = read_problem(str(EXAMPLES / "kitti_0020_t79.lp"))
+    problem = replace(problem, constants=problem.constants + (("leave_visible", leave_visible),))
+    facts = ground_facts(problem)
+    assert {f for f in facts if f.startswith("poss(leaves_fov")} == expected
+    # relations.out_of_view (the precondition the CP-SAT model and the checker read) says the same
+    for t in problem.tracks:
+        if t.id in ("trk_0", "trk_11"):
+            assert out_of_view(t.box, 0, 0, leave_visible) == (f"poss(leaves_fov({t.id}))" in expected)
 
 
 # =============================================================================================

@@ -96,7 +96,7 @@ def test_command_parses(lineno, args):
 
 PINNED_PRESET = ("--no-preset", "--const", "conf_thresh_new_track=80", "--const", "conf_thresh_assign=60", "--const",
                  "iou_thresh=20000", "--const", "conf_thresh_resume=50", "--const", "iou_thresh_resume=10000",
-                 "--const", "iou_thresh_occupied=100000",
+                 "--const", "iou_thresh_occupied=100000", "--const", "leave_visible=100",
                  "--written-box", "detection", "--velocity-noise", "10", "--backfill", "no", "--fill-hidden", "0")
 """The KITTI Car preset the doc's examples were made with, as the doc's command spells it out: on
 top of the defaults (--no-preset), so that a later preset's new constant or option cannot change it."""

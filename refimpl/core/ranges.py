@@ -25,6 +25,9 @@ What the model computes (model/*.lp, the same in refimpl/knowledge/relations.py 
   (model/events.lp, lost and noise): each operand within +-2^30 (``TIME_LIMIT``), and the
   difference itself checked, since 2^30 - (-2^30) is one beyond the range (found by
   tests/tools/fuzz_agreement.py: clingo wrapped it, abduced an impossible ``noise`` and missed a ``lost``);
+* ``leave_visible`` within 0..100: ``100 * VW * VH <= leave_visible * W * H`` (model/spatial.lp
+  [out_of_view], VW <= W and VH <= H the box's part inside the image) then fits wherever
+  ``100 * W * H`` does;
 * ``hide_overlap`` >= 0: it is a percentage, and below 0 ``100 * I > hide_overlap * W * H``
   holds for tracks that do not overlap at all, so any track could hide behind any other and the
   canonical tie-break (refimpl/solvers/common.py, which ranks only overlapping or
@@ -58,6 +61,9 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
     if (name in _TEMPORAL or name in _BORDER or name == "curr_time") and abs(value) > TIME_LIMIT:
         raise ProblemFormatError(f"{name}={value} is outside -{TIME_LIMIT}..{TIME_LIMIT} (times and image "
                                  "sizes are added to other values in 32-bit arithmetic)", source)
+    if name == "leave_visible" and not 0 <= value <= 100:
+        raise ProblemFormatError(f"leave_visible={value} must be within 0..100 (a percentage of the track's box; "
+                                 "model/spatial.lp [out_of_view] multiplies it by the box area)", source)
     if name == "hide_overlap" and value < 0:
         raise ProblemFormatError(f"hide_overlap={value} must be >= 0 (a percentage of the track's box; below 0 "
                                  "every pair of tracks would count as overlapping)", source)

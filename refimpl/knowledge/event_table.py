@@ -18,7 +18,7 @@ from typing import Callable, Mapping, Protocol, Union
 
 from ..core.geometry import intersection_area
 from ..core.spec import TrackPrediction
-from .relations import near_border, outside_fov, overlapping_top
+from .relations import near_border, out_of_view, outside_fov, overlapping_top
 
 
 class FluentState(Protocol):
@@ -101,9 +101,12 @@ def poss_enters_fov(state: FluentState, constants: Mapping[str, int], det_id: st
 
 def poss_leaves_fov(state: FluentState, constants: Mapping[str, int], trk: TrackPrediction,
         *, tracks: Mapping[str, TrackPrediction] | None = None) -> bool:
-    """refimpl decision (docs/model-spec.md): in_fov(T)=true and near_border(T)."""
-    return state.holds_at(("in_fov", trk.id), "true") and near_border(
-        trk.box, constants["img_width"], constants["img_height"], constants["border_margin"])
+    """refimpl decision (docs/model-spec.md): in_fov(T)=true and near_border(T), and (docs/model.md
+    3.25) out_of_view(T): at most leave_visible % of its anticipated box is inside the image."""
+    width, height = constants["img_width"], constants["img_height"]
+    return (state.holds_at(("in_fov", trk.id), "true")
+            and near_border(trk.box, width, height, constants["border_margin"])
+            and out_of_view(trk.box, width, height, constants["leave_visible"]))
 
 
 def kept_in_mind(state: FluentState, constants: Mapping[str, int], trk: TrackPrediction,

@@ -4,7 +4,8 @@ Boxes are (x, y, w, h) sequences in image pixels: top-left corner, width, height
 downwards.  A box spans the closed extent [x, x + w] x [y, y + h]; for integer boxes this is the
 pixel grid with pixels x .. x + w - 1, so two boxes with x + w == x' share an edge but no pixel.
 
-The first four functions (overlapping_top, near_border, outside_fov, area) are pure integer functions that give
+The first six functions (overlapping_top, near_border, outside_fov, visible_area, out_of_view, area) are pure
+integer functions that give
 exactly what the ASP encoding computes from box2d/5 facts.  The rest implement the relations of
 Table 2 that apply to axis-aligned boxes over time and accept integers or floats:
 
@@ -64,6 +65,20 @@ def outside_fov(b: Box, img_width: int, img_height: int) -> bool:
         or (img_width > 0 and x >= img_width)
         or (img_height > 0 and y >= img_height)
     )
+
+
+def visible_area(b: Box, img_width: int, img_height: int) -> int:
+    """The area of the part of the box inside the field of view (0 = size unknown: that border does not clip)."""
+    x, y, w, h = b
+    right = min(x + w, img_width) if img_width > 0 else x + w
+    bottom = min(y + h, img_height) if img_height > 0 else y + h
+    return max(0, right - max(x, 0)) * max(0, bottom - max(y, 0))
+
+
+def out_of_view(b: Box, img_width: int, img_height: int, leave_visible: int) -> bool:
+    """At most leave_visible % of the box lies inside the field of view (model/spatial.lp
+    [out_of_view], docs/model.md 3.25)."""
+    return 100 * visible_area(b, img_width, img_height) <= leave_visible * b[2] * b[3]
 
 
 def area(b: Box) -> int:
