@@ -62,3 +62,15 @@ def test_a_model_clingo_cannot_parse_is_one_line_at_every_solve(tmp_path):
         with pytest.raises(RuntimeError, match="clingo could not parse the model: .*bad.lp"):
             solver.solve(p)
     assert solver._statements is None
+
+
+def test_comments_are_not_handed_to_clingo():
+    # model/*.lp is mostly comments (each rule's tag and why); the parsed program keeps only the
+    # statements, here as many as there are rules, #const, #defined, #minimize, #show and
+    # #program lines
+    solver = ClingoSolver(isolate=False)
+    statements = solver._program(lambda code, message: None)
+    parsed: list = []
+    clingo.ast.parse_files([str(p) for p in default_model_files()], parsed.append)
+    kept = [s for s in parsed if s.ast_type != clingo.ast.ASTType.Comment]
+    assert len(kept) < len(parsed) and [str(s) for s in statements] == [str(s) for s in kept]
