@@ -105,8 +105,8 @@ PART_NODES = 48
 parsing and grounding the model whatever its size, and grounding grows with the square of a
 sub-problem's tracks (every ordered pair has events and a fluent), context tracks included: 48
 makes every frame of KITTI Car 0001 one call (2.3 calls per frame with ``LEGACY_PART_NODES``),
-and synthetic crowds of 50-200 tracks at overlap 0.8 no slower than before (docs/benchmarks.md,
-"clingo on KITTI, end to end")."""
+and synthetic crowds of 20-200 tracks at overlap 0.8 took 0.5-0.9 of the time of that grouping
+in one run (docs/benchmarks.md, "clingo on KITTI, end to end")."""
 
 LEGACY_PART_NODES = 16
 """The grouping before issue 38: 16 own nodes, context tracks not counted (``split(problem, 16)``).
