@@ -81,12 +81,16 @@ def test_a_frame_not_proven_in_time_is_reported_not_waited_for():
 
 
 def test_frames_beyond_clingos_sums_are_counted_not_fatal(shared_data):
-    # cost_lost = 30,000,000: a sub-problem's level-1 bound (largest cost x (tracks^2 + 3 tracks
-    # + detections)) leaves 2^31 - 1 from 72 events on (72 x 3e7 = 2.16e9), i.e. once a
-    # sub-problem holds ~7 tracks; TUD-Campus has frames on both sides.  clingo refuses those
-    # frames; the run goes on, the others are compared, cpsat-full's answers are all checked.
+    # cost_lost = 100,000,000: a sub-problem's level-1 bound (largest cost x (tracks^2 + 3 tracks
+    # + detections)) leaves 2^31 - 1 from 22 events on (22 x 1e8 = 2.2e9), i.e. once a
+    # sub-problem holds 4 tracks (16 + 12 = 28), or 3 tracks and 4 detections (9 + 9 + 4).  clingo
+    # closes a group of components before it gets there (clingo_backend.clingo_parts), so only a
+    # frame with one component (context tracks included) that large is refused; TUD-Campus has
+    # frames on both sides.  The run goes on, the others are compared, cpsat-full's answers are all
+    # checked.  (At 30,000,000, 72 events, every component of TUD-Campus fits: since issue 38
+    # clingo solves all 71 frames, which the grouping by 16 own nodes refused in part.)
     pytest.importorskip("clingo")
-    report = diff_sequence(_campus(shared_data), ("cpsat-full", "clingo"), constants={"cost_lost": 30_000_000})
+    report = diff_sequence(_campus(shared_data), ("cpsat-full", "clingo"), constants={"cost_lost": 100_000_000})
     assert report.frames == 71
     assert 0 < report.out_of_range < 71 and report.proven > 0
     assert report.proven + report.out_of_range + report.not_proven == 71

@@ -138,8 +138,14 @@ def clingo_sum_bounds(problem: FrameProblem, explanation_bits: int) -> dict[int,
     by construction (refimpl.solvers.common.tiebreak_levels), so only the explanation part's sum
     of indices is bounded here, by 2^E - 1 where E = ``explanation_bits`` (the bit length of
     its largest possible sum, refimpl.solvers.common.TiebreakWeights.shift)."""
-    consts = resolve_constants(problem)
-    nt, nd = len(problem.tracks), len(problem.detections)
+    bounds = count_sum_bounds(resolve_constants(problem), len(problem.tracks), len(problem.detections))
+    bounds[0] = (1 << explanation_bits) - 1
+    return bounds
+
+
+def count_sum_bounds(consts: dict[str, int], nt: int, nd: int) -> dict[int, int]:
+    """The bounds of ``clingo_sum_bounds`` at levels 10 to 1, which depend only on the constants
+    and on the numbers of tracks ``nt`` and detections ``nd`` (all grow with them)."""
     matched = min(nt, nd)
     costs = [abs(v) for k, v in consts.items() if k.startswith("cost_")]
     events = nt * nt + 3 * nt + nd  # hides/unhides per pair, one event per track, enters_fov per detection
@@ -149,8 +155,14 @@ def clingo_sum_bounds(problem: FrameProblem, explanation_bits: int) -> dict[int,
         3: 10 * (nt + nd),
         2: nt + 5 * (nt + nd),
         1: max(costs, default=0) * events,
-        0: (1 << explanation_bits) - 1,
     }
+
+
+def counts_fit_clingo(consts: dict[str, int], nt: int, nd: int) -> bool:
+    """Whether a sub-problem of ``nt`` tracks and ``nd`` detections has its sums at levels 10 to 1
+    inside clingo's 32-bit integers (level 0 depends on more than the counts: ``clingo_overflow``
+    decides it)."""
+    return max(count_sum_bounds(consts, nt, nd).values()) <= ASP_INT_MAX
 
 
 def clingo_overflow(problem: FrameProblem, explanation_bits: int) -> str | None:

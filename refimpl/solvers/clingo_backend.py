@@ -36,7 +36,7 @@ from typing import Sequence
 
 from .check import recompute_cost
 from ..core.constants import model_dir, resolve_constants
-from ..core.ranges import OutOfClingoRange, clingo_overflow
+from ..core.ranges import OutOfClingoRange, clingo_overflow, counts_fit_clingo
 from ..core.hypothesis import Hypothesis, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem, event_of, parse_atom
 from . import CLINGO, NoAdmissibleHypothesis, SolveTimeout, Solver, SolverUnavailable, effective_limit
@@ -99,19 +99,51 @@ the worker is killed when it overruns (refimpl.solvers.clingo_process), so the l
 grounding included.  A dense 100-track crowd has ~3,600 (refimpl.experiments.synthetic.dense_frame);
 a 400-track one, ~14,600, grounded in 10-20 s on this machine."""
 
-PART_NODES = 16
-"""The clingo backend's default sub-problem size (own nodes, refimpl.solvers.decompose)."""
+PART_NODES = 48
+"""The clingo backend's default sub-problem size: own tracks and detections *and* context tracks
+(``split(..., context=True)``, refimpl.solvers.decompose).  Each clingo call costs ~10 ms of
+parsing and grounding the model whatever its size, and grounding grows with the square of a
+sub-problem's tracks (every ordered pair has events and a fluent), context tracks included: 48
+makes every frame of KITTI Car 0001 one call (2.3 calls per frame with ``LEGACY_PART_NODES``),
+and synthetic crowds of 20-200 tracks at overlap 0.8 took 0.5-0.9 of the time of that grouping
+in one run (docs/benchmarks.md, "clingo on KITTI, end to end")."""
+
+LEGACY_PART_NODES = 16
+"""The grouping before issue 38: 16 own nodes, context tracks not counted (``split(problem, 16)``).
+A frame whose grouping by PART_NODES has a sum beyond clingo's range is solved in this one when it
+fits (``clingo_parts``): no frame that clingo solved with it is refused."""
+
+
+def clingo_parts(problem: FrameProblem, part_nodes: int = PART_NODES) -> list[Part]:
+    """The sub-problems the clingo backend hands to clingo: components grouped up to
+    ``part_nodes`` nodes, context tracks counted, a group closed before its level 10..1 sums would
+    leave clingo's 32-bit range (refimpl.core.ranges.counts_fit_clingo); if a sub-problem still
+    does not fit (a single unit too large, or level 0), the grouping of ``LEGACY_PART_NODES``
+    when that fits; else OutOfClingoRange, as ``check_representable`` raises it."""
+    consts = resolve_constants(problem)
+    parts = split(problem, part_nodes, context=True, fits=lambda nt, nd: counts_fit_clingo(consts, nt, nd))
+    if not _overflows(parts):
+        return parts
+    legacy = split(problem, LEGACY_PART_NODES)
+    check_representable(problem, legacy)
+    return legacy
+
+
+def _overflows(parts: Sequence[Part]) -> list[str]:
+    """Why each sub-problem that clingo cannot represent cannot (refimpl.core.ranges.clingo_overflow)."""
+    return [why for part in parts
+            if (why := clingo_overflow(part.problem, tiebreak_weights(part.problem).shift)) is not None]
 
 
 def check_representable(problem: FrameProblem, parts: Sequence[Part] | None = None) -> None:
     """OutOfClingoRange (one line) if any sub-problem clingo would be given (``parts``, by
-    default those of ``split(problem, PART_NODES)``) has an optimisation sum beyond its 32-bit
+    default those of ``clingo_parts(problem)``) has an optimisation sum beyond its 32-bit
     integers (refimpl.core.ranges.clingo_overflow); the others are not solved either: an answer for
     part of a frame is no answer."""
     if parts is None:
-        parts = split(problem, PART_NODES)
-    bad = [why for part in parts
-           if (why := clingo_overflow(part.problem, tiebreak_weights(part.problem).shift)) is not None]
+        clingo_parts(problem)
+        return
+    bad = _overflows(parts)
     if bad:
         what = "the frame" if len(parts) == 1 else f"{len(bad)} of its {len(parts)} independent sub-problems"
         raise OutOfClingoRange(f"clingo cannot represent {what}: {bad[0]}; the cpsat and cpsat-full "
@@ -122,6 +154,7 @@ def _clingo_module():
     """The clingo module; SolverUnavailable (one line) without the 'asp' extra."""
     try:
         import clingo
+        import clingo.ast  # noqa: F401  (the model is parsed once: ClingoSolver._program)
     except ImportError:
         raise SolverUnavailable(_INSTALL_HINT) from None
     return clingo
@@ -147,7 +180,8 @@ class ClingoSolver(Solver):
     """Solves a FrameProblem with clingo and the ASP model in model/*.lp.
 
     Options: ``threads`` (clingo's --parallel-mode), ``model_files``, ``decompose`` (default True:
-    per sub-problem of independent components, ``part_nodes`` own nodes each), ``isolate``
+    per sub-problem of independent components, up to ``part_nodes`` nodes each, context tracks
+    counted: ``clingo_parts``), ``isolate``
     (default True: after ``inline_solves`` solves in this process, clingo runs in a child process
     replaced every ``recycle`` solves, see refimpl.solvers.clingo_worker and clingo_process; False: always in this
     process, whose memory then grows with every symbol clingo sees), ``checked_costs`` (default
@@ -192,6 +226,9 @@ class ClingoSolver(Solver):
         self.checked_costs = bool(checked_costs)
         self.inline_solves = int(inline_solves)
         self._calls = 0
+        self._statements = None
+        """The model files parsed once (clingo.ast statements), added to each solve's Control:
+        parsing the text again for every call cost ~2 ms of each (``_program``)."""
         self._worker = None
         if isolate:  # clingo in a child process (refimpl.solvers.clingo_process): bounded memory
             # a user's encoding runs under the memory cap of its check (asp_model.ENCODING_MEMORY);
@@ -209,6 +246,7 @@ class ClingoSolver(Solver):
         clingo keeps nothing between two solves, so the copy answers as the original does."""
         state = dict(self.__dict__)
         del state["_clingo"]
+        state["_statements"] = None  # clingo's AST cannot be pickled: parsed again by the copy
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -240,12 +278,26 @@ class ClingoSolver(Solver):
                                    logger=logger,
                                    message_limit=20)
         try:
-            for path in self.model_files:
-                ctl.load(str(path))
+            statements = self._program(logger)
+            with self._clingo.ast.ProgramBuilder(ctl) as builder:
+                for statement in statements:
+                    builder.add(statement)
             ctl.add("base", [], problem_facts(problem) + extra)
         except RuntimeError as exc:
             raise RuntimeError(f"clingo could not parse the model: {'; '.join(messages) or exc}") from None
         return ctl, messages
+
+    def _program(self, logger) -> tuple:
+        """The statements of the model files but their comments, parsed at the first call (each
+        file begins in ``#program base.``, as ``Control.load`` reads it); RuntimeError, its messages sent to
+        ``logger``, where clingo cannot parse one (then parsed again at the next call)."""
+        if self._statements is None:
+            statements: list = []
+            self._clingo.ast.parse_files([str(path) for path in self.model_files], statements.append,
+                                         logger=logger, message_limit=20)
+            comment = getattr(self._clingo.ast.ASTType, "Comment", None)  # 390 of model/'s 652 statements
+            self._statements = tuple(s for s in statements if s.ast_type != comment)
+        return self._statements
 
     def solve(self, problem: FrameProblem, time_limit: float | None = None,
               budget: float | None = None) -> Hypothesis:
@@ -256,8 +308,11 @@ class ClingoSolver(Solver):
         started = time.perf_counter()
         time_limit = effective_limit(time_limit, budget)
         deadline = None if time_limit is None else started + time_limit
-        parts = split(problem, self.part_nodes) if self.decompose else [Part(problem, frozenset())]
-        check_representable(problem, parts)
+        if self.decompose:
+            parts = clingo_parts(problem, self.part_nodes)
+        else:
+            parts = [Part(problem, frozenset())]
+            check_representable(problem, parts)
         whole = len(parts) == 1
         actions: list[str] = []
         events: list[str] = []

@@ -16,7 +16,7 @@ tracks' part of each sub-answer is discarded.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Iterable
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -37,44 +37,66 @@ class Part:
     """The ids of the own tracks and detections."""
 
 
-def split(problem: FrameProblem, part_nodes: int = DEFAULT_PART_NODES) -> list[Part]:
-    """The frame as sub-problems (module docstring), in component order."""
-    comps = components(problem)
-    if len(comps) <= 1:
-        return [Part(problem, frozenset(t.id for t in problem.tracks) | {d.id for d in problem.detections})]
-    groups: list[list[Component]] = []
-    size = 0
-    for unit in _kept_together(problem, comps):
-        n = sum(len(c.tracks) + len(c.detections) for c in unit)
-        if not groups or size + n > part_nodes:
-            groups.append([])
-            size = 0
-        groups[-1].extend(unit)
-        size += n
-    if len(groups) == 1:
-        return [Part(problem, frozenset(t.id for t in problem.tracks) | {d.id for d in problem.detections})]
+def split(problem: FrameProblem, part_nodes: int = DEFAULT_PART_NODES, context: bool = False,
+          fits: Callable[[int, int], bool] | None = None) -> list[Part]:
+    """The frame as sub-problems (module docstring), in component order.
 
+    Components (their units, ``_kept_together``) are taken in order into the current sub-problem
+    while it stays within ``part_nodes`` nodes: its own tracks and detections, and with
+    ``context`` its context tracks too (what the clingo backend grounds: every ordered pair of the
+    sub-problem's tracks has events and a fluent, so its grounding grows with the square of all
+    its tracks).  ``fits(tracks, detections)``, if given, must also hold for the sub-problem's
+    counts (own and context tracks, own detections) before a unit joins it (the clingo backend's
+    32-bit sums, refimpl.core.ranges.clingo_sum_bounds); a unit alone is always a sub-problem.
+    A frame that is one sub-problem is returned whole."""
+    comps = components(problem)
+    whole = [Part(problem, frozenset(t.id for t in problem.tracks) | {d.id for d in problem.detections})]
+    if len(comps) <= 1:
+        return whole
+    units = _kept_together(problem, comps)
     tracks = problem.tracks
     t_index = {t.id: i for i, t in enumerate(tracks)}
     overlapping = intersection_matrix([t.box for t in tracks]) > 0
     named: dict[str, set[str]] = {}
-    by_first: dict[str, list] = {}
     for h in problem.history:
         args = [str(a) for a in h.event.args]
         if args:
-            by_first.setdefault(args[0], []).append(h)
             named.setdefault(args[0], set()).update(args[1:])
+
+    def kept(own_t: Iterable[str]) -> set[str]:
+        """The own tracks and their context tracks (module docstring)."""
+        keep = set(own_t)
+        for x in list(keep):
+            keep.update(tracks[j].id for j in np.flatnonzero(overlapping[t_index[x]]).tolist())
+            keep.update(y for y in named.get(x, ()) if y in t_index)
+        return keep
+
+    groups: list[list[Component]] = []
+    keep: set[str] = set()
+    n_own = n_det = 0
+    for unit in units:
+        unit_t = [x for c in unit for x in c.tracks]
+        unit_d = sum(len(c.detections) for c in unit)
+        unit_keep = kept(unit_t) if context or fits is not None else set(unit_t)
+        joined = keep | unit_keep
+        size = (len(joined) if context else n_own + len(unit_t)) + n_det + unit_d
+        if not groups or size > part_nodes or (fits is not None and not fits(len(joined), n_det + unit_d)):
+            groups.append([])
+            keep, n_own, n_det = set(), 0, 0
+            joined = unit_keep
+        groups[-1].extend(unit)
+        keep = joined
+        n_own += len(unit_t)
+        n_det += unit_d
+    if len(groups) == 1:
+        return whole
+
     parts = []
     for group in groups:
         own_t = [x for c in group for x in c.tracks]
         own_d = {x for c in group for x in c.detections}
         own_set = set(own_t)
-        context: set[str] = set()
-        for x in own_t:
-            context.update(tracks[j].id for j in np.flatnonzero(overlapping[t_index[x]]).tolist())
-            context.update(y for y in named.get(x, ()) if y in t_index)
-        context -= own_set
-        keep = own_set | context
+        keep = kept(own_t)
         sub_tracks = tuple(t if t.id in own_set else replace(t, state="halted") for t in tracks if t.id in keep)
         sub_dets = tuple(d for d in problem.detections if d.id in own_d)
         sub_iou = tuple(x for x in problem.iou if x[0] in own_set and x[1] in own_d)  # others: no pair action
