@@ -367,7 +367,8 @@ class AbductionTracker:
         assignments, resumes = acts.get("assign", ()), acts.get("resume", ())
         event_terms = hyp.event_terms
         self.owners = {index[d]: t for t, d in (*assignments, *resumes)}
-        scene = self._scene_velocity(frame) if self.options.scene_velocity else None
+        # the scene's motion before this frame's updates change the velocities; only a start reads it
+        scene = self._scene_velocity(frame) if self.options.scene_velocity and "start" in acts else None
         # every assigned track's filter corrected in one batch (the same bits as one by one), then
         # each track's streak and rows in sorted atom order: deterministic
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
