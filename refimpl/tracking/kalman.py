@@ -100,20 +100,22 @@ class LinearKalman:
         self.P = _dot(_dot(I_KH, P), I_KH.T) + _dot(_dot(K, R), K.T)
 
 
-def predict_many(filters: "list[LinearKalman]") -> None:
+def predict_many(filters: "list[LinearKalman]") -> np.ndarray | None:
     """``f.predict()`` for every filter, computed as one batch: the same numbers bit for bit (see
     update_many; F shared, each filter's own Q added to its own slice).  Filters that do not share F
-    (or fewer than two) are advanced one by one."""
+    (or fewer than two) are advanced one by one.  Returns the batch's stacked states, shape
+    (n, dim_x, 1) (each filter's x is a view of it), or None where they were advanced one by one."""
     if len(filters) < 2 or any(f.F is not filters[0].F for f in filters):
         for f in filters:
             f.predict()
-        return
+        return None
     F = filters[0].F
     mm = np.matmul
     X = mm(F, np.array([f.x for f in filters]))
     P = mm(mm(F, np.array([f.P for f in filters])), F.T) + np.array([f.Q for f in filters])
     for k, f in enumerate(filters):
         f.x, f.P = X[k], P[k]
+    return X
 
 
 def update_many(filters: "list[LinearKalman]", zs: np.ndarray) -> None:

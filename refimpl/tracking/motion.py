@@ -109,7 +109,11 @@ def _state_box(x: np.ndarray) -> np.ndarray | None:
 
 def _state_box_values(x: np.ndarray) -> tuple[float, float, float, float] | None:
     """_state_box as a tuple of four Python floats (or None)."""
-    v = x[:, 0].tolist()
+    return _box_values(x[:, 0].tolist())
+
+
+def _box_values(v: list[float]) -> tuple[float, float, float, float] | None:
+    """_state_box_values of a state given as its list of Python floats."""
     if not all(map(math.isfinite, v)):
         return None
     u, c, s, r = v[0], v[1], v[2], v[3]
@@ -264,11 +268,13 @@ class BoxKalman:
         takes them on without an array per box)."""
         for f in filters:
             f._before_predict(hold)
-        predict_many([f.kf for f in filters])
+        X = predict_many([f.kf for f in filters])
+        # every state's floats in one conversion where the batch left them stacked
+        states = [f.kf.x[:, 0].tolist() for f in filters] if X is None else X[:, :, 0].tolist()
         out = []
-        for f in filters:
+        for f, v in zip(filters, states):
             f._after_predict()
-            out.append(_state_box_values(f.kf.x))
+            out.append(_box_values(v))
         return out
 
     def _before_predict(self, hold: bool) -> None:

@@ -91,6 +91,19 @@ def column_medians(values: np.ndarray) -> np.ndarray:
     return (0.0 + s[half - 1] + s[half]) / 2
 
 
+def _clipped(bx: float, by: float, bw0: float, bh0: float, w: float, h: float) -> tuple[float, float, float, float]:
+    """AbductionTracker._bounded_values with the image's width and height given (once per frame)."""
+    x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
+    x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
+    bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
+    if bw * bh > MAX_BOX_AREA:
+        shrink = math.sqrt(MAX_BOX_AREA / (bw * bh))
+        cx, cy = x1 + bw / 2, y1 + bh / 2
+        bw, bh = bw * shrink, bh * shrink
+        x1, y1 = cx - bw / 2, cy - bh / 2
+    return (x1, y1, bw, bh)
+
+
 class ResultSink:
     """Where a streaming tracker puts what it has decided (see AbductionTracker's ``sink``)."""
 
@@ -221,8 +234,8 @@ class AbductionTracker:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
         boxes_now = BoxKalman.predict_box_values([t.kalman for t in tracks], self.options.hold_hidden)  # one batch
-        bounded = self._bounded_values
-        predicted = np.array([bounded(*(self._restarted(t).tolist() if b is None else b))
+        limits = self._image_limits()
+        predicted = np.array([_clipped(*(self._restarted(t).tolist() if b is None else b), *limits)
                               for t, b in zip(tracks, boxes_now)], dtype=float).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
@@ -277,17 +290,11 @@ class AbductionTracker:
 
     def _bounded_values(self, bx: float, by: float, bw0: float, bh0: float) -> tuple[float, float, float, float]:
         """_bounded on the box's four Python floats, as a tuple."""
-        w = float(self.constant_map.get("img_width", 0) or 1500)
-        h = float(self.constant_map.get("img_height", 0) or 1500)
-        x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
-        x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
-        bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
-        if bw * bh > MAX_BOX_AREA:
-            shrink = math.sqrt(MAX_BOX_AREA / (bw * bh))
-            cx, cy = x1 + bw / 2, y1 + bh / 2
-            bw, bh = bw * shrink, bh * shrink
-            x1, y1 = cx - bw / 2, cy - bh / 2
-        return (x1, y1, bw, bh)
+        return _clipped(bx, by, bw0, bh0, *self._image_limits())
+
+    def _image_limits(self) -> tuple[float, float]:
+        """The image's width and height as _bounded extends them (1500 where a constant is 0 or absent)."""
+        return (float(self.constant_map.get("img_width", 0) or 1500), float(self.constant_map.get("img_height", 0) or 1500))
 
     @staticmethod
     def _restarted(trk: _Track) -> np.ndarray:
