@@ -17,7 +17,7 @@ from ..knowledge.events import EventState
 from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem
-from .common import DisjointSets, LazyTiebreak, intersection_matrix
+from .common import DisjointSets, LazyTiebreak, disjoint_pairs as _disjoint, intersection_matrix
 from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
 from .cpsat_model import _cost, _explanations, _has_explanation, _overlapping_top_matrix
 
@@ -280,13 +280,15 @@ class FastAnswer:
 
 def _candidate_pairs(problem: FrameProblem, state: EventState, constants: Mapping[str, int],
                      t_index: Mapping[str, int], d_index: Mapping[str, int],
-                     by_id: Mapping) -> list[tuple[int, int]]:
+                     by_id: Mapping, iou: Mapping[tuple[str, str], int] | None = None) -> list[tuple[int, int]]:
     """The candidate pairs (common.candidate_pairs: an iou/3 fact and the pair action's integrity
     constraint) as (track index, detection index) in iou/3 order: they rank the pair actions of the
     tie-break, and an edge of the matching is one of them.  A pair at or below its action's IoU
     threshold (iou_thresh for an active track, iou_thresh_resume for a halted one, which both
-    resume rules ask) fails the constraint without asking it: most overlaps in a crowd."""
-    tracks, dets, iou = problem.tracks, problem.detections, problem.iou_map
+    resume rules ask) fails the constraint without asking it: most overlaps in a crowd.  ``iou``:
+    problem.iou_map, where the caller has made it."""
+    tracks, dets = problem.tracks, problem.detections
+    iou = problem.iou_map if iou is None else iou
     above = {"active": constants["iou_thresh"], "halted": constants["iou_thresh_resume"]}
     lowest = min(above.values())
     pairs: list[tuple[int, int]] = []
@@ -321,7 +323,7 @@ class _FrameOptions:
         t_index = {t.id: i for i, t in enumerate(self.tracks)}
         d_index = {d.id: j for j, d in enumerate(self.dets)}
         self.by_id = {t.id: t for t in self.tracks}
-        self.pairs = _candidate_pairs(problem, state, constants, t_index, d_index, self.by_id)
+        self.pairs = _candidate_pairs(problem, state, constants, t_index, d_index, self.by_id, self.iou)
         tb = LazyTiebreak(problem, inter, self.pairs, t_index, d_index)  # = tiebreak_weights' numbers, computed where asked
         self.ev = tb.index  # level 0 of an explaining event: its index (common.py)
         self.w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
@@ -458,6 +460,10 @@ def _components(frame: _FrameOptions) -> tuple[dict[int, list[int]], dict[int, i
     """The frame's components: each root's edges (indices into ``frame.edges``), and each root's
     number of nodes (tracks + detections, an edgeless node a component of its own)."""
     nt, nodes = len(frame.tracks), len(frame.tracks) + len(frame.dets)
+    if _disjoint(frame.edges):  # every edge a component of its own, rooted at its track (the smaller node)
+        comp_edges = {e[0]: [k] for k, e in enumerate(frame.edges)}
+        paired = {nt + e[1] for e in frame.edges}
+        return comp_edges, {x: 2 if x in comp_edges else 1 for x in range(nodes) if x not in paired}
     sets = DisjointSets(nodes)
     find = sets.find
     for i, j, _ in frame.edges:
