@@ -76,6 +76,23 @@ def integer_boxes(boxes: np.ndarray) -> list[Box]:
     return list(map(tuple, r.tolist()))  # type: ignore[arg-type]
 
 
+def integer_box_arrays(*arrays: np.ndarray) -> "tuple[np.ndarray, ...] | None":
+    """The int64 arrays of integer_boxes for several (n_k, 4) float arrays, computed as one
+    concatenated array (the same elementwise rounding, so the same integers), or None where some
+    value is not finite or too large for it (then integer_boxes takes each array on its own)."""
+    parts = [np.asarray(a, dtype=float).reshape(-1, 4) for a in arrays]
+    b = np.concatenate(parts)
+    if not (np.abs(b) < _EXACT_INT).all():  # also False for NaN
+        return None
+    r = np.floor(b + 0.5).astype(np.int64)
+    np.maximum(r[:, 2:], 1, out=r[:, 2:])
+    out, at = [], 0
+    for a in parts:
+        out.append(r[at:at + len(a)])
+        at += len(a)
+    return tuple(out)
+
+
 def intersection_area(a: Box, b: Box) -> int:
     """Integer overlap area of two integer boxes (the spatial relations use integers, as the ASP model does)."""
     iw = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])

@@ -42,6 +42,8 @@ from __future__ import annotations
 import operator
 from functools import lru_cache
 
+import numpy as np
+
 from .spec import ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, FrameProblem, ProblemFormatError
 from .constants import resolve_constants
 
@@ -64,9 +66,10 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
                                  "every pair of tracks would count as overlapping)", source)
 
 
-def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
+def check_ranges(problem: FrameProblem, source: str = "<problem>", boxes_checked: bool = False) -> None:
     """Raise ProblemFormatError (one line) if any value of the problem leaves the range (every
-    backend; the optimisation sums are clingo's alone: ``clingo_overflow``)."""
+    backend; the optimisation sums are clingo's alone: ``clingo_overflow``).  ``boxes_checked``:
+    the caller has found every box within the box tests already (``integer_boxes_fit``)."""
     consts = resolve_constants(problem)
     # a tracker's constants are the same on every frame but curr_time: checked once (every other
     # value of consts comes from problem.constants and the defaults)
@@ -76,7 +79,7 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
         for name, value in consts.items():
             check_constant(name, value, source)  # raises, naming this problem's source
     hide = max(100, consts.get("hide_overlap", 100))
-    for kind, objects in (("detection", problem.detections), ("track", problem.tracks)):
+    for kind, objects in () if boxes_checked else (("detection", problem.detections), ("track", problem.tracks)):
         if _boxes_fit(objects, hide if kind == "track" else 1):
             continue  # else the loop below names the first box that does not
         for o in objects:
@@ -102,6 +105,21 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
         if problem.time - h.time > ASP_INT_MAX:
             raise ProblemFormatError(f"curr_time - {h.time} (history event {h}) = {problem.time - h.time} exceeds "
                                      f"{ASP_INT_MAX} (clingo's 32-bit integers)", source)
+
+
+def integer_boxes_fit(detections: np.ndarray, tracks: np.ndarray, hide_overlap: int) -> bool:
+    """Whether integer boxes given as int64 arrays (n, 4) of values below 2^52 in absolute value
+    (refimpl.core.geometry.integer_box_arrays) pass check_ranges' box tests, detections' and
+    tracks' (check_ranges' ``hide``: max(100, hide_overlap))."""
+    for boxes, factor in ((detections, 1), (tracks, max(100, hide_overlap))):
+        if not len(boxes):
+            continue
+        if np.abs(boxes).max() > BOX_LIMIT or np.abs(boxes[:, :2] + boxes[:, 2:]).max() > BOX_LIMIT:
+            return False
+        # w, h <= 2^28 now: w * h < 2^63 in int64, the factor multiplies a Python int
+        if factor * int((boxes[:, 2] * boxes[:, 3]).max()) > ASP_INT_MAX:
+            return False
+    return True
 
 
 def _boxes_fit(objects, factor: int) -> bool:

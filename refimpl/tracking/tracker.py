@@ -43,13 +43,13 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..core.constants import default_constants
-from ..core.geometry import integer_box, integer_boxes, iou_matrix, scale_iou
+from ..core.constants import default_constants, resolve_constants
+from ..core.geometry import integer_box, integer_box_arrays, integer_boxes, iou_matrix, scale_iou
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman
 from .options import TrackerOptions, WrittenBox
-from ..core.ranges import check_ranges
+from ..core.ranges import check_ranges, integer_boxes_fit
 from ..solvers import Solver
 from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, is_symbol, track_number
 
@@ -89,19 +89,6 @@ def column_medians(values: np.ndarray) -> np.ndarray:
     if len(s) % 2:  # np.mean's sum starts at 0.0: a lone -0.0 becomes 0.0
         return (0.0 + s[half]) / 1
     return (0.0 + s[half - 1] + s[half]) / 2
-
-
-def _clipped(bx: float, by: float, bw0: float, bh0: float, w: float, h: float) -> tuple[float, float, float, float]:
-    """AbductionTracker._bounded_values with the image's width and height given (once per frame)."""
-    x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
-    x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
-    bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
-    if bw * bh > MAX_BOX_AREA:
-        shrink = math.sqrt(MAX_BOX_AREA / (bw * bh))
-        cx, cy = x1 + bw / 2, y1 + bh / 2
-        bw, bh = bw * shrink, bh * shrink
-        x1, y1 = cx - bw / 2, cy - bh / 2
-    return (x1, y1, bw, bh)
 
 
 class ResultSink:
@@ -223,6 +210,7 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
+        self._integer_arrays: tuple[np.ndarray, np.ndarray] | None = None  # the last problem's integer boxes
         self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
@@ -234,16 +222,20 @@ class AbductionTracker:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
         boxes_now = BoxKalman.predict_box_values([t.kalman for t in tracks], self.options.hold_hidden)  # one batch
-        limits = self._image_limits()
-        predicted = np.array([_clipped(*(self._restarted(t).tolist() if b is None else b), *limits)
+        bounded = self._bounded_values
+        predicted = np.array([bounded(*(self._restarted(t).tolist() if b is None else b))
                               for t, b in zip(tracks, boxes_now)], dtype=float).reshape(-1, 4)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
         conf = [int(c) for c in np.asarray(confidences).reshape(-1).tolist()]
-        detections = tuple(Detection(det_ids[i], types[i], conf[i], b) for i, b in enumerate(integer_boxes(boxes)))
-        predictions = tuple(TrackPrediction(t.id, t.type, t.state, b)
-                            for t, b in zip(tracks, integer_boxes(predicted)))
+        arrays = self._integer_arrays = integer_box_arrays(boxes, predicted)  # both in one pass
+        if arrays is None:  # a value integer_box must convert (or refuse) on its own
+            det_boxes, track_boxes = integer_boxes(boxes), integer_boxes(predicted)
+        else:
+            det_boxes, track_boxes = (list(map(tuple, a.tolist())) for a in arrays)
+        detections = tuple(Detection(det_ids[i], types[i], conf[i], b) for i, b in enumerate(det_boxes))
+        predictions = tuple(TrackPrediction(t.id, t.type, t.state, b) for t, b in zip(tracks, track_boxes))
         iou: tuple[tuple[str, str, int], ...] = ()
         if len(tracks) and len(boxes):
             ml = scale_iou(iou_matrix(predicted, boxes))
@@ -290,11 +282,17 @@ class AbductionTracker:
 
     def _bounded_values(self, bx: float, by: float, bw0: float, bh0: float) -> tuple[float, float, float, float]:
         """_bounded on the box's four Python floats, as a tuple."""
-        return _clipped(bx, by, bw0, bh0, *self._image_limits())
-
-    def _image_limits(self) -> tuple[float, float]:
-        """The image's width and height as _bounded extends them (1500 where a constant is 0 or absent)."""
-        return (float(self.constant_map.get("img_width", 0) or 1500), float(self.constant_map.get("img_height", 0) or 1500))
+        w = float(self.constant_map.get("img_width", 0) or 1500)
+        h = float(self.constant_map.get("img_height", 0) or 1500)
+        x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
+        x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
+        bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
+        if bw * bh > MAX_BOX_AREA:
+            shrink = math.sqrt(MAX_BOX_AREA / (bw * bh))
+            cx, cy = x1 + bw / 2, y1 + bh / 2
+            bw, bh = bw * shrink, bh * shrink
+            x1, y1 = cx - bw / 2, cy - bh / 2
+        return (x1, y1, bw, bh)
 
     @staticmethod
     def _restarted(trk: _Track) -> np.ndarray:
@@ -310,7 +308,9 @@ class AbductionTracker:
         started = perf_counter()
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         problem = self.frame_problem(frame, boxes, confidences, types)
-        check_ranges(problem, f"frame {frame}")
+        arrays = self._integer_arrays  # the frame's integer boxes: their range tests on the arrays
+        checked = arrays is not None and integer_boxes_fit(*arrays, resolve_constants(problem).get("hide_overlap", 100))
+        check_ranges(problem, f"frame {frame}", boxes_checked=checked)
         if self.frame_budget is None:
             hyp = self.solver.solve(problem, time_limit=self.time_limit)
         else:
