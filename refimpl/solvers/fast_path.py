@@ -465,16 +465,20 @@ def _components(frame: _FrameOptions) -> tuple[dict[int, list[int]], dict[int, i
         paired = {nt + e[1] for e in frame.edges}
         return comp_edges, {x: 2 if x in comp_edges else 1 for x in range(nodes) if x not in paired}
     sets = DisjointSets(nodes)
-    find = sets.find
-    for i, j, _ in frame.edges:
-        sets.union(i, nt + j)
+    sets.union_pairs(frame.edges, nt)
+    # every node's root in one pass: a parent is never larger than its node (roots are the smallest
+    # members), so a node's parent has its root already
+    parent, root = sets.parent, list(range(nodes))
+    for x in range(nodes):
+        p = parent[x]
+        if p != x:
+            root[x] = root[p]
     comp_edges: dict[int, list[int]] = {}
     for k, e in enumerate(frame.edges):
-        comp_edges.setdefault(find(e[0]), []).append(k)
+        comp_edges.setdefault(root[e[0]], []).append(k)
     sizes: dict[int, int] = {}
-    for x in range(nodes):
-        root = find(x)
-        sizes[root] = sizes.get(root, 0) + 1
+    for r in root:
+        sizes[r] = sizes.get(r, 0) + 1
     return comp_edges, sizes
 
 
