@@ -16,7 +16,7 @@ from refimpl.core.geometry import integer_box, integer_boxes
 from refimpl.tracking.pipeline import new_tracker, setup_for
 from refimpl.solvers.common import LazyTiebreak, candidate_pairs, intersection_matrix, tiebreak_weights
 from refimpl.solvers.cpsat_model import _overlapping_top_matrix
-from refimpl.solvers.fast_path import _rows
+from refimpl.solvers.fast_path import _inter_and_top, _rows
 from refimpl.core.constants import resolve_constants
 from refimpl.core.hypothesis import parse_action
 from refimpl.io.datasets import benchmark_sequences
@@ -85,6 +85,16 @@ def test_top_rows_equal_flatnonzero_per_row(tracked):
         assert rows == [np.flatnonzero(top[i]).tolist() for i in range(len(p.tracks))]
         nonempty += any(rows)
     assert nonempty > 0
+
+
+def test_inter_and_top_equal_the_two_matrices(tracked):
+    _, _, problems, _ = tracked
+    for p in problems:
+        hide = resolve_constants(p)["hide_overlap"]
+        inter, top = _inter_and_top(p.tracks, hide)
+        want = intersection_matrix([t.box for t in p.tracks])
+        assert inter.dtype == want.dtype and np.array_equal(inter, want)
+        assert np.array_equal(top, _overlapping_top_matrix(p.tracks, want, hide))
 
 
 def test_integer_boxes_equal_integer_box_on_real_boxes(tracked):

@@ -17,9 +17,9 @@ from ..knowledge.events import EventState
 from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem
-from .common import DisjointSets, LazyTiebreak, disjoint_pairs as _disjoint, intersection_matrix
+from .common import DisjointSets, LazyTiebreak, disjoint_pairs as _disjoint
 from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
-from .cpsat_model import _cost, _explanations, _has_explanation, _overlapping_top_matrix
+from .cpsat_model import _cost, _explanations, _has_explanation
 
 # ---------------------------------------------------------------------------------------
 # The fast exact path
@@ -266,6 +266,20 @@ def _rows(top: "np.ndarray") -> list[list[int]]:
     return out
 
 
+def _inter_and_top(tracks, hide_overlap: int) -> tuple[np.ndarray, np.ndarray]:
+    """(common.intersection_matrix, cpsat_model._overlapping_top_matrix) of the tracks' integer
+    boxes, from one array of them, x and y taken together: the same integer arithmetic, exact."""
+    b = np.asarray([t.box for t in tracks], dtype=np.int64).reshape(-1, 4)
+    lo = b[:, :2]
+    hi = lo + b[:, 2:]
+    side = np.maximum(np.minimum(hi[:, None], hi[None]) - np.maximum(lo[:, None], lo[None]), 0)
+    inter = side[..., 0] * side[..., 1]
+    bottom = hi[:, 1]
+    top = (100 * inter > hide_overlap * (b[:, 2] * b[:, 3])[:, None]) & (bottom[None, :] >= bottom[:, None])
+    np.fill_diagonal(top, False)
+    return inter, top
+
+
 @dataclass
 class FastAnswer:
     """What solve_fast found: the answer and how the frame fell apart."""
@@ -319,7 +333,7 @@ class _FrameOptions:
     def __init__(self, problem: FrameProblem, state: EventState, constants: Mapping[str, int]):
         self.tracks, self.dets, self.iou = problem.tracks, problem.detections, problem.iou_map
         self.state, self.constants = state, constants
-        inter = intersection_matrix([t.box for t in self.tracks])
+        inter, top = _inter_and_top(self.tracks, constants["hide_overlap"])
         t_index = {t.id: i for i, t in enumerate(self.tracks)}
         d_index = {d.id: j for j, d in enumerate(self.dets)}
         self.by_id = {t.id: t for t in self.tracks}
@@ -328,7 +342,7 @@ class _FrameOptions:
         self.ev = tb.index  # level 0 of an explaining event: its index (common.py)
         self.w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
         self.cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
-        self.top_rows = _rows(_overlapping_top_matrix(self.tracks, inter, constants["hide_overlap"]))
+        self.top_rows = _rows(top)
         self._track_solos()
         self._detection_solos(occupied(problem, constants))  # [start_occupied]
         self._edges()

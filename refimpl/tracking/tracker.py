@@ -44,7 +44,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ..core.constants import default_constants, resolve_constants
-from ..core.geometry import integer_box, integer_box_arrays, integer_boxes, iou_matrix, scale_iou
+from ..core.geometry import integer_box_arrays, integer_boxes, iou_matrix, scale_iou
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman
