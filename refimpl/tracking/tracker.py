@@ -37,6 +37,7 @@ defaults are this conservative.
 from __future__ import annotations
 
 import math
+from itertools import chain
 from dataclasses import dataclass, field
 from time import perf_counter
 from typing import Callable, Mapping
@@ -47,7 +48,7 @@ from ..core.constants import default_constants, resolve_constants
 from ..core.geometry import integer_box_arrays, integer_boxes, iou_matrix, scale_iou
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
-from .motion import BoxKalman
+from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
 from .options import TrackerOptions, WrittenBox
 from ..core.ranges import check_ranges, integer_boxes_fit
 from ..solvers import Solver
@@ -74,21 +75,6 @@ def _all_symbols(types) -> bool:
     except TypeError:  # unhashable: not a str; the constructor names it
         return False
     return all(map(is_symbol, kinds))
-
-
-def column_medians(values: np.ndarray) -> np.ndarray:
-    """``np.median(values, axis=0)`` of an (n, k) float array, n >= 1, bit for bit: the middle
-    value of each sorted column, or the mean of the two middle ones as np.mean takes it (their sum
-    from 0.0, divided by 2).  np.median's first call imports numpy.ma for its NaN check (~14 ms, once per
-    process, in the middle of a run: the slowest frame of a short run); a column with a NaN goes
-    to np.median, which then answers NaN as before."""
-    if not np.isfinite(values).all():
-        return np.median(values, axis=0)
-    s = np.sort(values, axis=0)
-    half = len(s) // 2
-    if len(s) % 2:  # np.mean's sum starts at 0.0: a lone -0.0 becomes 0.0
-        return (0.0 + s[half]) / 1
-    return (0.0 + s[half - 1] + s[half]) / 2
 
 
 class ResultSink:
@@ -211,6 +197,7 @@ class AbductionTracker:
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
         self._integer_arrays: tuple[np.ndarray, np.ndarray] | None = None  # the last problem's integer boxes
+        self._latest_event = -math.inf  # the time of the latest event logged
         self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
@@ -244,7 +231,7 @@ class AbductionTracker:
             track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
             iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
                             ml[ks, js].tolist()))
-        history = tuple(e for t in tracks for e in t.history)
+        history = tuple(chain.from_iterable(t.history for t in tracks))
         # Built here, the problem holds what FrameProblem checks by construction (ids made here,
         # unique; integer boxes with w, h >= 1; one IoU fact per pair, 0..100000; track types
         # and states from earlier frames), except what comes from the caller: the constants (the
@@ -252,7 +239,7 @@ class AbductionTracker:
         # (after every event of the history).  Where one of those fails, the constructor raises
         # its one-line error naming the first offender.
         if (self.frames and _all_symbols(types) and (not conf or 0 <= min(conf) and max(conf) <= 100)
-                and all(e.time < frame for e in history)):
+                and (self._latest_event < frame or all(e.time < frame for e in history))):
             make = FrameProblem.unchecked
         else:
             make = FrameProblem
@@ -420,6 +407,7 @@ class AbductionTracker:
             event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
             logged = HistoryEvent(event, frame)
             self.events.append(logged)
+            self._latest_event = max(self._latest_event, frame)  # no history event is later
             frame_events.append(logged)
             owner = self.tracks.get(event.args[0].name)
             if owner is None:
