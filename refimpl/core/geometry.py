@@ -81,21 +81,17 @@ def integer_boxes(boxes: np.ndarray) -> list[Box]:
     return list(map(tuple, r.tolist()))  # type: ignore[arg-type]
 
 
-def integer_box_arrays(*arrays: np.ndarray) -> "tuple[np.ndarray, ...] | None":
-    """The int64 arrays of integer_boxes for several (n_k, 4) float arrays, computed as one
-    concatenated array (the same elementwise rounding, so the same integers), or None where some
-    value is not finite or too large for it (then integer_boxes takes each array on its own)."""
-    parts = [np.asarray(a, dtype=float).reshape(-1, 4) for a in arrays]
-    b = np.concatenate(parts)
+def integer_box_array(*arrays: np.ndarray) -> np.ndarray | None:
+    """integer_boxes of several (n_k, 4) float arrays as one int64 array (the arrays' rows in
+    order), rounded as one concatenated array (the same elementwise rounding, so the same
+    integers), or None where some value is not finite or too large for it (then integer_boxes
+    takes each array on its own)."""
+    b = np.concatenate([np.asarray(a, dtype=float).reshape(-1, 4) for a in arrays])
     if not (np.abs(b) < _EXACT_INT).all():  # also False for NaN
         return None
     r = np.floor(b + 0.5).astype(np.int64)
     np.maximum(r[:, 2:], 1, out=r[:, 2:])
-    out, at = [], 0
-    for a in parts:
-        out.append(r[at:at + len(a)])
-        at += len(a)
-    return tuple(out)
+    return r
 
 
 def intersection_area(a: Box, b: Box) -> int:

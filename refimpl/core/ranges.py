@@ -107,19 +107,17 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>", boxes_checked
                                      f"{ASP_INT_MAX} (clingo's 32-bit integers)", source)
 
 
-def integer_boxes_fit(detections: np.ndarray, tracks: np.ndarray, hide_overlap: int) -> bool:
-    """Whether integer boxes given as int64 arrays (n, 4) of values below 2^52 in absolute value
-    (refimpl.core.geometry.integer_box_arrays) pass check_ranges' box tests, detections' and
-    tracks' (check_ranges' ``hide``: max(100, hide_overlap))."""
-    for boxes, factor in ((detections, 1), (tracks, max(100, hide_overlap))):
-        if not len(boxes):
-            continue
-        if np.abs(boxes).max() > BOX_LIMIT or np.abs(boxes[:, :2] + boxes[:, 2:]).max() > BOX_LIMIT:
-            return False
-        # w, h <= 2^28 now: w * h < 2^63 in int64, the factor multiplies a Python int
-        if factor * int((boxes[:, 2] * boxes[:, 3]).max()) > ASP_INT_MAX:
-            return False
-    return True
+def integer_boxes_fit(boxes: np.ndarray, detections: int, hide_overlap: int) -> bool:
+    """Whether integer boxes given as one int64 array (n, 4) of values below 2^52 in absolute
+    value (refimpl.core.geometry.integer_box_array), the first ``detections`` rows detections' and
+    the others tracks', pass check_ranges' box tests (its ``hide``: max(100, hide_overlap))."""
+    if not len(boxes):
+        return True
+    if np.abs(boxes).max() > BOX_LIMIT or np.abs(boxes[:, :2] + boxes[:, 2:]).max() > BOX_LIMIT:
+        return False
+    area = (boxes[:, 2] * boxes[:, 3]).tolist()  # w, h <= 2^28 now: exact in int64
+    return (max(area[:detections], default=0) <= ASP_INT_MAX
+            and max(100, hide_overlap) * max(area[detections:], default=0) <= ASP_INT_MAX)
 
 
 def _boxes_fit(objects, factor: int) -> bool:

@@ -45,7 +45,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ..core.constants import default_constants, resolve_constants
-from ..core.geometry import integer_box_arrays, integer_boxes, iou_matrix, scale_iou
+from ..core.geometry import integer_box_array, integer_boxes, iou_matrix, scale_iou
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
@@ -196,7 +196,7 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
-        self._integer_arrays: tuple[np.ndarray, np.ndarray] | None = None  # the last problem's integer boxes
+        self._integer_boxes: np.ndarray | None = None  # the last problem's integer boxes, detections first
         self._latest_event = -math.inf  # the time of the latest event logged
         self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
@@ -216,11 +216,12 @@ class AbductionTracker:
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
         conf = [int(c) for c in np.asarray(confidences).reshape(-1).tolist()]
-        arrays = self._integer_arrays = integer_box_arrays(boxes, predicted)  # both in one pass
-        if arrays is None:  # a value integer_box must convert (or refuse) on its own
+        rounded = self._integer_boxes = integer_box_array(boxes, predicted)  # both in one pass
+        if rounded is None:  # a value integer_box must convert (or refuse) on its own
             det_boxes, track_boxes = integer_boxes(boxes), integer_boxes(predicted)
         else:
-            det_boxes, track_boxes = (list(map(tuple, a.tolist())) for a in arrays)
+            every = list(map(tuple, rounded.tolist()))
+            det_boxes, track_boxes = every[:len(boxes)], every[len(boxes):]
         detections = tuple(Detection(det_ids[i], types[i], conf[i], b) for i, b in enumerate(det_boxes))
         predictions = tuple(TrackPrediction(t.id, t.type, t.state, b) for t, b in zip(tracks, track_boxes))
         iou: tuple[tuple[str, str, int], ...] = ()
@@ -295,8 +296,9 @@ class AbductionTracker:
         started = perf_counter()
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         problem = self.frame_problem(frame, boxes, confidences, types)
-        arrays = self._integer_arrays  # the frame's integer boxes: their range tests on the arrays
-        checked = arrays is not None and integer_boxes_fit(*arrays, resolve_constants(problem).get("hide_overlap", 100))
+        rounded = self._integer_boxes  # the frame's integer boxes: their range tests on the array
+        checked = rounded is not None and integer_boxes_fit(rounded, len(boxes),
+                                                            resolve_constants(problem).get("hide_overlap", 100))
         check_ranges(problem, f"frame {frame}", boxes_checked=checked)
         if self.frame_budget is None:
             hyp = self.solver.solve(problem, time_limit=self.time_limit)
