@@ -317,25 +317,48 @@ class BoxKalman:
         self._observed(box_xywh)
 
     @staticmethod
-    def update_many(filters: "list[BoxKalman]", boxes) -> None:
+    def update_many(filters: "list[BoxKalman]", boxes) -> "list[list[float]] | None":
         """``f.update(box)`` for every (filter, box) pair, the filters corrected as one batch
         (refimpl.tracking.kalman.update_many: the same bits).  Every box is checked before any
-        filter changes."""
+        filter changes.  Returns each filter's new state as a list of Python floats where the batch
+        left them stacked (for ``box_of_state``), else None."""
         b = np.asarray(boxes, dtype=float)
         if b.ndim != 2 or b.shape[1] != 4:  # not n boxes of four numbers: xywh_to_z says which is wrong
             zs = [xywh_to_z(v).reshape(DIM_Z, 1) for v in boxes]
         else:  # xywh_to_z of every row, each checked before any filter changes
             zs = [_z_values(v) for v in b.tolist()]
         if not len(zs):
-            return
-        update_many([f.kf for f in filters], np.array(zs, dtype=float).reshape(-1, DIM_Z, 1))
-        for f, v in zip(filters, b if b.ndim == 2 else boxes):
-            f._observed(v)
+            return None
+        stacked = update_many([f.kf for f in filters], np.array(zs, dtype=float).reshape(-1, DIM_Z, 1))
+        if stacked is None or b.ndim != 2:
+            for f, v in zip(filters, b if b.ndim == 2 else boxes):
+                f._observed(v)
+            return None
+        # what _observed keeps, copied once for the batch: rows of private copies (kf.x and kf.P
+        # are views of the stacks, which may be changed in place)
+        X, P = stacked
+        kept_x, kept_p, kept_b = X.copy(), P.copy(), b.copy()
+        for k, f in enumerate(filters):
+            f._last_obs = (kept_x[k], kept_p[k], kept_b[k])
+            f._counted()
+        return X[:, :, 0].tolist()
+
+    @staticmethod
+    def box_of_state(values: "list[float]") -> np.ndarray:
+        """``box`` of a state given as its list of Python floats (update_many's answer)."""
+        box = _box_values(values)
+        if box is None:
+            raise InvalidPrediction(f"state {values} is not a valid box")
+        return np.array(box)
 
     def _observed(self, box_xywh) -> None:
         # the state right after the update, for reupdate: copies (kf.x may be changed in place, as
         # SORT's own code does)
         self._last_obs = (self.kf.x.copy(), self.kf.P.copy(), np.array(box_xywh, dtype=float).reshape(4))
+        self._counted()
+
+    def _counted(self) -> None:
+        """SORT's counters after an update."""
         self.time_since_update = 0
         self.hits += 1
         self.hit_streak += 1

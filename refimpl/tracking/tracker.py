@@ -369,9 +369,9 @@ class AbductionTracker:
         # each track's streak and rows in sorted atom order: deterministic
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
         detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
-        BoxKalman.update_many([trk.kalman for trk in assigned], detected)
-        for trk, box in zip(assigned, detected):
-            self._observed(trk, frame, box)
+        states = BoxKalman.update_many([trk.kalman for trk in assigned], detected)  # as floats, or None
+        for k, (trk, box) in enumerate(zip(assigned, detected)):
+            self._observed(trk, frame, box, None if states is None else states[k])
         unhidden = {args[0] for name, args in event_terms
                     if name in _UNHIDING} if self.options.fill_hidden and resumes else set()
         for trk_id, det_id in resumes:
@@ -453,18 +453,20 @@ class AbductionTracker:
             trk.kalman.update(box)
         self._observed(trk, frame, box)
 
-    def _observed(self, trk: _Track, frame: int, box: np.ndarray) -> None:
-        """After the track's filter took the detection: SORT's hit streak, the written box, the rows."""
+    def _observed(self, trk: _Track, frame: int, box: np.ndarray, state: list[float] | None = None) -> None:
+        """After the track's filter took the detection: SORT's hit streak, the written box, the rows
+        (``state``: the filter's state as floats, where the caller has them)."""
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.at_rest = None
-        trk.observed[frame] = self._written(trk.kalman, box)
+        trk.observed[frame] = self._written(trk.kalman, box, state)
         self._confirm(trk, frame)
 
-    def _written(self, kalman: BoxKalman, box: np.ndarray) -> np.ndarray:
-        """The box an observed frame writes: the filter's state after the update, or the detection."""
+    def _written(self, kalman: BoxKalman, box: np.ndarray, state: list[float] | None = None) -> np.ndarray:
+        """The box an observed frame writes: the filter's state after the update (``state``: that
+        state as floats, where the caller has them), or the detection."""
         if self.options.written_box is WrittenBox.DETECTION:
             return np.array(box, dtype=float).reshape(4)  # a copy: the frame's array is the caller's
-        return kalman.box  # a new (4,) float array already
+        return kalman.box if state is None else BoxKalman.box_of_state(state)  # a new (4,) float array
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
