@@ -16,7 +16,7 @@ from refimpl.core.geometry import integer_box, integer_boxes
 from refimpl.tracking.pipeline import new_tracker, setup_for
 from refimpl.solvers.common import LazyTiebreak, candidate_pairs, intersection_matrix, tiebreak_weights
 from refimpl.solvers.cpsat_model import _overlapping_top_matrix
-from refimpl.solvers.fast_path import _rows
+from refimpl.solvers.fast_path import _inter_and_top, _rows
 from refimpl.core.constants import resolve_constants
 from refimpl.core.hypothesis import parse_action
 from refimpl.io.datasets import benchmark_sequences
@@ -85,6 +85,16 @@ def test_top_rows_equal_flatnonzero_per_row(tracked):
         assert rows == [np.flatnonzero(top[i]).tolist() for i in range(len(p.tracks))]
         nonempty += any(rows)
     assert nonempty > 0
+
+
+def test_inter_and_top_equal_the_two_matrices(tracked):
+    _, _, problems, _ = tracked
+    for p in problems:
+        hide = resolve_constants(p)["hide_overlap"]
+        inter, top = _inter_and_top(p.tracks, hide)
+        want = intersection_matrix([t.box for t in p.tracks])
+        assert inter.dtype == want.dtype and np.array_equal(inter, want)
+        assert np.array_equal(top, _overlapping_top_matrix(p.tracks, want, hide))
 
 
 def test_integer_boxes_equal_integer_box_on_real_boxes(tracked):
@@ -170,3 +180,24 @@ def test_column_medians_equal_np_median_bit_for_bit(tracked):
         assert out.dtype == ref.dtype and out.shape == ref.shape and out.tobytes() == ref.tobytes()
     with_nan = np.array([[np.nan, 1.0], [2.0, 3.0], [4.0, 5.0]])
     assert np.isnan(column_medians(with_nan)[0]) and column_medians(with_nan)[1] == 3.0
+
+
+def test_event_terms_split_as_event_of_parses():
+    # Hypothesis.event_terms splits a flat 'occurs_at(name(args),t)' without making Terms; every
+    # other shape goes to event_of: the same (name, argument names), or the same error
+    from refimpl.core.hypothesis import _event_name_args
+    from refimpl.core.spec import event_of
+    atoms = ["occurs_at(hides_behind(trk_1,trk_2),5)", "occurs_at(enters_fov(det_3),12)", "occurs_at(foo,5)",
+             "occurs_at(a,b,5)", "occurs_at(e(a),x(b),5)", "occurs_at(e(a)b,5)", "occurs_at(e(a),5(x))",
+             "occurs_at(e(a, b),5)", "occurs_at(e(f(a)),5)", "hides_behind(trk_1,trk_2)", "occurs_at(e(),5)",
+             "occurs_at(e(a,),5)", "occurs_at((a),5)", 'occurs_at(e("a,b"),5)', "occurs_at(,5)",
+             "occurs_at(e(a),)", "occurs_at(e(a),5)x)", "occurs_at(e(a))", "occurs_at()", "occurs_at(e(a),5,6)"]
+    for atom in atoms:
+        try:
+            e = event_of(atom)
+            want = (e.name, e.arg_names)
+        except ValueError:
+            with pytest.raises(ValueError):
+                _event_name_args(atom)
+            continue
+        assert _event_name_args(atom) == want, atom

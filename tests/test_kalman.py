@@ -277,13 +277,20 @@ def test_a_batch_update_is_one_update_per_filter_bit_for_bit(seed):
     boxes = [np.array([rng.uniform(0, 1200), rng.uniform(0, 350), rng.uniform(8, 300), rng.uniform(8, 300)])
              for _ in range(n)]
     before = [f.kf.x.copy() for f in batch]
-    BoxKalman.update_many(batch, boxes)
+    states = BoxKalman.update_many(batch, boxes)
     for f, box in zip(single, boxes):
         f.update(box)
     for k, (a, b) in enumerate(zip(batch, single)):
         _same(a.kf, b.kf, f"filter {k} of {n}")
         assert (a.hits, a.hit_streak, a.time_since_update) == (b.hits, b.hit_streak, b.time_since_update)
         assert not np.array_equal(a.kf.x, before[k])  # the batch did correct every filter
+        # the state kept for reupdate, and the written box from the returned floats, are update()'s
+        assert all(_bits(x) == _bits(y) and x.shape == y.shape for x, y in zip(a._last_obs, b._last_obs))
+        assert _bits(BoxKalman.box_of_state(states[k])) == _bits(b.box)
+    a = batch[0]
+    kept = a.kf.x.copy()
+    a.kf.x[6, 0] = 123.0  # an in-place edit (SORT's style) leaves the kept state alone
+    assert np.array_equal(a._last_obs[0], kept)
 
 
 def test_a_batch_update_matches_filterpy_on_real_tracks(shared_data):

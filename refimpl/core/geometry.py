@@ -36,13 +36,18 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             out[start:start + step] = iou_matrix(a[start:start + step], b)
         return out
     # corners (x1, y1) and (x2, y2) = (x + w, y + h), as xywh_to_xyxy computes them; the x and y
-    # coordinates go through each step together (the last axis), the same operations elementwise
-    a1, b1 = a[:, :2], b[:, :2]
-    a2, b2 = a1 + a[:, 2:], b1 + b[:, 2:]
+    # coordinates go through each step together (the last axis), the same operations elementwise;
+    # the corners, sides and areas of a's and b's boxes computed on them stacked (one call each)
+    n = len(a)
+    c = np.concatenate((a, b))
+    c1 = c[:, :2]
+    c2 = c1 + c[:, 2:]
+    wc = c2 - c1
+    area = wc[:, 0] * wc[:, 1]
+    a1, b1, a2, b2 = c1[:n], c1[n:], c2[:n], c2[n:]
     side = (np.minimum(a2[:, None], b2[None]) - np.maximum(a1[:, None], b1[None])).clip(0, None)  # np.clip's
     inter = side[..., 0] * side[..., 1]
-    wa, wb = a2 - a1, b2 - b1
-    union = (wa[:, 0] * wa[:, 1])[:, None] + (wb[:, 0] * wb[:, 1])[None, :] - inter
+    union = area[:n, None] + area[None, n:] - inter
     # inter / union where union > 0, else 0.0 (the divisions of np.where(union > 0, inter / union, 0.0),
     # without computing, or warning about, the ones it throws away)
     return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
@@ -74,6 +79,19 @@ def integer_boxes(boxes: np.ndarray) -> list[Box]:
     r = np.floor(b + 0.5).astype(np.int64)
     np.maximum(r[:, 2:], 1, out=r[:, 2:])
     return list(map(tuple, r.tolist()))  # type: ignore[arg-type]
+
+
+def integer_box_array(*arrays: np.ndarray) -> np.ndarray | None:
+    """integer_boxes of several (n_k, 4) float arrays as one int64 array (the arrays' rows in
+    order), rounded as one concatenated array (the same elementwise rounding, so the same
+    integers), or None where some value is not finite or too large for it (then integer_boxes
+    takes each array on its own)."""
+    b = np.concatenate([np.asarray(a, dtype=float).reshape(-1, 4) for a in arrays])
+    if not (np.abs(b) < _EXACT_INT).all():  # also False for NaN
+        return None
+    r = np.floor(b + 0.5).astype(np.int64)
+    np.maximum(r[:, 2:], 1, out=r[:, 2:])
+    return r
 
 
 def intersection_area(a: Box, b: Box) -> int:

@@ -131,7 +131,7 @@ class Hypothesis:
     @property
     def event_terms(self) -> tuple[tuple[str, tuple[str, ...]], ...]:
         """(event name, argument ids) of every abduced event, in sorted atom order."""
-        return tuple((e.name, e.arg_names) for e in map(event_of, self.events))
+        return tuple(map(_event_name_args, self.events))
 
     def to_json_dict(self) -> dict:
         return {
@@ -147,6 +147,25 @@ class Hypothesis:
     def to_json(self) -> str:
         """``json.dumps(self.to_json_dict())``, with a level 0 of any size (refimpl.core.bigint)."""
         return bigint.dumps(self.to_json_dict())
+
+
+def _event_name_args(atom: str) -> tuple[str, tuple[str, ...]]:
+    """(event_of(atom).name, event_of(atom).arg_names).  An 'occurs_at(name(a,b,...),t)' atom
+    whose name, arguments and time are flat (what every backend's events are) is split as
+    parse_atom's tokens would split it, without making its Terms; any other goes to event_of."""
+    if atom.startswith("occurs_at(") and atom.endswith(")"):
+        inner, comma, time = atom[10:-1].rpartition(",")
+        if comma and _FLAT_ARG.fullmatch(time):
+            head, paren, rest = inner.partition("(")
+            if _FLAT_ARG.fullmatch(head):
+                if not paren:
+                    return head, ()
+                if "(" not in rest and rest.endswith(")"):
+                    args = rest[:-1].split(",")
+                    if all(_FLAT_ARG.fullmatch(a) for a in args):
+                        return head, tuple(args)
+    e = event_of(atom)
+    return e.name, e.arg_names
 
 
 @lru_cache(maxsize=1 << 12)

@@ -42,7 +42,10 @@ What the model computes (model/*.lp, the same in refimpl/knowledge/relations.py 
 
 from __future__ import annotations
 
+import operator
 from functools import lru_cache
+
+import numpy as np
 
 from .spec import ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, FrameProblem, ProblemFormatError
 from .constants import resolve_constants
@@ -69,18 +72,22 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
                                  "every pair of tracks would count as overlapping)", source)
 
 
-def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
+def check_ranges(problem: FrameProblem, source: str = "<problem>", boxes_checked: bool = False) -> None:
     """Raise ProblemFormatError (one line) if any value of the problem leaves the range (every
-    backend; the optimisation sums are clingo's alone: ``clingo_overflow``)."""
+    backend; the optimisation sums are clingo's alone: ``clingo_overflow``).  ``boxes_checked``:
+    the caller has found every box within the box tests already (``integer_boxes_fit``)."""
     consts = resolve_constants(problem)
-    # a tracker's constants are the same on every frame but curr_time: checked once
-    if _constants_fit(tuple(kv for kv in consts.items() if kv[0] != "curr_time")):
+    # a tracker's constants are the same on every frame but curr_time: checked once (every other
+    # value of consts comes from problem.constants and the defaults)
+    if _given_constants_fit(problem.constants):
         check_constant("curr_time", consts["curr_time"], source)
     else:
         for name, value in consts.items():
             check_constant(name, value, source)  # raises, naming this problem's source
     hide = max(100, consts.get("hide_overlap", 100))
-    for kind, objects in (("detection", problem.detections), ("track", problem.tracks)):
+    for kind, objects in () if boxes_checked else (("detection", problem.detections), ("track", problem.tracks)):
+        if _boxes_fit(objects, hide if kind == "track" else 1):
+            continue  # else the loop below names the first box that does not
         for o in objects:
             x, y, w, h = o.box
             if max(abs(x), abs(y), w, h) > BOX_LIMIT or max(abs(x + w), abs(y + h)) > BOX_LIMIT:
@@ -95,12 +102,56 @@ def check_ranges(problem: FrameProblem, source: str = "<problem>") -> None:
         if not ASP_INT_MIN <= consts[size] - consts["border_margin"] <= ASP_INT_MAX:
             raise ProblemFormatError(f"{size} - border_margin = {consts[size] - consts['border_margin']} is outside "
                                      "the 32-bit range that clingo computes in", source)
+    times = [h.time for h in problem.history]
+    if not times or (max(map(abs, times)) <= TIME_LIMIT and problem.time - min(times) <= ASP_INT_MAX):
+        return  # else the loop below names the first event that does not fit
     for h in problem.history:
         if abs(h.time) > TIME_LIMIT:
             raise ProblemFormatError(f"history time {h.time} of {h} is outside -{TIME_LIMIT}..{TIME_LIMIT}", source)
         if problem.time - h.time > ASP_INT_MAX:
             raise ProblemFormatError(f"curr_time - {h.time} (history event {h}) = {problem.time - h.time} exceeds "
                                      f"{ASP_INT_MAX} (clingo's 32-bit integers)", source)
+
+
+def integer_boxes_fit(boxes: np.ndarray, detections: int, hide_overlap: int) -> bool:
+    """Whether integer boxes given as one int64 array (n, 4) of values below 2^52 in absolute
+    value (refimpl.core.geometry.integer_box_array), the first ``detections`` rows detections' and
+    the others tracks', pass check_ranges' box tests (its ``hide``: max(100, hide_overlap))."""
+    if not len(boxes):
+        return True
+    if np.abs(boxes).max() > BOX_LIMIT or np.abs(boxes[:, :2] + boxes[:, 2:]).max() > BOX_LIMIT:
+        return False
+    area = (boxes[:, 2] * boxes[:, 3]).tolist()  # w, h <= 2^28 now: exact in int64
+    return (max(area[:detections], default=0) <= ASP_INT_MAX
+            and max(100, hide_overlap) * max(area[detections:], default=0) <= ASP_INT_MAX)
+
+
+def _boxes_fit(objects, factor: int) -> bool:
+    """Whether every box passes check_ranges' tests (factor: the area's factor, > 0), each test
+    taken as the largest value over all boxes (builtins over the columns, no Python loop per box)."""
+    if not objects:
+        return True
+    xs, ys, ws, hs = zip(*[o.box for o in objects])
+    return (max(max(map(abs, xs)), max(map(abs, ys)), max(ws), max(hs)) <= BOX_LIMIT
+            and max(map(abs, map(operator.add, xs, ws))) <= BOX_LIMIT
+            and max(map(abs, map(operator.add, ys, hs))) <= BOX_LIMIT
+            and factor * max(map(operator.mul, ws, hs)) <= ASP_INT_MAX)
+
+
+def _given_constants_fit(constants) -> bool:
+    """Whether every constant but curr_time that resolve_constants makes of a problem's constants
+    passes check_constant (memoised by the constants, where they are hashable)."""
+    try:
+        return _given_fit(constants)
+    except TypeError:  # not hashable (a list, say): the merged values, without the memo
+        return _constants_fit(tuple(kv for kv in resolve_constants(FrameProblem.unchecked(0, constants=constants)).items()
+                                    if kv[0] != "curr_time"))
+
+
+@lru_cache(maxsize=256)
+def _given_fit(constants) -> bool:
+    merged = resolve_constants(FrameProblem.unchecked(0, constants=constants))
+    return _constants_fit(tuple(kv for kv in merged.items() if kv[0] != "curr_time"))
 
 
 @lru_cache(maxsize=256)

@@ -116,6 +116,13 @@ def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
     return out
 
 
+def disjoint_pairs(pairs) -> bool:
+    """Whether no two of the (left, right, ...) pairs share their left or their right node: then
+    every pair is a component of the pair graph on its own (the usual frame of a tracker)."""
+    lefts = {p[0] for p in pairs}
+    return len(lefts) == len(pairs) and len({p[1] for p in pairs}) == len(pairs)
+
+
 class DisjointSets:
     """Union-find over 0..n-1 (path halving); the root of a set is its smallest member."""
 
@@ -133,6 +140,23 @@ class DisjointSets:
         a, b = self.find(a), self.find(b)
         if a != b:
             self.parent[max(a, b)] = min(a, b)
+
+    def union_pairs(self, pairs, offset: int) -> None:
+        """``union(p[0], offset + p[1])`` for every pair p, in order (the same sets and roots), the
+        finds written out in one loop (a tracker's frame has a few dozen pairs, a crowd's thousands)."""
+        parent = self.parent
+        for p in pairs:
+            a, b = p[0], offset + p[1]
+            while parent[a] != a:
+                parent[a] = parent[parent[a]]
+                a = parent[a]
+            while parent[b] != b:
+                parent[b] = parent[parent[b]]
+                b = parent[b]
+            if a < b:
+                parent[b] = a
+            elif b < a:
+                parent[a] = b
 
 
 def components(problem: FrameProblem) -> list[Component]:
@@ -279,27 +303,29 @@ class LazyTiebreak:
         self._named = named
         self._others: dict[int, list[str]] = {}
         nu, nb = len(_UNARY_AT), len(_BINARY_AT)
-        # overlapping other tracks per row (inter[i, i] is the box's own area, > 0)
-        nonzero = inter != 0
-        over = (nonzero.sum(axis=1) - nonzero.diagonal()).tolist() if len(tracks) else []
-        bound = len(dets) * (nu - 1)
-        value = inter.item  # inter[i, j] as a Python int (of the few pairs named in the history)
-        for i, t in enumerate(tracks):
-            extra = named.get(t.id)
-            n_others = over[i]
-            if extra:  # named in the history, not overlapping now
-                n_others += sum(1 for x in extra if not value(i, ids[x]))
-            bound += nu + nb * n_others - 1
-        self.shift = max(bound, 0).bit_length()
+        # E = sum over detections of (nu - 1) and over tracks of (nu + nb * others - 1), others the
+        # overlapping other tracks (inter[i, i] is the box's own area, > 0) and those named in the
+        # history and not overlapping now: integers, summed in any order
         nt = len(tracks)
+        nonzero = inter != 0
+        others = int(nonzero.sum()) - int(nonzero.trace()) if nt else 0
+        value = inter.item  # inter[i, j] as a Python int (of the few pairs named in the history)
+        for trk, extra in named.items():
+            i = ids[trk]
+            others += sum(1 for x in extra if not value(i, ids[x]))
+        bound = len(dets) * (nu - 1) + nt * (nu - 1) + nb * others
+        self.shift = max(bound, 0).bit_length()
+        self.pair: dict[tuple[str, str], int] = {}
+        if disjoint_pairs(pairs):  # every pair alone in its component: rank 0, weight 1
+            for i, j in pairs:
+                self.pair[(tracks[i].id, dets[j].id)] = 1
+            return
         sets = DisjointSets(nt + len(dets))
-        for i, j in pairs:
-            sets.union(i, nt + j)
+        sets.union_pairs(pairs, nt)
         groups: dict[int, list[tuple[str, str]]] = {}
         for i, j in pairs:
             groups.setdefault(sets.find(i), []).append((tracks[i].id, dets[j].id))
         nat = _natural_key
-        self.pair: dict[tuple[str, str], int] = {}
         for group in groups.values():
             group.sort(key=lambda p: (nat(p[0]), nat(p[1])))
             for q, p in enumerate(group):

@@ -17,9 +17,9 @@ from ..knowledge.events import EventState
 from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem
-from .common import DisjointSets, LazyTiebreak, intersection_matrix
+from .common import DisjointSets, LazyTiebreak, disjoint_pairs as _disjoint
 from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
-from .cpsat_model import _cost, _explanations, _has_explanation, _overlapping_top_matrix
+from .cpsat_model import _cost, _explanations, _has_explanation
 
 # ---------------------------------------------------------------------------------------
 # The fast exact path
@@ -266,6 +266,20 @@ def _rows(top: "np.ndarray") -> list[list[int]]:
     return out
 
 
+def _inter_and_top(tracks, hide_overlap: int) -> tuple[np.ndarray, np.ndarray]:
+    """(common.intersection_matrix, cpsat_model._overlapping_top_matrix) of the tracks' integer
+    boxes, from one array of them, x and y taken together: the same integer arithmetic, exact."""
+    b = np.asarray([t.box for t in tracks], dtype=np.int64).reshape(-1, 4)
+    lo = b[:, :2]
+    hi = lo + b[:, 2:]
+    side = np.maximum(np.minimum(hi[:, None], hi[None]) - np.maximum(lo[:, None], lo[None]), 0)
+    inter = side[..., 0] * side[..., 1]
+    bottom = hi[:, 1]
+    top = (100 * inter > hide_overlap * (b[:, 2] * b[:, 3])[:, None]) & (bottom[None, :] >= bottom[:, None])
+    np.fill_diagonal(top, False)
+    return inter, top
+
+
 @dataclass
 class FastAnswer:
     """What solve_fast found: the answer and how the frame fell apart."""
@@ -280,13 +294,15 @@ class FastAnswer:
 
 def _candidate_pairs(problem: FrameProblem, state: EventState, constants: Mapping[str, int],
                      t_index: Mapping[str, int], d_index: Mapping[str, int],
-                     by_id: Mapping) -> list[tuple[int, int]]:
+                     by_id: Mapping, iou: Mapping[tuple[str, str], int] | None = None) -> list[tuple[int, int]]:
     """The candidate pairs (common.candidate_pairs: an iou/3 fact and the pair action's integrity
     constraint) as (track index, detection index) in iou/3 order: they rank the pair actions of the
     tie-break, and an edge of the matching is one of them.  A pair at or below its action's IoU
     threshold (iou_thresh for an active track, iou_thresh_resume for a halted one, which both
-    resume rules ask) fails the constraint without asking it: most overlaps in a crowd."""
-    tracks, dets, iou = problem.tracks, problem.detections, problem.iou_map
+    resume rules ask) fails the constraint without asking it: most overlaps in a crowd.  ``iou``:
+    problem.iou_map, where the caller has made it."""
+    tracks, dets = problem.tracks, problem.detections
+    iou = problem.iou_map if iou is None else iou
     above = {"active": constants["iou_thresh"], "halted": constants["iou_thresh_resume"]}
     lowest = min(above.values())
     pairs: list[tuple[int, int]] = []
@@ -317,16 +333,16 @@ class _FrameOptions:
     def __init__(self, problem: FrameProblem, state: EventState, constants: Mapping[str, int]):
         self.tracks, self.dets, self.iou = problem.tracks, problem.detections, problem.iou_map
         self.state, self.constants = state, constants
-        inter = intersection_matrix([t.box for t in self.tracks])
+        inter, top = _inter_and_top(self.tracks, constants["hide_overlap"])
         t_index = {t.id: i for i, t in enumerate(self.tracks)}
         d_index = {d.id: j for j, d in enumerate(self.dets)}
         self.by_id = {t.id: t for t in self.tracks}
-        self.pairs = _candidate_pairs(problem, state, constants, t_index, d_index, self.by_id)
+        self.pairs = _candidate_pairs(problem, state, constants, t_index, d_index, self.by_id, self.iou)
         tb = LazyTiebreak(problem, inter, self.pairs, t_index, d_index)  # = tiebreak_weights' numbers, computed where asked
         self.ev = tb.index  # level 0 of an explaining event: its index (common.py)
         self.w = {p: v << tb.shift for p, v in tb.pair.items()}  # level 0 of a pair action
         self.cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
-        self.top_rows = _rows(_overlapping_top_matrix(self.tracks, inter, constants["hide_overlap"]))
+        self.top_rows = _rows(top)
         self._track_solos()
         self._detection_solos(occupied(problem, constants))  # [start_occupied]
         self._edges()
@@ -458,17 +474,25 @@ def _components(frame: _FrameOptions) -> tuple[dict[int, list[int]], dict[int, i
     """The frame's components: each root's edges (indices into ``frame.edges``), and each root's
     number of nodes (tracks + detections, an edgeless node a component of its own)."""
     nt, nodes = len(frame.tracks), len(frame.tracks) + len(frame.dets)
+    if _disjoint(frame.edges):  # every edge a component of its own, rooted at its track (the smaller node)
+        comp_edges = {e[0]: [k] for k, e in enumerate(frame.edges)}
+        paired = {nt + e[1] for e in frame.edges}
+        return comp_edges, {x: 2 if x in comp_edges else 1 for x in range(nodes) if x not in paired}
     sets = DisjointSets(nodes)
-    find = sets.find
-    for i, j, _ in frame.edges:
-        sets.union(i, nt + j)
+    sets.union_pairs(frame.edges, nt)
+    # every node's root in one pass: a parent is never larger than its node (roots are the smallest
+    # members), so a node's parent has its root already
+    parent, root = sets.parent, list(range(nodes))
+    for x in range(nodes):
+        p = parent[x]
+        if p != x:
+            root[x] = root[p]
     comp_edges: dict[int, list[int]] = {}
     for k, e in enumerate(frame.edges):
-        comp_edges.setdefault(find(e[0]), []).append(k)
+        comp_edges.setdefault(root[e[0]], []).append(k)
     sizes: dict[int, int] = {}
-    for x in range(nodes):
-        root = find(x)
-        sizes[root] = sizes.get(root, 0) + 1
+    for r in root:
+        sizes[r] = sizes.get(r, 0) + 1
     return comp_edges, sizes
 
 

@@ -100,23 +100,25 @@ class LinearKalman:
         self.P = _dot(_dot(I_KH, P), I_KH.T) + _dot(_dot(K, R), K.T)
 
 
-def predict_many(filters: "list[LinearKalman]") -> None:
+def predict_many(filters: "list[LinearKalman]") -> np.ndarray | None:
     """``f.predict()`` for every filter, computed as one batch: the same numbers bit for bit (see
     update_many; F shared, each filter's own Q added to its own slice).  Filters that do not share F
-    (or fewer than two) are advanced one by one."""
+    (or fewer than two) are advanced one by one.  Returns the batch's stacked states, shape
+    (n, dim_x, 1) (each filter's x is a view of it), or None where they were advanced one by one."""
     if len(filters) < 2 or any(f.F is not filters[0].F for f in filters):
         for f in filters:
             f.predict()
-        return
+        return None
     F = filters[0].F
     mm = np.matmul
     X = mm(F, np.array([f.x for f in filters]))
     P = mm(mm(F, np.array([f.P for f in filters])), F.T) + np.array([f.Q for f in filters])
     for k, f in enumerate(filters):
         f.x, f.P = X[k], P[k]
+    return X
 
 
-def update_many(filters: "list[LinearKalman]", zs: np.ndarray) -> None:
+def update_many(filters: "list[LinearKalman]", zs: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     """``f.update(zs[k])`` for every filter k, computed as one batch (``zs``: shape (n, dim_z, 1)).
 
     The same numbers bit for bit: ``numpy.matmul`` on the stacks runs, slice by slice, the BLAS
@@ -125,12 +127,13 @@ def update_many(filters: "list[LinearKalman]", zs: np.ndarray) -> None:
     compares every bit of x and P with one ``update`` per filter, on random and on real states.
     A tracker updates a handful of filters a frame, so one batch replaces ~9 small numpy calls per
     filter by ~9 per frame.  Filters that do not share H and R (or fewer than two) are updated one
-    by one."""
+    by one.  Returns the batch's stacked states and covariances, shapes (n, dim_x, 1) and (n, dim_x,
+    dim_x) (each filter's x and P are views of them), or None where they were updated one by one."""
     n = len(filters)
     if n < 2 or any(f.H is not filters[0].H or f.R is not filters[0].R for f in filters):
         for f, z in zip(filters, zs):
             f.update(z)
-        return
+        return None
     first = filters[0]
     H, R, I = first.H, first.R, first._I
     X = np.array([f.x for f in filters])
@@ -146,3 +149,4 @@ def update_many(filters: "list[LinearKalman]", zs: np.ndarray) -> None:
     P = mm(mm(I_KH, P), I_KH.transpose(0, 2, 1)) + mm(mm(K, R), K.transpose(0, 2, 1))
     for k, f in enumerate(filters):
         f.x, f.P = X[k], P[k]
+    return X, P

@@ -68,6 +68,21 @@ HIDDEN_MAX_SPEED = 0.5
 frame: a velocity estimated from a few jittery detections cannot carry a hidden track away."""
 
 
+def column_medians(values: np.ndarray) -> np.ndarray:
+    """``np.median(values, axis=0)`` of an (n, k) float array, n >= 1, bit for bit: the middle
+    value of each sorted column, or the mean of the two middle ones as np.mean takes it (their sum
+    from 0.0, divided by 2).  np.median's first call imports numpy.ma for its NaN check (~14 ms, once per
+    process, in the middle of a run: the slowest frame of a short run); a column with a NaN goes
+    to np.median, which then answers NaN as before."""
+    if not np.isfinite(values).all():
+        return np.median(values, axis=0)
+    s = np.sort(values, axis=0)
+    half = len(s) // 2
+    if len(s) % 2:  # np.mean's sum starts at 0.0: a lone -0.0 becomes 0.0
+        return (0.0 + s[half]) / 1
+    return (0.0 + s[half - 1] + s[half]) / 2
+
+
 class InvalidPrediction(ValueError):
     """A Kalman prediction that is not a finite box with positive width and height."""
 
@@ -109,7 +124,11 @@ def _state_box(x: np.ndarray) -> np.ndarray | None:
 
 def _state_box_values(x: np.ndarray) -> tuple[float, float, float, float] | None:
     """_state_box as a tuple of four Python floats (or None)."""
-    v = x[:, 0].tolist()
+    return _box_values(x[:, 0].tolist())
+
+
+def _box_values(v: list[float]) -> tuple[float, float, float, float] | None:
+    """_state_box_values of a state given as its list of Python floats."""
     if not all(map(math.isfinite, v)):
         return None
     u, c, s, r = v[0], v[1], v[2], v[3]
@@ -264,11 +283,13 @@ class BoxKalman:
         takes them on without an array per box)."""
         for f in filters:
             f._before_predict(hold)
-        predict_many([f.kf for f in filters])
+        X = predict_many([f.kf for f in filters])
+        # every state's floats in one conversion where the batch left them stacked
+        states = [f.kf.x[:, 0].tolist() for f in filters] if X is None else X[:, :, 0].tolist()
         out = []
-        for f in filters:
+        for f, v in zip(filters, states):
             f._after_predict()
-            out.append(_state_box_values(f.kf.x))
+            out.append(_box_values(v))
         return out
 
     def _before_predict(self, hold: bool) -> None:
@@ -296,25 +317,48 @@ class BoxKalman:
         self._observed(box_xywh)
 
     @staticmethod
-    def update_many(filters: "list[BoxKalman]", boxes) -> None:
+    def update_many(filters: "list[BoxKalman]", boxes) -> "list[list[float]] | None":
         """``f.update(box)`` for every (filter, box) pair, the filters corrected as one batch
         (refimpl.tracking.kalman.update_many: the same bits).  Every box is checked before any
-        filter changes."""
+        filter changes.  Returns each filter's new state as a list of Python floats where the batch
+        left them stacked (for ``box_of_state``), else None."""
         b = np.asarray(boxes, dtype=float)
         if b.ndim != 2 or b.shape[1] != 4:  # not n boxes of four numbers: xywh_to_z says which is wrong
             zs = [xywh_to_z(v).reshape(DIM_Z, 1) for v in boxes]
         else:  # xywh_to_z of every row, each checked before any filter changes
             zs = [_z_values(v) for v in b.tolist()]
         if not len(zs):
-            return
-        update_many([f.kf for f in filters], np.array(zs, dtype=float).reshape(-1, DIM_Z, 1))
-        for f, v in zip(filters, b if b.ndim == 2 else boxes):
-            f._observed(v)
+            return None
+        stacked = update_many([f.kf for f in filters], np.array(zs, dtype=float).reshape(-1, DIM_Z, 1))
+        if stacked is None or b.ndim != 2:
+            for f, v in zip(filters, b if b.ndim == 2 else boxes):
+                f._observed(v)
+            return None
+        # what _observed keeps, copied once for the batch: rows of private copies (kf.x and kf.P
+        # are views of the stacks, which may be changed in place)
+        X, P = stacked
+        kept_x, kept_p, kept_b = X.copy(), P.copy(), b.copy()
+        for k, f in enumerate(filters):
+            f._last_obs = (kept_x[k], kept_p[k], kept_b[k])
+            f._counted()
+        return X[:, :, 0].tolist()
+
+    @staticmethod
+    def box_of_state(values: "list[float]") -> np.ndarray:
+        """``box`` of a state given as its list of Python floats (update_many's answer)."""
+        box = _box_values(values)
+        if box is None:
+            raise InvalidPrediction(f"state {values} is not a valid box")
+        return np.array(box)
 
     def _observed(self, box_xywh) -> None:
         # the state right after the update, for reupdate: copies (kf.x may be changed in place, as
         # SORT's own code does)
         self._last_obs = (self.kf.x.copy(), self.kf.P.copy(), np.array(box_xywh, dtype=float).reshape(4))
+        self._counted()
+
+    def _counted(self) -> None:
+        """SORT's counters after an update."""
         self.time_since_update = 0
         self.hits += 1
         self.hit_streak += 1

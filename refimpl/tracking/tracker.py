@@ -37,19 +37,20 @@ defaults are this conservative.
 from __future__ import annotations
 
 import math
+from itertools import chain
 from dataclasses import dataclass, field
 from time import perf_counter
 from typing import Callable, Mapping
 
 import numpy as np
 
-from ..core.constants import default_constants
-from ..core.geometry import integer_box, integer_boxes, iou_matrix, scale_iou
+from ..core.constants import default_constants, resolve_constants
+from ..core.geometry import integer_box_array, integer_boxes, iou_matrix, scale_iou
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
-from .motion import BoxKalman
+from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
 from .options import TrackerOptions, WrittenBox
-from ..core.ranges import check_ranges
+from ..core.ranges import check_ranges, integer_boxes_fit
 from ..solvers import Solver
 from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, is_symbol, track_number
 
@@ -74,21 +75,6 @@ def _all_symbols(types) -> bool:
     except TypeError:  # unhashable: not a str; the constructor names it
         return False
     return all(map(is_symbol, kinds))
-
-
-def column_medians(values: np.ndarray) -> np.ndarray:
-    """``np.median(values, axis=0)`` of an (n, k) float array, n >= 1, bit for bit: the middle
-    value of each sorted column, or the mean of the two middle ones as np.mean takes it (their sum
-    from 0.0, divided by 2).  np.median's first call imports numpy.ma for its NaN check (~14 ms, once per
-    process, in the middle of a run: the slowest frame of a short run); a column with a NaN goes
-    to np.median, which then answers NaN as before."""
-    if not np.isfinite(values).all():
-        return np.median(values, axis=0)
-    s = np.sort(values, axis=0)
-    half = len(s) // 2
-    if len(s) % 2:  # np.mean's sum starts at 0.0: a lone -0.0 becomes 0.0
-        return (0.0 + s[half]) / 1
-    return (0.0 + s[half - 1] + s[half]) / 2
 
 
 class ResultSink:
@@ -210,6 +196,8 @@ class AbductionTracker:
         self.sink = sink
         self.keep_records = keep_records or sink is None
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
+        self._integer_boxes: np.ndarray | None = None  # the last problem's integer boxes, detections first
+        self._latest_event = -math.inf  # the time of the latest event logged
         self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
@@ -228,9 +216,14 @@ class AbductionTracker:
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
         conf = [int(c) for c in np.asarray(confidences).reshape(-1).tolist()]
-        detections = tuple(Detection(det_ids[i], types[i], conf[i], b) for i, b in enumerate(integer_boxes(boxes)))
-        predictions = tuple(TrackPrediction(t.id, t.type, t.state, b)
-                            for t, b in zip(tracks, integer_boxes(predicted)))
+        rounded = self._integer_boxes = integer_box_array(boxes, predicted)  # both in one pass
+        if rounded is None:  # a value integer_box must convert (or refuse) on its own
+            det_boxes, track_boxes = integer_boxes(boxes), integer_boxes(predicted)
+        else:
+            every = list(map(tuple, rounded.tolist()))
+            det_boxes, track_boxes = every[:len(boxes)], every[len(boxes):]
+        detections = tuple(Detection(det_ids[i], types[i], conf[i], b) for i, b in enumerate(det_boxes))
+        predictions = tuple(TrackPrediction(t.id, t.type, t.state, b) for t, b in zip(tracks, track_boxes))
         iou: tuple[tuple[str, str, int], ...] = ()
         if len(tracks) and len(boxes):
             ml = scale_iou(iou_matrix(predicted, boxes))
@@ -239,7 +232,7 @@ class AbductionTracker:
             track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
             iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
                             ml[ks, js].tolist()))
-        history = tuple(e for t in tracks for e in t.history)
+        history = tuple(chain.from_iterable(t.history for t in tracks))
         # Built here, the problem holds what FrameProblem checks by construction (ids made here,
         # unique; integer boxes with w, h >= 1; one IoU fact per pair, 0..100000; track types
         # and states from earlier frames), except what comes from the caller: the constants (the
@@ -247,7 +240,7 @@ class AbductionTracker:
         # (after every event of the history).  Where one of those fails, the constructor raises
         # its one-line error naming the first offender.
         if (self.frames and _all_symbols(types) and (not conf or 0 <= min(conf) and max(conf) <= 100)
-                and all(e.time < frame for e in history)):
+                and (self._latest_event < frame or all(e.time < frame for e in history))):
             make = FrameProblem.unchecked
         else:
             make = FrameProblem
@@ -303,7 +296,10 @@ class AbductionTracker:
         started = perf_counter()
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         problem = self.frame_problem(frame, boxes, confidences, types)
-        check_ranges(problem, f"frame {frame}")
+        rounded = self._integer_boxes  # the frame's integer boxes: their range tests on the array
+        checked = rounded is not None and integer_boxes_fit(rounded, len(boxes),
+                                                            resolve_constants(problem).get("hide_overlap", 100))
+        check_ranges(problem, f"frame {frame}", boxes_checked=checked)
         if self.frame_budget is None:
             hyp = self.solver.solve(problem, time_limit=self.time_limit)
         else:
@@ -367,14 +363,15 @@ class AbductionTracker:
         assignments, resumes = acts.get("assign", ()), acts.get("resume", ())
         event_terms = hyp.event_terms
         self.owners = {index[d]: t for t, d in (*assignments, *resumes)}
-        scene = self._scene_velocity(frame) if self.options.scene_velocity else None
+        # the scene's motion before this frame's updates change the velocities; only a start reads it
+        scene = self._scene_velocity(frame) if self.options.scene_velocity and "start" in acts else None
         # every assigned track's filter corrected in one batch (the same bits as one by one), then
         # each track's streak and rows in sorted atom order: deterministic
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
         detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
-        BoxKalman.update_many([trk.kalman for trk in assigned], detected)
-        for trk, box in zip(assigned, detected):
-            self._observed(trk, frame, box)
+        states = BoxKalman.update_many([trk.kalman for trk in assigned], detected)  # as floats, or None
+        for k, (trk, box) in enumerate(zip(assigned, detected)):
+            self._observed(trk, frame, box, None if states is None else states[k])
         unhidden = {args[0] for name, args in event_terms
                     if name in _UNHIDING} if self.options.fill_hidden and resumes else set()
         for trk_id, det_id in resumes:
@@ -412,6 +409,7 @@ class AbductionTracker:
             event = Term(name, tuple(Term(new_ids.get(a, a)) for a in args))
             logged = HistoryEvent(event, frame)
             self.events.append(logged)
+            self._latest_event = max(self._latest_event, frame)  # no history event is later
             frame_events.append(logged)
             owner = self.tracks.get(event.args[0].name)
             if owner is None:
@@ -455,18 +453,20 @@ class AbductionTracker:
             trk.kalman.update(box)
         self._observed(trk, frame, box)
 
-    def _observed(self, trk: _Track, frame: int, box: np.ndarray) -> None:
-        """After the track's filter took the detection: SORT's hit streak, the written box, the rows."""
+    def _observed(self, trk: _Track, frame: int, box: np.ndarray, state: list[float] | None = None) -> None:
+        """After the track's filter took the detection: SORT's hit streak, the written box, the rows
+        (``state``: the filter's state as floats, where the caller has them)."""
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.at_rest = None
-        trk.observed[frame] = self._written(trk.kalman, box)
+        trk.observed[frame] = self._written(trk.kalman, box, state)
         self._confirm(trk, frame)
 
-    def _written(self, kalman: BoxKalman, box: np.ndarray) -> np.ndarray:
-        """The box an observed frame writes: the filter's state after the update, or the detection."""
+    def _written(self, kalman: BoxKalman, box: np.ndarray, state: list[float] | None = None) -> np.ndarray:
+        """The box an observed frame writes: the filter's state after the update (``state``: that
+        state as floats, where the caller has them), or the detection."""
         if self.options.written_box is WrittenBox.DETECTION:
             return np.array(box, dtype=float).reshape(4)  # a copy: the frame's array is the caller's
-        return kalman.box  # a new (4,) float array already
+        return kalman.box if state is None else BoxKalman.box_of_state(state)  # a new (4,) float array
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
