@@ -91,3 +91,31 @@ def test_frame_times_count_the_clingo_worker_processes_cpu():
     run_sequence(seq, setup_for("mot", None, "clingo"), solver=solver, frame_times=times)
     assert solver._worker.started == 1 and solver.child_cpu_seconds > 0
     assert len(times) == len(seq.frames) and sum(times) >= solver.child_cpu_seconds
+
+
+class _Timed(Exception):
+    """Raised by the stand-in for the peer comparison once it has looked at the heap."""
+
+
+@pytest.mark.parametrize("flags", [["--peers", "sort"], ["--peers", "sort", "--shift", "none"]])
+def test_benchmark_times_the_trackers_with_the_loaded_sets_frozen_as_track_does(data_root_with_val, monkeypatch, flags):
+    # `benchmark --peers` (and --shift) time every tracker per frame; a full garbage collection over
+    # the loaded sets landed in a frame and made it 90-150 ms (docs/benchmarks.md, "The slowest
+    # frames").  The comparison runs with the heap frozen (gc.freeze, as `refimpl track` runs), and
+    # the heap is handed back afterwards even when the comparison fails.
+    import gc
+    from refimpl.cli import benchmarks
+    from refimpl.cli import main
+    pytest.importorskip("trackers")
+    seen = []
+
+    def compare(*args, **kwargs):
+        seen.append(gc.get_freeze_count())
+        raise _Timed
+
+    monkeypatch.setattr(benchmarks, "compare", compare)
+    root = str(data_root_with_val("0012"))
+    with pytest.raises(_Timed):
+        main(["benchmark", "kitti-car-val", "--data", root, "--quiet", *flags])
+    assert len(seen) == 1 and seen[0] > 0
+    assert gc.get_freeze_count() == 0

@@ -34,7 +34,7 @@ from ..io.shifts import parse_shifts, shifted_dataset
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, TRACKERS
 from ..tracking.options import option_flags
 from ..tracking.presets import load_presets, startable_share
-from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup
+from .common import EXIT_OK, UserError, _option_flags_given, _plan, _setup, frozen_heap
 
 
 def cmd_benchmark(args: argparse.Namespace) -> int:
@@ -63,7 +63,8 @@ def cmd_benchmark(args: argparse.Namespace) -> int:
         requests.append(RunRequest(name, load_dataset(name, args.data), setup.backend, setup.constants,
                                    setup.options, setup.preset, setup.tuned_fps, setup.in_frames,
                                    keep_rows=bool(args.results_dir)))
-    runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
+    with frozen_heap():  # as `refimpl track` runs: the loaded sets out of the full collections
+        runs = run_requests(requests, plan, label=f"benchmark/{args.backend}", quiet=args.quiet)
     if args.results_dir:
         _write_results(args, runs)
     report = {}
@@ -144,8 +145,10 @@ def _shift_tables(args: argparse.Namespace, names, shifts, peers, backend: str) 
         progress = Progress(len(shifts) * len(dataset) * (2 + len(peers)), f"{name}/shifts", enabled=not args.quiet)
         results: dict[str, dict[str, tuple[float, float]]] = {}
         for shift in shifts:
-            c = compare(name, args.data, peers, backend, dict(setup.constants), dataset=shifted_dataset(dataset, shift),
-                        step=progress.step, options=setup.options, without_preset=False, setup=setup)
+            shifted = shifted_dataset(dataset, shift)
+            with frozen_heap():
+                c = compare(name, args.data, peers, backend, dict(setup.constants), dataset=shifted,
+                            step=progress.step, options=setup.options, without_preset=False, setup=setup)
             results[shift] = {s.label: (s.overall["hota"], s.overall["idf1"]) for s in c.scores}
         table = f"## {TITLES[name]}: shifts (HOTA / IDF1)\n\n{shift_table(results)}\n"
         print(table)
@@ -188,8 +191,9 @@ def _peer_tables(args: argparse.Namespace, names, peers, backend: str) -> tuple[
         constants, options = dict(setup.constants), setup.options
         progress = Progress(len(dataset) * (2 + bool(constants or options.changed()) + len(peers)),
                             f"{name}/peers", enabled=not args.quiet)
-        c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step,
-                    options=options, repeat=args.repeat, setup=setup)
+        with frozen_heap():  # what was loaded and scored before kept out of the full collections, for every tracker
+            c = compare(name, args.data, peers, backend, constants, dataset=dataset, step=progress.step,
+                        options=options, repeat=args.repeat, setup=setup)
         comparisons.append(c)
         print(f"## {c.title}\n")
         print(comparison_table(c))
