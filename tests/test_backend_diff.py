@@ -105,7 +105,7 @@ def test_frames_beyond_clingos_sums_are_counted_not_fatal(shared_data):
 # diff --asp-model: clingo on a user's own encoding against the oracle
 # ---------------------------------------------------------------------------------------------
 
-HALT_CHOICE = """1 { occurs_at(hides_behind(Trk, Trk2), curr_time) : event(hides_behind(Trk, Trk2));
+HALT_CHOICE = """1 { occurs_at(hides_behind(Trk, Trk2), curr_time) : can_occur(hides_behind(Trk, Trk2));
     occurs_at(missing_detections(Trk), curr_time) } 1 :- halt(Trk)."""
 
 

@@ -45,6 +45,12 @@ _AGAIN = "|".join(e.name for e in explaining("ignore_trk"))
 CERTIFIED_STATEMENTS = frozenset({
     # [actions_per_track], [actions_per_detection]: every track may take ignore_trk and every
     # detection ignore_det (the solo actions the witness's extension takes)
+    "1 <= { assign(Trk,Det): assignment_constraints(Trk,Det); end(Trk); ignore_trk(Trk); halt(Trk); "
+    "resume(Trk,Det): resume_candidate(Trk,Det) } <= 1 :- trk(Trk,_).",
+    "1 <= { assign(Trk,Det): assignment_constraints(Trk,Det); start(Det); ignore_det(Det); "
+    "resume(Trk,Det): resume_candidate(Trk,Det) } <= 1 :- det(Det,_,_).",
+    # ... and as they were before the pair actions were offered only for admissible pairs (issue 38:
+    # the same solo actions, so the argument holds for an encoding copied from an earlier refimpl)
     "1 <= { assign(Trk,Det): det(Det,_,_); end(Trk); ignore_trk(Trk); halt(Trk); "
     "resume(Trk,Det): det(Det,_,_) } <= 1 :- trk(Trk,_).",
     "1 <= { assign(Trk,Det): trk(Trk,_); start(Det); ignore_det(Det); resume(Trk,Det): trk(Trk,_) } <= 1 "
@@ -52,6 +58,9 @@ CERTIFIED_STATEMENTS = frozenset({
     # [ignore_trk_constraints]: only a halted track is ignored (the argument's "a halted track")
     "#false :- ignore_trk(Trk); not trk_state(Trk,halted).",
     # [explain_ignore] (docs/model.md 3.16): the re-explanation is always possible where required
+    # (every possible one is offered: poss(hides_behind(T, T2)) implies can_occur, events.lp), and
+    # the choice as it was before it offered only can_occur's (issue 38)
+    f"0 <= {{ occurs_at({_AGAIN}(Trk,Trk2),curr_time): can_occur({_AGAIN}(Trk,Trk2)) }} <= 1 :- ignore_trk(Trk).",
     f"0 <= {{ occurs_at({_AGAIN}(Trk,Trk2),curr_time): event({_AGAIN}(Trk,Trk2)) }} <= 1 :- ignore_trk(Trk).",
     f"reexplained(Trk) :- ignore_trk(Trk); occurs_at({_AGAIN}(Trk,_),curr_time).",
     f"#false :- ignore_trk(Trk); holds_at(clipped(Trk),true,curr_time); poss({_AGAIN}(Trk,_)); "

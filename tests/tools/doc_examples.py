@@ -29,7 +29,7 @@ SESSIONS = ("text", "console")
 SHOWN_ONLY = {"docs/model.md", "docs/evaluation.md"}
 """Documents of which only the commands that show output are run: their ```sh blocks name long
 runs (a whole benchmark's diff) that the text describes rather than shows."""
-HALT_CHOICE = """1 { occurs_at(hides_behind(Trk, Trk2), curr_time) : event(hides_behind(Trk, Trk2));
+HALT_CHOICE = """1 { occurs_at(hides_behind(Trk, Trk2), curr_time) : can_occur(hides_behind(Trk, Trk2));
     occurs_at(missing_detections(Trk), curr_time) } 1 :- halt(Trk)."""
 """model/events.lp's [explain_halt], which docs/model.md 6's ``nohide`` copy replaces."""
 
