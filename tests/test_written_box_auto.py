@@ -142,3 +142,16 @@ def test_auto_is_an_option_value_and_a_bad_one_names_it():
     assert TrackerOptions.from_mapping({"written_box": "auto"}).changed() == {"written_box": "auto"}
     with pytest.raises(ValueError, match="written_box must be one of filtered, detection, auto"):
         TrackerOptions(written_box="learned")
+
+
+def test_a_noisy_advantage_of_the_detection_is_not_enough():
+    # 16 checks whose differences (detection's - filtered's squared distance) have mean -0.1:
+    # with standard deviation 1 the standard error is 1 / 4 = 0.25, and -0.1 is not below
+    # -STANDARD_ERRORS * 0.25 = -0.125: filtered; with standard deviation 0.4 it is 0.1, and -0.1
+    # is below -0.05: detection.  Sum of squares of the differences = 16 * (mean^2 + sd^2).
+    from refimpl.tracking.written_box import STANDARD_ERRORS
+    assert STANDARD_ERRORS == 0.5
+    for sd, expected in ((1.0, False), (0.4, True)):
+        e = WrittenBoxEvidence(filtered=(0.0, 0.0, 10.0, 0.0), detected=(0.0, 0.0, 8.4, 0.0),
+                               squares=(0.0, 0.0, 16 * (0.01 + sd * sd), 0.0), checks=16)
+        assert e.from_detection().tolist() == [False, False, expected, False], sd
