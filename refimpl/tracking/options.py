@@ -24,6 +24,10 @@ class WrittenBox(str, Enum):
     """The Kalman state after the update with the detection (SORT's output; the default)."""
     DETECTION = "detection"
     """The detection's box itself (what ByteTrack and OC-SORT write)."""
+    AUTO = "auto"
+    """Learned online, per coordinate (centre x, centre y, width, height): whichever of the two the
+    sequence so far shows closer to the midpoint of the track's detections one frame before and
+    after (refimpl.tracking.written_box)."""
 
     @classmethod
     def parse(cls, value: "str | WrittenBox") -> "WrittenBox":
@@ -126,8 +130,9 @@ class TrackerOption:
 
 TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("written_box", WrittenBox.parse, tuple(w.value for w in WrittenBox),
-                  "the box written for an observed frame: the detection's own box or the Kalman state after "
-                  "the update (SORT's output)"),
+                  "the box written for an observed frame: the detection's own box, the Kalman state after "
+                  "the update (SORT's output), or auto: per coordinate, whichever the sequence so far shows "
+                  "closer to the midpoint of the detections one frame before and after"),
     TrackerOption("velocity_noise", _positive("velocity_noise"), None,
                   "the factor on the process noise of the Kalman filter's velocities (1: SORT's filter)"),
     TrackerOption("area_noise", _positive("area_noise"), None,

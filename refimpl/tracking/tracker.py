@@ -11,9 +11,9 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
 - a track's box is written for a frame in which a detection was assigned to it or resumed it,
   once the track is confirmed by SORT's online rule: hit_streak >= min_hits consecutive
   observations, or the first min_hits frames; WHICH box is the tracker option ``written_box``
-  (WrittenBox): the Kalman state after the update (FILTERED, as SORT writes it, the default) or
-  the detection's own box (DETECTION, as ByteTrack and OC-SORT write it; the KITTI Car preset
-  chooses it, docs/peers.md);
+  (WrittenBox): the Kalman state after the update (FILTERED, as SORT writes it), the detection's
+  own box (DETECTION, as ByteTrack and OC-SORT write it), or per coordinate the one the sequence
+  so far shows closer (AUTO, refimpl.tracking.written_box); the presets say which (docs/peers.md);
 - a resumed track must be re-confirmed the same way, unless the gap was short (<= the tracker
   option ``bridge_gap`` frames) and the resuming detection confident (>= ``bridge_conf``): then it
   stays confirmed and its unobserved frames are filled by linear interpolation between the boxes
@@ -50,6 +50,7 @@ from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
 from .options import TrackerOptions, WrittenBox
+from .written_box import WrittenBoxLearner
 from ..core.ranges import check_ranges, integer_boxes_fit
 from ..solvers import Solver
 from ..core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction, is_symbol, track_number
@@ -198,6 +199,7 @@ class AbductionTracker:
         self._pending: dict[int, list[list[float]]] = {}  # frame -> rows not yet handed to the sink
         self._integer_boxes: np.ndarray | None = None  # the last problem's integer boxes, detections first
         self._latest_event = -math.inf  # the time of the latest event logged
+        self._learner = WrittenBoxLearner() if options.written_box is WrittenBox.AUTO else None
         self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
@@ -399,7 +401,7 @@ class AbductionTracker:
             self.next_number += 1
             kalman = BoxKalman(boxes[j], self.options.velocity_noise, scene, self.options.area_noise)
             trk = _Track(trk_id, types[j], kalman, at_rest=None if scene is None else boxes[j].copy())
-            trk.observed[frame] = self._written(kalman, boxes[j])
+            trk.observed[frame] = self._written(trk_id, frame, kalman, boxes[j])
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
@@ -429,6 +431,8 @@ class AbductionTracker:
         for trk in self.tracks.values():
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
+        if self._learner is not None:
+            self._learner.forget(frame)
 
     @staticmethod
     def _hid_after(trk: _Track, last: int) -> bool:
@@ -458,15 +462,17 @@ class AbductionTracker:
         (``state``: the filter's state as floats, where the caller has them)."""
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.at_rest = None
-        trk.observed[frame] = self._written(trk.kalman, box, state)
+        trk.observed[frame] = self._written(trk.id, frame, trk.kalman, box, state)
         self._confirm(trk, frame)
 
-    def _written(self, kalman: BoxKalman, box: np.ndarray, state: list[float] | None = None) -> np.ndarray:
-        """The box an observed frame writes: the filter's state after the update (``state``: that
-        state as floats, where the caller has them), or the detection."""
+    def _written(self, trk_id: str, frame: int, kalman: BoxKalman, box: np.ndarray,
+                 state: list[float] | None = None) -> np.ndarray:
+        """The box an observed frame writes (WrittenBox; ``state``: the filter's state after the
+        update as floats, where the caller has them)."""
         if self.options.written_box is WrittenBox.DETECTION:
             return np.array(box, dtype=float).reshape(4)  # a copy: the frame's array is the caller's
-        return kalman.box if state is None else BoxKalman.box_of_state(state)  # a new (4,) float array
+        filtered = kalman.box if state is None else BoxKalman.box_of_state(state)  # a new (4,) float array
+        return filtered if self._learner is None else self._learner.written(trk_id, frame, box, filtered)
 
     def _confirm(self, trk: _Track, frame: int) -> None:
         """SORT's online output rule: written once hit_streak >= min_hits (or in the first min_hits
