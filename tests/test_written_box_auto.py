@@ -155,17 +155,3 @@ def test_a_noisy_advantage_of_the_detection_is_not_enough():
         e = WrittenBoxEvidence(filtered=(0.0, 0.0, 10.0, 0.0), detected=(0.0, 0.0, 8.4, 0.0),
                                squares=(0.0, 0.0, 16 * (0.01 + sd * sd), 0.0), checks=16)
         assert e.from_detection().tolist() == [False, False, expected, False], sd
-
-
-def test_streamed_rows_equal_result_rows_with_auto():
-    # streaming (a sink, keep_records=False: the tracker forgets, the learner drops stale runs)
-    # writes the same rows as keeping everything
-    import io as stdio
-    from refimpl.experiments.walkers import frames as walk_frames
-    from refimpl.io import ResultWriter, format_mot_results
-    seq = DetectionSequence("walk", tuple(walk_frames(80, 6, 3)), 1, (1920, 1080), 30.0)
-    at_end = run_sequence(seq, setup_with("cpsat", written_box="auto"))
-    out = stdio.StringIO()
-    run_sequence(seq, setup_with("cpsat", written_box="auto"), keep_records=False,
-                 sink=ResultWriter(out, None, None, seq.first_frame))
-    assert len(at_end.rows) and out.getvalue() == format_mot_results(at_end.rows, seq.first_frame)
