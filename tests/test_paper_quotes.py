@@ -57,7 +57,7 @@ def normalise_latex(text: str) -> str:
     text = re.sub(r"(?<!\\)%.*", "", text)  # comments
     text = text.replace("\\_", "_").replace("\\&", "&").replace("\\%", "%").replace("~", " ")
     text = re.sub(r"\\textbackslash\s*", "\\\\", text)
-    text = re.sub(r"\\(?:emph|textbf|textit|texttt|mathsf|mathit|mathrm|mathcal|textsf|predThF|predTh|text|mbox)\s*",
+    text = re.sub(r"\\(?:emph|textbf|textit|texttt|mathsf|mathit|mathrm|mathcal|textsf|predThF|predTh|aspMeta|text|mbox)\s*",
                   "", text)
     text = re.sub(r"\\(?:small|footnotesize|scriptsize|sffamily|ttfamily|bfseries|itshape|normalsize|large|bf|it)\b\s*",
                   "", text)

@@ -11,9 +11,8 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
 - a track's box is written for a frame in which a detection was assigned to it or resumed it,
   once the track is confirmed by SORT's online rule: hit_streak >= min_hits consecutive
   observations, or the first min_hits frames; WHICH box is the tracker option ``written_box``
-  (WrittenBox): the Kalman state after the update (FILTERED, as SORT writes it), the detection's
-  own box (DETECTION, as ByteTrack and OC-SORT write it), or per coordinate the one the sequence
-  so far shows closer (AUTO, refimpl.tracking.written_box); the presets say which (docs/peers.md);
+  (WrittenBox): the updated Kalman state (FILTERED, SORT's), the detection (DETECTION, ByteTrack's), or
+  per coordinate the one the sequence shows closer (AUTO, tracking.written_box; presets: docs/peers.md);
 - a resumed track must be re-confirmed the same way, unless the gap was short (<= the tracker
   option ``bridge_gap`` frames) and the resuming detection confident (>= ``bridge_conf``): then it
   stays confirmed and its unobserved frames are filled by linear interpolation between the boxes
@@ -202,8 +201,7 @@ class AbductionTracker:
         self._learner = WrittenBoxLearner() if options.written_box is WrittenBox.AUTO else None
         self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
-        """How many frames late a frame's rows are final (bridged gaps, filled occlusion episodes,
-        backfilled confirmations)."""
+        """How many frames late a frame's rows are final (bridged gaps, filled episodes, backfills)."""
 
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
@@ -431,7 +429,7 @@ class AbductionTracker:
         for trk in self.tracks.values():
             if trk.state == "halted" and trk.predicted is not None:
                 trk.halted[frame] = trk.predicted
-        if self._learner is not None:
+        if self._learner is not None:  # runs that no later check can extend
             self._learner.forget(frame)
 
     @staticmethod
@@ -467,8 +465,7 @@ class AbductionTracker:
 
     def _written(self, trk_id: str, frame: int, kalman: BoxKalman, box: np.ndarray,
                  state: list[float] | None = None) -> np.ndarray:
-        """The box an observed frame writes (WrittenBox; ``state``: the filter's state after the
-        update as floats, where the caller has them)."""
+        """The box an observed frame writes (WrittenBox; ``state``: the updated filter state as floats, if known)."""
         if self.options.written_box is WrittenBox.DETECTION:
             return np.array(box, dtype=float).reshape(4)  # a copy: the frame's array is the caller's
         filtered = kalman.box if state is None else BoxKalman.box_of_state(state)  # a new (4,) float array
