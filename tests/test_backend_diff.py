@@ -252,7 +252,7 @@ def test_ctrl_c_and_sigterm_end_the_grounding_of_an_encoding(tmp_path, sig, code
         time.sleep(0.1)
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == code and err.splitlines() == [line]
+    assert (proc.returncode, err.splitlines()) == (code, [line])  # on failure, what the command said
     assert not (Path("/proc") / str(child)).exists()  # the child was killed and reaped
 
 
