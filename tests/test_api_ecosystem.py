@@ -225,7 +225,7 @@ def test_a_presets_durations_mean_the_same_seconds_at_another_frame_rate():
 
 def test_the_pixel_constants_scale_with_the_image():
     # model/constants.lp gives size_threshold 100 px^2 and border_margin 10 px at 1920 x 1080
-    # (tracker.REFERENCE_IMAGE).  Half that image in each direction: a quarter of the area, 25 px^2,
+    # (camera.REFERENCE_IMAGE).  Half that image in each direction: a quarter of the area, 25 px^2,
     # and half the margin, 5 px.  KITTI's 1242 x 375: 100 * 465750 / 2073600 = 22.46 -> 22 and
     # 10 * sqrt(0.2246) = 4.74 -> 5.  A constant the user gives stays in pixels.
     def pixels(**kw):

@@ -28,8 +28,8 @@ from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
-from .tracker import (AbductionTracker, DEFAULT_MIN_HITS, DURATIONS, FRAME_OPTIONS,
-                      TrackingResult, check_frame_budget, frames_at, sequence_constants)
+from .camera import DURATIONS, FRAME_OPTIONS, frames_at, sequence_constants
+from .tracker import AbductionTracker, DEFAULT_MIN_HITS, TrackingResult, check_frame_budget
 
 AUTO = "auto"
 """Pick the preset by (format, class), falling back to the robust default."""
@@ -55,7 +55,7 @@ class Setup:
     """The preset the constants and options came from ("kitti/car", "default", or "none")."""
     tuned_fps: float | None = None
     """The frame rate the preset's durations were tuned at (refimpl.tracking.presets.Preset.fps): a
-    sequence of another frame rate gets them converted (refimpl.tracking.tracker.frames_at)."""
+    sequence of another frame rate gets them converted (refimpl.tracking.camera.frames_at)."""
     in_frames: tuple[str, ...] = ()
     """The durations the caller gave (constants of DURATIONS, options of FRAME_OPTIONS): frames as given."""
     frame_budget: float | None = None
@@ -137,7 +137,7 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     """Track one DetectionSequence (or a refimpl.io.DetectionStream: its frames are read once, as
     they arrive) with ``setup``: a refimpl.tracking.tracker.TrackingResult.  The sequence's image
     size feeds the field-of-view border and its frame rate the safety bound on halts
-    (refimpl.tracking.tracker.sequence_constants).
+    (refimpl.tracking.camera.sequence_constants).
 
     ``observer(problem, hypothesis)`` sees every frame's answer (abduction only); ``on_frame()`` is
     called once per frame (progress); with a ``sink`` (refimpl.tracking.tracker.ResultSink) rows

@@ -43,7 +43,7 @@ class Preset:
     """The tracker options of the preset (the "tracker" entry; defaults where it is absent)."""
     fps: float | None = None
     """The frame rate its durations were tuned at (the "fps" entry): the constants and options in
-    frames (refimpl.tracking.tracker.DURATIONS, ``fill_hidden``) mean that many frames at this frame
+    frames (refimpl.tracking.camera.DURATIONS, ``fill_hidden``) mean that many frames at this frame
     rate and are converted to a sequence's own (docs/model.md 3.22).  None: frames as written."""
     startable: float | None = None
     """The share of the tuning set's detections whose confidence passes the preset's

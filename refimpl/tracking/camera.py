@@ -1,0 +1,71 @@
+"""The camera a sequence was taken with, seen by the model: its frame rate and image size turn the
+model's durations and pixel constants into this sequence's frames and pixels (refimpl decision,
+docs/model.md 3.22), so a 5 fps camera and a 30 fps one, or half the resolution, mean the same to
+the model."""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+from ..core.constants import default_constants
+
+HIDDEN_MAX_SECONDS = 10.0
+"""The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
+frame rate (docs/model.md 3.14); without a frame rate the model's default in frames applies."""
+
+DURATIONS = ("lost_after_missing", "lost_after_hidden", "noise_max_age")
+"""The model constants that are durations in frames: a preset's are converted from the frame rate
+it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as are the tracker
+options of FRAME_OPTIONS."""
+FRAME_OPTIONS = ("fill_hidden", "bridge_gap")
+"""The tracker options that are durations in frames, converted as DURATIONS are."""
+
+
+def frames_at(frames: int, fps: float, tuned_fps: float) -> int:
+    """A duration of ``frames`` frames at ``tuned_fps`` frames per second, in frames at ``fps``:
+    rounded half up, at least 1 (0 stays 0: an option switched off)."""
+    if frames <= 0:
+        return int(frames)
+    return max(1, int(math.floor(frames * float(fps) / float(tuned_fps) + 0.5)))
+
+
+def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,
+                       fps: float | None, tuned_fps: float | None = None,
+                       in_frames: tuple[str, ...] = ()) -> dict[str, int]:
+    """The constants a sequence is tracked with: the given ones, then what the sequence says of
+    itself where they do not (image size: the field-of-view border, and the pixel constants scaled
+    to the image, :func:`image_relative`; frame rate: the safety bound on halts, HIDDEN_MAX_SECONDS).
+    With ``tuned_fps`` (a preset's frame rate) and the sequence's ``fps``, every duration of
+    DURATIONS not named in ``in_frames`` (given by the user, in frames) is converted by
+    :func:`frames_at`."""
+    merged = dict(constants or {})
+    if fps and tuned_fps and fps != tuned_fps:
+        defaults = default_constants()
+        for name in DURATIONS:
+            if name not in in_frames:
+                merged[name] = frames_at(int(merged.get(name, defaults[name])), fps, tuned_fps)
+    if image_size is not None:
+        merged.setdefault("img_width", int(image_size[0]))
+        merged.setdefault("img_height", int(image_size[1]))
+    if merged.get("img_width", 0) > 0 and merged.get("img_height", 0) > 0:  # also given as constants
+        for name, value in image_relative((merged["img_width"], merged["img_height"])).items():
+            merged.setdefault(name, value)
+    if fps:
+        merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * fps))))
+    return merged
+
+
+REFERENCE_IMAGE = (1920, 1080)
+"""The image size at which model/constants.lp gives its pixel constants (docs/model.md 3.22)."""
+
+
+def image_relative(image_size: tuple[int, int]) -> dict[str, int]:
+    """The model's pixel constants for an image of this size (refimpl decision, docs/model.md 3.22):
+    ``size_threshold`` (an area, px^2) times W H / (1920 x 1080) and ``border_margin`` (a length,
+    px) times the square root of that, each rounded to the nearest integer; a camera of half the
+    resolution then sees the same boxes as too small and the same tracks as near the border."""
+    defaults = default_constants()
+    area = float(image_size[0]) * float(image_size[1]) / (REFERENCE_IMAGE[0] * REFERENCE_IMAGE[1])
+    return {"size_threshold": int(round(defaults["size_threshold"] * area)),
+            "border_margin": int(round(defaults["border_margin"] * math.sqrt(area)))}
