@@ -19,7 +19,7 @@ from test_abduction_tracker import _occlusion_sequence
 
 
 PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "fill_hidden": 0,
-                 "bridge_gap": 2, "bridge_conf": 90}
+                 "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0}
 """The values that make the plain tracker (SORT's filter and output, no occlusion filled in, and
 the tracker's bridge of old: gaps of at most 2 frames resumed at confidence >= 90, docs/tracking.md)
 for the options that are not switches; every switch (choices yes/no) is off."""
@@ -119,6 +119,55 @@ def test_backfilled_rows_stream_to_the_same_file(keep_records):
                  keep_records=keep_records)
     assert out.getvalue() == format_mot_results(result.rows, 1)
     assert len(result.rows) > len(run_sequence(seq, Setup("cpsat")).rows)
+
+
+def _doubtful_walkers() -> DetectionSequence:
+    """Walker A at confidence 90 in frames 1-12; walker B from frame 6, at 45 in 6-8 and 90 in
+    9-12; C, a false detection at confidence 45 that stays put in frames 1-12 (a persistent
+    false positive: a pole).  45 starts a track: model/constants.lp's conf_thresh_new_track is 40."""
+    frames = []
+    for f in range(1, 13):
+        boxes, conf = [[10.0 * f, 50.0, 40.0, 80.0], [900.0, 400.0, 40.0, 80.0]], [90, 45]
+        if f >= 6:
+            boxes.append([600.0 - 10.0 * f, 300.0, 40.0, 80.0])
+            conf.append(45 if f <= 8 else 90)
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.ones(n), np.array(conf), ("pedestrian",) * n))
+    return DetectionSequence("doubtful", tuple(frames), 1, (1000, 600), 25.0)
+
+
+@pytest.mark.parametrize("backend", ["cpsat", "cpsat-full", "clingo"])
+def test_write_evidence_writes_a_track_once_its_mean_confidence_reaches_it(backend):
+    if backend == "clingo":
+        pytest.importorskip("clingo")
+    # trk_1 = A, trk_2 = C, trk_3 = B (started in detection order).  Without the option: C is
+    # confirmed with A in the first min_hits = 3 frames and written in all 12; B's streak reaches 3
+    # at frame 8, which backfills 6 and 7.  With write_evidence 60: A's mean is 90 (written as
+    # before); C's stays 45 (never written); B's mean after frames 6..10 is (3*45 + 90 + 90) / 5 =
+    # 63 at frame 10 (after 9 it is 225 / 4 = 56.25): written from 10, and backfilled over the
+    # delay = max(bridge_gap 2, min_hits 3) = 3 frames whose rows are not final yet: 7, 8, 9.
+    plain = run_sequence(_doubtful_walkers(), setup_with(backend, backfill=True))
+    gated = run_sequence(_doubtful_walkers(), setup_with(backend, backfill=True, write_evidence=60))
+    assert [_rows_of(plain, n) for n in (1, 2, 3)] == [list(range(1, 13)), list(range(1, 13)), list(range(6, 13))]
+    assert [_rows_of(gated, n) for n in (1, 2, 3)] == [list(range(1, 13)), [], list(range(7, 13))]
+    assert [str(e) for e in gated.events] == [str(e) for e in plain.events]  # only the writing differs
+
+
+@pytest.mark.parametrize("keep_records", [False, True])
+def test_rows_written_by_evidence_stream_to_the_same_file(keep_records):
+    # confidences spread over 0..100 (37 (f + k) mod 101 for detection k of frame f): tracks reach
+    # the mean of 60 at different times and are backfilled up to delay = fill_hidden 10 + min_hits 3
+    # frames; the sink, holding a frame that long, writes the file written at the end
+    seq = _walk(120, 8, seed=3)
+    seq = dataclasses.replace(seq, frames=tuple(dataclasses.replace(
+        fr, confidences=np.array([37 * (fr.frame + k) % 101 for k in range(len(fr.boxes))])) for fr in seq.frames))
+    options = dict(backfill=True, fill_hidden=10, write_evidence=60)
+    result = run_sequence(seq, setup_with("cpsat", **options))
+    out = stdio.StringIO()
+    run_sequence(seq, setup_with("cpsat", **options), sink=ResultWriter(out, first_frame=1), keep_records=keep_records)
+    assert out.getvalue() == format_mot_results(result.rows, 1)
+    plain = run_sequence(seq, setup_with("cpsat", backfill=True, fill_hidden=10)).rows
+    assert 0 < len(result.rows) < len(plain)  # some tracks fall short of the evidence, some do not
 
 
 def _turning_camera() -> DetectionSequence:

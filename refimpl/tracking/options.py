@@ -151,6 +151,9 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "object was there, missed (results final that many frames late)"),
     TrackerOption("bridge_conf", _confidence("bridge_conf"), None,
                   "the confidence (0..100) a resuming detection needs to bridge a gap (bridge_gap)"),
+    TrackerOption("write_evidence", _confidence("write_evidence"), None,
+                  "a track is first written once the mean confidence (0..100) of the detections it has taken "
+                  "is at least this, besides min_hits (0: min_hits alone, as SORT)"),
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero; until it is "
@@ -177,6 +180,7 @@ class TrackerOptions:
     fill_hidden: int = 0
     bridge_gap: int = 2
     bridge_conf: int = 90
+    write_evidence: int = 0
     scene_velocity: bool = False
     hold_hidden: bool = False
     reupdate_on_resume: bool = False

@@ -103,6 +103,9 @@ class _Track:
     episode: tuple[int, int] | None = None  # an occlusion episode to fill once re-confirmed (fill_hidden)
     confirmed: set[int] = field(default_factory=set)  # observed frames that are written
     at_rest: np.ndarray | None = None  # started with the scene's motion: its first box, until observed again
+    hits: int = 0  # detections taken (write_evidence)
+    evidence: int = 0  # the sum of their confidences
+    evident: bool = False  # its mean confidence has reached write_evidence: it may be written
 
 
 @dataclass(frozen=True)
@@ -199,6 +202,9 @@ class AbductionTracker:
         self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled episodes, backfills)."""
+        self._backfill_span = self.delay if self.options.write_evidence else min_hits
+        """How far back a confirmation writes its streak: min_hits (SORT's streak), or with
+        write_evidence as far as rows are not final yet (the frames before the evidence sufficed)."""
 
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
@@ -330,7 +336,7 @@ class AbductionTracker:
         """Drop what no later frame reads: finished tracks, old boxes, gaps, halted predictions."""
         self.finished.clear()
         self.events.clear()
-        keep = self.min_hits + 1 if self.options.backfill or self.options.fill_hidden else 1  # the streak's boxes
+        keep = self._backfill_span + 1 if self.options.backfill or self.options.fill_hidden else 1  # the streak's boxes
         for trk in self.tracks.values():
             recent = sorted(trk.observed)[-keep:]
             if trk.episode is not None:  # the box before a pending occlusion episode
@@ -367,8 +373,8 @@ class AbductionTracker:
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
         detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
         states = BoxKalman.update_many([trk.kalman for trk in assigned], detected)  # as floats, or None
-        for k, (trk, box) in enumerate(zip(assigned, detected)):
-            self._observed(trk, frame, box, None if states is None else states[k])
+        for k, (trk, (_, det_id)) in enumerate(zip(assigned, assignments)):
+            self._observed(trk, frame, detected[k], int(confidences[index[det_id]]), None if states is None else states[k])
         unhidden = {args[0] for name, args in event_terms
                     if name in _UNHIDING} if self.options.fill_hidden and resumes else set()
         for trk_id, det_id in resumes:
@@ -383,7 +389,7 @@ class AbductionTracker:
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
-            self._observe(trk, frame, boxes[j], resumed=True)
+            self._observe(trk, frame, boxes[j], int(confidences[j]), resumed=True)
             if trk.bridged and self.sink is not None:
                 self._pend_gap(trk, last, frame)
         for (trk_id,) in acts.get("halt", ()):
@@ -397,6 +403,7 @@ class AbductionTracker:
             kalman = BoxKalman(boxes[j], self.options.velocity_noise, scene, self.options.area_noise)
             trk = _Track(trk_id, types[j], kalman, at_rest=None if scene is None else boxes[j].copy())
             trk.observed[frame] = self._written(trk_id, frame, kalman, boxes[j])
+            trk.hits, trk.evidence = 1, int(confidences[j])
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
@@ -444,19 +451,21 @@ class AbductionTracker:
                   if t.state == "active" and frame - 1 in t.observed and t.streak >= 1]
         return column_medians(np.array(moving)) if len(moving) >= 2 else None
 
-    def _observe(self, trk: _Track, frame: int, box: np.ndarray, resumed: bool = False) -> None:
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray, conf: int, resumed: bool = False) -> None:
         """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
         if resumed and self.options.reupdate_on_resume:
             trk.kalman.reupdate(box)  # observation-centric re-update along the gap
         else:
             trk.kalman.update(box)
-        self._observed(trk, frame, box)
+        self._observed(trk, frame, box, conf)
 
-    def _observed(self, trk: _Track, frame: int, box: np.ndarray, state: list[float] | None = None) -> None:
+    def _observed(self, trk: _Track, frame: int, box: np.ndarray, conf: int, state: list[float] | None = None) -> None:
         """After the track's filter took the detection: SORT's hit streak, the written box, the rows
         (``state``: the filter's state as floats, where the caller has them)."""
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.at_rest = None
+        trk.hits += 1
+        trk.evidence += conf
         trk.observed[frame] = self._written(trk.id, frame, trk.kalman, box, state)
         self._confirm(trk, frame)
 
@@ -476,9 +485,13 @@ class AbductionTracker:
         and the frames that re-confirmed it."""
         if not (trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged):
             return
+        if not trk.evident:
+            if trk.evidence < self.options.write_evidence * trk.hits:
+                return
+            trk.evident = True
         first = frame
-        if self.options.backfill and trk.streak == self.min_hits:  # the streak's frames, a new track's first included
-            while first - 1 in trk.observed and first - 1 not in trk.confirmed and frame - first < self.min_hits:
+        if self.options.backfill and frame - 1 not in trk.confirmed:  # the streak's frames, a new track's first included
+            while first - 1 in trk.observed and first - 1 not in trk.confirmed and frame - first < self._backfill_span:
                 first -= 1
         if trk.episode is not None and trk.streak >= self.min_hits:
             last, resumed = trk.episode
