@@ -138,10 +138,11 @@ def test_bus_t268_car_unhides_from_behind_bus(backend):
         "resume(trk_13,det_1)", "assign(trk_15,det_0)", "assign(trk_12,det_2)",
         "assign(trk_7,det_3)", "assign(trk_8,det_4)", "assign(trk_3,det_5)"]))
     assert h.events == ("occurs_at(unhides_from_behind(trk_13,trk_12),268)",)
-    # @10: -(89636 + 97815 + 95528 + 93506 + 94945 + 5) = -(471430 + 5) = -471435
-    # @2: one resume = 1; @1: unhides_from_behind = 1
+    # @10: the five assigns and the resume (docs/model.md 3.15), each IoU + 1:
+    #      -(89636 + 97815 + 95528 + 93506 + 94945 + 76713 + 6) = -548149
+    # @5: empty; @2: nothing ended or started; @1: unhides_from_behind = 1
     # @0: the canonical tie-break by its plain definition (tests/plain_tiebreak.py)
-    assert h.cost == ((10, -471435), (5, -76713), (3, 0), (2, 1), (1, 1), (0, plain_level0(problem, h.actions, h.events)))
+    assert h.cost == ((10, -548149), (5, 0), (3, 0), (2, 0), (1, 1), (0, plain_level0(problem, h.actions, h.events)))
 
 
 def test_kitti_0020_t79(backend):
@@ -277,11 +278,12 @@ def test_resume_of_a_clipped_halted_track_is_explained_by_recover(backend):
     p = _halted_clipped()
     h = solve(backend, p)
     assert h.answer == tuple(sorted(["resume(trk_1,det_1)", ev("recover(trk_1)")]))
-    # @2: resume 1; @1: recover 2; @0: the pair (trk_1,det_1) is 2^0 of its component, shifted by
-    # E = bit length of the two nodes' largest indices (no pair events: their arity-1 events only;
-    # 5 + 5 = 10 -> 4 with today's six), plus recover's index at trk_1 (1: missing_detections, recover, ...)
+    # @10: the resume, IoU + 1 = -50001 (docs/model.md 3.15); @1: recover 2; @0: the pair
+    # (trk_1,det_1) is 2^0 of its component, shifted by E = bit length of the two nodes' largest
+    # indices (no pair events: their arity-1 events only; 5 + 5 = 10 -> 4 with today's six), plus
+    # recover's index at trk_1 (1: missing_detections, recover, ...)
     level0 = (1 << shift(largest_index(), largest_index())) + event_index("recover")
-    assert h.cost == ((10, 0), (5, -50000), (3, 0), (2, 1), (1, 2), (0, level0))
+    assert h.cost == ((10, -50001), (5, 0), (3, 0), (2, 0), (1, 2), (0, level0))
 
 
 @pytest.mark.parametrize("offset,resumed", [(0, False), (1, True)])
@@ -799,13 +801,14 @@ def test_unsatisfiable_problem_raises(backend):
     assert "\n" not in str(info.value)
 
 
-# --- level5_resume_likelihood: evidence-based resume ------------------------------------------
+# --- level10_likelihood of a resume: evidence-based resume (docs/model.md 3.15) ----------------
 
 @pytest.mark.parametrize("exact", [0, 1])
 def test_resume_prefers_the_likelier_detection(backend, exact):
     # trk_1 halted at 9 (clipped). Two detections could resume it: det_<exact> lies exactly on its
     # prediction (IoU 1.0 = 100000), the other overlaps it at IoU 0.38. Levels 10..1 tie (one resume
-    # + recover, one start + enters_fov); level 5 takes the likelier pair whatever the id order.
+    # + recover, one start + enters_fov) but for the likelihood, which level 10 maximises over the
+    # resumes as over the assigns: the likelier pair wins whatever the id order.
     other = 1 - exact
     p = frame([det(0), det(1)], [trk(1, "halted")],
               [("trk_1", f"det_{exact}", 100000), ("trk_1", f"det_{other}", 38000)],
@@ -813,14 +816,32 @@ def test_resume_prefers_the_likelier_detection(backend, exact):
     h = solve(backend, p)
     assert h.answer == tuple(sorted([f"resume(trk_1,det_{exact})", ev("recover(trk_1)"),
                                      f"start(det_{other})", ev(f"enters_fov(det_{other})")]))
-    # @5: -100000; @2: resume 1 + start 5; @1: recover 2 + enters_fov 1;
+    # @10: -(100000 + 1); @2: start 5; @1: recover 2 + enters_fov 1;
     # @0 (the canonical tie-break): one component, pairs in natural order (trk_1,det_0) 2^0 and
     # (trk_1,det_1) 2^1, shifted by E = bit length of the three nodes' largest indices (arity-1
     # events only: 5 + 5 + 5 -> 4 with today's table); recover's index at trk_1 (1) and
     # enters_fov's at the other detection (2)
     e = shift(largest_index(), largest_index(), largest_index())
     level0 = ((1 << exact) << e) + event_index("recover") + event_index("enters_fov")
-    assert h.cost == ((10, 0), (5, -100000), (3, 0), (2, 6), (1, 3), (0, level0))
+    assert h.cost == ((10, -100001), (5, 0), (3, 0), (2, 5), (1, 3), (0, level0))
+
+
+def test_a_halted_track_on_a_detection_takes_it_from_a_track_that_overlaps_it_less(backend):
+    # docs/model.md 3.15 (kitti-car-train 0009 under bursty misses, frames 79-83): trk_1, active,
+    # overlaps det_1 at IoU 0.46; trk_2, halted (clipped at 9), is predicted on it at 0.70.  Level 10
+    # weighs both pairs alike (IoU + 1): the resume, 70001, beats the assign, 46001 (the two cannot
+    # both take det_1), so trk_2 resumes (recover) and trk_1 halts; with the resume's likelihood
+    # below the assignments' (level 5, before 3.15) trk_1 kept det_1 and trk_2 stayed halted.
+    p = frame([det(1, box=(115, 100, 50, 50))],
+              [trk(1, box=(100, 100, 50, 50)), trk(2, "halted", box=(120, 100, 50, 50))],
+              [("trk_1", "det_1", 46000), ("trk_2", "det_1", 70000)],
+              [hist("missing_detections(trk_2)", 9)])
+    h = solve(backend, p)
+    check_well_formed(p, h)
+    assert h.optimal
+    assert {"resume(trk_2,det_1)", "halt(trk_1)"} == set(h.actions)
+    assert ev("recover(trk_2)") in h.events
+    assert dict(h.cost)[10] == -70001
 
 
 # --- explain_ignore (docs/model.md 3.16) and anticipated_unhide (3.17) ------------------------

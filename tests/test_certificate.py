@@ -127,7 +127,7 @@ def test_without_its_feasibility_check_the_wrong_certificate_would_change_the_an
     for lp in default_model_files():
         text = lp.read_text()
         if lp.name == "certificate.lp":
-            start = text.index("cert_bad :- assignment_constraints(")
+            start = text.index("cert_bad :- cert_pair(")
             text = text[:start] + text[text.index("\n\n", start):]
         (tmp_path / lp.name).write_text(text)
     atoms, level10, _ = _optimum(_problem(), certificate_facts(WRONG), sorted(tmp_path.glob("*.lp")))
@@ -197,10 +197,10 @@ def test_the_explanations_the_certificate_asks_about_are_those_of_the_explanatio
     assert listed == {e.name for e in EVENT_TABLE.values() if e.explains == action}
 
 
-# Level 5.  trk_1 active, trk_2 halted (missing at t=95: clipped, so recover explains a resume);
-# iou(1,1) = 80000 is the only assignable pair; trk_2 may resume det_1 (60000) or det_2 (30000).
-# Level 10 must assign (1,1), so the resume with det_1 is not an option of any optimum at level 10:
-# trk_2 resumes det_2.
+# Resumes at level 10 (docs/model.md 3.15).  trk_1 active, trk_2 halted (missing at t=95: clipped,
+# so recover explains a resume); iou(1,1) = 80000 is the only assignable pair; trk_2 may resume
+# det_1 (60000) or det_2 (30000).  Level 10 weighs every pair ML + 1: {(1,1), (2,2)} = 110002 beats
+# {(2,1)} = 60001 (trk_1 halted), so trk_2 resumes det_2.
 RESUME = TWO_CARS + """trk_state(trk_2, halted).
 box2d(trk_2, 500, 0, 50, 50).
 iou(trk_1,det_1,80000).
@@ -210,75 +210,64 @@ occurs_at(missing_detections(trk_2),95).
 """
 
 
-def test_the_resume_certificate_is_the_hand_derived_one_and_prunes():
+def test_the_certificate_with_a_resume_is_the_hand_derived_one_and_prunes():
     problem = _problem(RESUME)
-    # level 10: one pair, w = 80001; u2 = 0 and v2 = 0 (outside the witness {(1,1)}); greatest u1 =
-    # 80001 (v1 = 0), least u1 = 0 (v1 = 80001), midpoint u1 = 40000, v1 = 80001 - 40000 = 40001.
-    # Level 5: det_1 has positive potential (assigned in every level-10 optimum), so its pair
-    # (2,1) is out; the one pair left (2,2), weight ML = 30000, is the witness; u2 from 30000 (v2 = 0)
-    # and 0 (v2 = 30000): midpoint u2 = 15000, v2 = 15000; trk_1 and det_1 have no pair: 0.
-    level5 = Certificate((("trk_1", 0), ("trk_2", 15000)), (("det_1", 0), ("det_2", 15000)),
-                         (("trk_2", "det_2"),))
+    # u1 + v1 = 80001 and u2 + v2 = 30001 (the witness {(1,1), (2,2)}, tight), u2 + v1 >= 60001,
+    # all >= 0.  Greatest x (x(T) = u, x(D) = -v): v2 = 0, u2 = 30001, v1 >= 60001 - 30001 = 30000,
+    # u1 = 50001.  Least: u1 = u2 = 0, v1 = 80001, v2 = 30001.  Midpoint, rounded down in x:
+    # u1 = 50001 // 2 = 25000, u2 = 30001 // 2 = 15000, x(det_1) = (-30000 - 80001) // 2 = -55001
+    # -> v1 = 55001, x(det_2) = (0 - 30001) // 2 = -15001 -> v2 = 15001.  Check: (1,1) 80001 and
+    # (2,2) 30001 tight, (2,1) 15000 + 55001 = 70001 > 60001; sum 110002 = w(M).
     cert = certificate(problem)
-    assert cert == Certificate((("trk_1", 40000), ("trk_2", 0)), (("det_1", 40001), ("det_2", 0)),
-                               (("trk_1", "det_1"),), level5)
+    assert cert == Certificate((("trk_1", 25000), ("trk_2", 15000)), (("det_1", 55001), ("det_2", 15001)),
+                               (("trk_1", "det_1"), ("trk_2", "det_2")))
     facts = certificate_facts(cert)
-    derived = _derived(problem, facts, ("cert_ok", "cert5_ok", "cert5_tight"))
-    assert derived == {"cert_ok": {"cert_ok"}, "cert5_ok": {"cert5_ok"}, "cert5_tight": {"cert5_tight(trk_2,det_2)"}}
-    # the answers in which trk_2 (potential 15000) does not resume are gone
-    force = ":- resumed(trk_2)."
-    assert _satisfiable(problem, force)
-    assert not _satisfiable(problem, force + facts)
+    assert _derived(problem, facts) == {"cert_ok": {"cert_ok"},
+                                        "cert_tight": {"cert_tight(trk_1,det_1)", "cert_tight(trk_2,det_2)"}}
+    # the answers in which trk_2 (potential 15000) does not resume, or resumes det_1 (not tight), are gone
+    for force in (":- resumed(trk_2).", ":- not resume(trk_2,det_1)."):
+        assert _satisfiable(problem, force)
+        assert not _satisfiable(problem, force + facts)
     atoms, level10, proven = _optimum(problem, facts)
-    assert proven and level10 == -80001 and {"assign(trk_1,det_1)", "resume(trk_2,det_2)"} <= atoms
+    assert proven and level10 == -110002 and {"assign(trk_1,det_1)", "resume(trk_2,det_2)"} <= atoms
     assert (atoms, level10, proven) == _optimum(problem, "")
 
 
-def test_a_wrong_resume_certificate_prunes_nothing():
-    # all level-5 potentials 0 and no witness: the one violated inequality is (2,2): 0 + 0 < 30000.
-    # Trusted, it would allow no resume at all (no pair tight): trk_2 would end, level 5 0 not -30000
+def test_a_certificate_that_leaves_out_a_resume_pair_prunes_nothing():
+    # u = (20000, 0), v = (60001, 0), witness {(1,1)}: (1,1) 80001 tight, (2,1) 60001 tight, every
+    # node of positive potential in the witness, trk_2 outside it halted (ignore_trk); the ONE
+    # violated inequality is the resume pair (2,2): 0 + 0 < 30001.  Trusted, it would forbid that
+    # resume: trk_2 ignored, level 10 -80001 instead of -110002
     problem = _problem(RESUME)
-    wrong = Certificate((("trk_1", 0), ("trk_2", 0)), (("det_1", 0), ("det_2", 0)), ())
-    cert = certificate(problem)
-    facts = certificate_facts(Certificate(cert.trk, cert.det, cert.matching, wrong))
-    assert _derived(problem, facts, ("cert_ok", "cert5_ok")) == {"cert_ok": {"cert_ok"}, "cert5_ok": set()}
+    wrong = Certificate((("trk_1", 20000), ("trk_2", 0)), (("det_1", 60001), ("det_2", 0)), (("trk_1", "det_1"),))
+    facts = certificate_facts(wrong)
+    assert _derived(problem, facts)["cert_ok"] == set()
     assert _satisfiable(problem, ":- resumed(trk_2)." + facts)  # nothing pruned
-    atoms, _, proven = _optimum(problem, facts)
-    assert proven and "resume(trk_2,det_2)" in atoms
+    atoms, level10, proven = _optimum(problem, facts)
+    assert proven and level10 == -110002 and "resume(trk_2,det_2)" in atoms
 
 
-def test_the_resume_certificate_is_not_used_without_the_level_10_one():
-    # level 5's pairs are those of the answers optimal at level 10, which only a checked level-10
-    # certificate tells: the right level-5 certificate with a wrong level-10 one is not used
-    problem = _problem(RESUME)
-    cert = certificate(problem)
-    broken = Certificate((("trk_1", 40000), ("trk_2", 0)), (("det_1", 40000), ("det_2", 0)),  # 80000 < 80001
-                         cert.matching, cert.resume)
-    assert _derived(problem, certificate_facts(broken), ("cert_ok", "cert5_ok")) == {"cert_ok": set(), "cert5_ok": set()}
-
+def test_a_witness_resume_that_cannot_be_explained_is_rejected():
+    # the same frame with trk_2 never missing (not clipped: recover impossible) and alone in the
+    # image (no unhides_from_behind): resume_explainable fails, so the hand-derived certificate,
+    # whose witness resumes trk_2, is not used
+    problem = _problem(RESUME.replace("occurs_at(missing_detections(trk_2),95).\n", ""))
+    facts = certificate_facts(Certificate((("trk_1", 25000), ("trk_2", 15000)), (("det_1", 55001), ("det_2", 15001)),
+                                          (("trk_1", "det_1"), ("trk_2", "det_2"))))
+    assert _derived(problem, facts)["cert_ok"] == set()
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_dense_crowds_get_a_certificate_clingo_accepts_and_the_answer_is_the_same_without_it(seed):
     from refimpl.experiments.synthetic import dense_frame
+    from refimpl.solvers.certificate import pair_weights
 
-    # 50 tracks: the certificates pass every check (grounding only).  Every frame has halted tracks
-    # with resume pairs; on seed 0 every one of those pairs has a detection of positive level-10
-    # potential, assigned in every level-10 optimum, so no optimum resumes (cpsat-full's level 5
-    # is 0) and there is no level-5 certificate; on seeds 1 and 2 there is one
-    from refimpl.solvers.certificate import resume_weights
-
+    # 50 tracks, halted ones among them with resume pairs: the certificate passes every check
+    # (grounding only)
     big = dense_frame(50, seed)
-    cert = certificate(big)
-    v = dict(cert.det)
-    assert resume_weights(big)
-    if seed == 0:
-        assert cert.resume is None and all(v[d] > 0 for _, d in resume_weights(big))
-        assert dict(get_solver("cpsat-full").solve(big).cost)[5] == 0
-    else:
-        assert cert.resume is not None
-    assert _derived(big, certificate_facts(cert), ("cert_ok", "cert5_ok")) == {
-        "cert_ok": {"cert_ok"}, "cert5_ok": set() if seed == 0 else {"cert5_ok"}}
+    halted = {t.id for t in big.tracks if t.state == "halted"}
+    assert any(t in halted for t, _ in pair_weights(big))
+    assert _derived(big, certificate_facts(certificate(big)), ("cert_ok",)) == {"cert_ok": {"cert_ok"}}
     # 10 tracks, which clingo proves without it too: the same hypothesis either way
     small = dense_frame(10, seed)
     with_it = ClingoSolver(isolate=False).solve(small)
@@ -343,11 +332,13 @@ def test_a_constraint_on_ignore_det_withdraws_the_certificate_and_the_answer_sta
 @pytest.mark.parametrize("extra, why", [
     ("ignore_trk(T) :- trk(T, _), trk_state(T, active), foo.\n", "reads ignore_trk"),
     ("#maximize { 1@7, D : start(D) }.\n", "weighs at priority 7"),
+    ("#maximize { ML@5, T, D : resume(T, D), iou(T, D, ML) }.\n", "weighs at priority 5"),
     ("#minimize { 1@P, D : start(D), P = 2 + 9 }.\n", "weighs at priority P"),
 ])
 def test_other_statements_the_argument_does_not_cover_withdraw_it(tmp_path, extra, why):
     # a rule deriving ignore_trk for an active track (association.lp forbids it, but the text is
-    # not the certified one); a term between levels 10 and 5; a priority that is not a number
+    # not the certified one); a term between levels 10 and 5; one at level 5 (empty since docs/model.md
+    # 3.15: the argument has nothing there); a priority that is not a number
     folder = tmp_path / "more"
     folder.mkdir()
     for lp in default_model_files():

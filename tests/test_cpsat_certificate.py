@@ -18,6 +18,7 @@ from refimpl.core.facts import parse_facts  # noqa: E402
 from refimpl.experiments.synthetic import dense_frame  # noqa: E402
 from refimpl.knowledge.events import EventState  # noqa: E402
 from refimpl.solvers import NoAdmissibleHypothesis  # noqa: E402
+from refimpl.solvers.certificate import certificate  # noqa: E402
 from refimpl.solvers.cpsat_certificate import prune  # noqa: E402
 from refimpl.solvers.cpsat_model import PAIR_ORDER, TIEBREAK_LEVEL, build_model  # noqa: E402
 from refimpl.solvers.cpsat_lexicographic import solve_lexicographic  # noqa: E402
@@ -30,7 +31,7 @@ from certificate_frames import OUTSIDE_THE_WITNESS, TWO_BY_TWO  # noqa: E402
 
 def _solve(problem, pruned: bool):
     am = build_model(problem, EventState.from_problem(problem), resolve_constants(problem))
-    done = prune(am, problem) if pruned else (False, False)
+    done = prune(am, problem) if pruned else False
     res = solve_lexicographic(am, problem)
     return done, am, res
 
@@ -42,7 +43,7 @@ def test_the_two_by_two_frame_is_pruned_to_its_witness():
     # fixed to 0 and the pair part of the tie-break keeps two terms, re-weighed 2^0 and 2^1.
     problem = parse_facts(TWO_BY_TWO)
     done, am, res = _solve(problem, True)
-    assert done == (True, False)  # no halted track: no resume pair, no level-5 certificate
+    assert done is True
     kept = sorted((c, str(v)) for c, v in am.objectives[PAIR_ORDER])
     assert kept == [(1, "assign(trk_1,det_1)"), (2, "assign(trk_2,det_2)")]
     assert res.optimal and dict(res.cost)[10] == -120002
@@ -58,12 +59,13 @@ def test_a_track_without_a_solo_action_outside_the_witness_prunes_nothing():
     # assign(trk_2,det_1), trk_1 halted, level 10 = -(40000 + 1).
     problem = parse_facts(OUTSIDE_THE_WITNESS)
     done, am, res = _solve(problem, True)
-    assert done == (False, False) and PAIR_ORDER not in am.objectives
+    assert done is False and PAIR_ORDER not in am.objectives
     assert res.optimal and dict(res.cost)[10] == -40001
     assert res.values["assign(trk_2,det_1)"] == 1 and res.values["halt(trk_1)"] == 1
 
 
 def _same_with_and_without(problem) -> tuple[bool, bool]:
+    """(pruned, pruned with a resume in the witness), the answers equal with and without it."""
     try:
         plain = _solve(problem, False)[2]
     except NoAdmissibleHypothesis:  # a random history may leave a frame without any answer
@@ -73,13 +75,15 @@ def _same_with_and_without(problem) -> tuple[bool, bool]:
     done, _, pruned = _solve(problem, True)
     assert pruned.optimal and plain.optimal
     assert (pruned.cost, pruned.values) == (plain.cost, plain.values), problem.to_facts()
-    return done
+    halted = {t.id for t in problem.tracks if t.state == "halted"}
+    return done, done and any(t in halted for t, _ in certificate(problem).matching)
 
 
 def test_random_frames_with_and_without_history_get_the_same_answer():
     rng = random.Random(41)
     used = [_same_with_and_without(random_frame(rng, with_history=k % 2 == 1)) for k in range(300)]
-    # the certificate is used on most of them, level 5's on some (the counts keep this test honest)
+    # the certificate is used on most of them, with a resume in its witness on some (the counts keep
+    # this test honest)
     assert sum(d[0] for d in used) > 150 and sum(d[1] for d in used) > 10
 
 
@@ -103,15 +107,16 @@ def test_the_pair_order_keeps_the_order_of_the_pairs_left():
 
 def test_out_of_time_the_stand_in_answer_has_the_witnesss_assigns():
     # issue 41: a dense crowd out of time got the obvious answer, no assign at all.  With the
-    # certificate accepted, the stand-in is the obvious answer with the witness's pairs assigned:
-    # still an answer (every other track takes the obvious answer's solo action; the checker
-    # confirms it), and its level 10 is the optimum's (the witness reaches the bound, 2.10).
+    # certificate accepted, the stand-in is the obvious answer with the witness's assigns: still an
+    # answer (every other track takes the obvious answer's solo action; the checker confirms it).
+    # The witness reaches the level-10 optimum (2.10); the stand-in leaves out its resumes (their
+    # halted tracks ignored), so its level 10 is the optimum's plus w = IoU + 1 of each of them.
     from refimpl.core.hypothesis import Hypothesis
     from refimpl.solvers.check import check_answer
     from refimpl.solvers.cpsat_lexicographic import _trivial_solution
     problem = dense_frame(60, 1)
     am = build_model(problem, EventState.from_problem(problem), resolve_constants(problem))
-    assert prune(am, problem)[0] and len(am.witness) > 40
+    assert prune(am, problem) and len(am.witness) > 40
     stand_in = _trivial_solution(am, problem)
     chosen = [a for a, v in list(am.actions.items()) + list(am.events.items()) if stand_in[v.index]]
     actions = tuple(sorted(a for a in chosen if a in am.actions))
@@ -120,4 +125,5 @@ def test_out_of_time_the_stand_in_answer_has_the_witnesss_assigns():
     report = check_answer(problem, Hypothesis(problem.time, actions, events, (), optimal=False))
     assert report.ok
     optimum = _solve(problem, False)[2]
-    assert dict(report.cost)[10] == dict(optimum.cost)[10]
+    resumed = [p for p in certificate(problem).matching if p not in am.witness]
+    assert dict(report.cost)[10] == dict(optimum.cost)[10] + sum(problem.iou_map[p] + 1 for p in resumed)

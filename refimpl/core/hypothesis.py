@@ -16,9 +16,10 @@ from .spec import _FLAT_ARG, event_of, parse_atom
 
 PRIORITIES = (10, 5, 3, 2, 1, 0)
 """The cost levels, highest priority first (model/optimisation.lp, docs/model.md "Optimisation"):
-@10 matching likelihood and number of assignments (maximised), @5 matching likelihood of the
-resumed tracks (maximised; refimpl decision, evidence-based resume), @3 ignored detections and
-tracks, @2 resumed, ended and started tracks, @1 the cost of the abduced events, @0 the tie-break."""
+@10 matching likelihood and number of the pairs that continue a track, assigned or resumed
+(maximised; the resumes there are a refimpl decision, docs/model.md 3.15), @5 empty since that
+decision (still reported, so a cost vector keeps its six places), @3 ignored detections and
+tracks, @2 ended and started tracks, @1 the cost of the abduced events, @0 the tie-break."""
 
 EVENT_LEVEL = 1
 """The level at which each abduced event costs its cost_<event> constant."""
@@ -31,9 +32,8 @@ class ActionType:
 
     ``level``/``weight``: the action costs ``weight`` at priority ``level`` (None: no cost).
     ``likelihood_level``: the action's matching likelihood ML = IoU x 100000 of its (track,
-    detection) pair is maximised there, i.e. it costs -ML at that level: assign at @10
-    (model/optimisation.lp level10_likelihood, with level10_count: -(ML + 1) in all), resume at @5
-    (level5_resume_likelihood).
+    detection) pair is maximised there, i.e. it costs -ML at that level: assign and resume both at
+    @10 (model/optimisation.lp level10_likelihood, with level10_count: -(ML + 1) in all).
     """
 
     name: str
@@ -49,7 +49,7 @@ ACTION_TABLE: dict[str, ActionType] = {a.name: a for a in (
     ActionType("start", ("det",), 2, 5),
     ActionType("end", ("trk",), 2, 5),
     ActionType("halt", ("trk",), None, 0),
-    ActionType("resume", ("trk", "det"), 2, 1, 5),
+    ActionType("resume", ("trk", "det"), 10, -1, 10),
     ActionType("ignore_det", ("det",), 3, 10),
     ActionType("ignore_trk", ("trk",), 3, 10),
 )}

@@ -182,8 +182,8 @@ refimpl/solvers/common.py: tiebreak_levels)."""
 def clingo_sum_bounds(problem: FrameProblem, explanation_bits: int) -> dict[int, int]:
     """Upper bounds of |sum| per priority over every answer of ``problem`` as clingo is given it
     (one sub-problem of the clingo backend, refimpl.solvers.decompose): level 10 (IoU x 100000
-    plus one per assignment), level 5 (IoU x 100000 per resume), level 3 (10 per ignored
-    object), level 2 (5 per end or start, 1 per resume), level 1 (the largest event cost times
+    plus one per assignment or resume), level 5 (empty), level 3 (10 per ignored
+    object), level 2 (5 per end or start), level 1 (the largest event cost times
     the number of events an answer can abduce, counted generously as one per ordered track pair
     and three per track), and level 0: the pair part reaches clingo in chunks that are below 2^30
     by construction (refimpl.solvers.common.tiebreak_levels), so only the explanation part's sum
@@ -202,9 +202,9 @@ def count_sum_bounds(consts: dict[str, int], nt: int, nd: int) -> dict[int, int]
     events = nt * nt + 3 * nt + nd  # hides/unhides per pair, one event per track, enters_fov per detection
     return {
         10: (IOU_SCALE + 1) * matched,
-        5: IOU_SCALE * matched,
+        5: 0,
         3: 10 * (nt + nd),
-        2: nt + 5 * (nt + nd),
+        2: 5 * (nt + nd),
         1: max(costs, default=0) * events,
     }
 

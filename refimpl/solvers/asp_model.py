@@ -282,11 +282,11 @@ CERTIFICATE_ATOMS = ("ignore_det", "ignore_trk")
 
 
 def certificate_preconditions(files: Sequence[str | Path]) -> tuple[str, ...]:
-    """Why the level-10/5 certificate (refimpl.solvers.certificate) is not sound for the encoding
+    """Why the level-10 certificate (refimpl.solvers.certificate) is not sound for the encoding
     ``files``, one reason per statement, in file order; () when it is.  A statement breaks the
     preconditions if it is not one of CERTIFIED_STATEMENTS and mentions ignore_det or ignore_trk,
     or weighs at a priority of 5 or more (a term at 6..9 or above 10 would change which answers
-    are optimal at levels 10 and 5 too), or at one that is not a number.  A file clingo cannot
+    are optimal at level 10 too), or at one that is not a number.  A file clingo cannot
     parse is a reason too (the solve reports the error itself)."""
     return _preconditions(tuple((str(f), read_text(f)) for f in files))
 

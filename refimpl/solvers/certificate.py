@@ -1,21 +1,19 @@
-"""A dual certificate of levels 10 and 5, proposed here and checked by clingo (model/certificate.lp).
+"""A dual certificate of level 10, proposed here and checked by clingo (model/certificate.lp).
 
-Only assigns have terms at level 10 (optimisation.lp [level10_likelihood], [level10_count]), and
-no other action or event does: an answer's level 10 is the weight w(T, D) = IoU + 1 summed over
-its assigns, and its assigns are a matching of the pairs with ``assignment_constraints`` (one
-action per track and per detection).  clingo's branch and bound cannot bound such a sum on a
-dense crowd; LP duality can (docs/model.md 2.10):
+Only the pair actions have terms at level 10 (optimisation.lp [level10_likelihood],
+[level10_count]: assigns and, since docs/model.md 3.15, resumes), and no other action or event
+does: an answer's level 10 is the weight w(T, D) = IoU + 1 summed over its assigns and resumes,
+and these pairs are a matching of the pairs with ``assignment_constraints`` (an active track) or
+``resume_constraints`` (a halted one): one action per track and per detection.  clingo's branch
+and bound cannot bound such a sum on a dense crowd; LP duality can (docs/model.md 2.10):
 
-* potentials u(T) >= 0, v(D) >= 0 with u(T) + v(D) >= w(T, D) on every assignable pair bound every
+* potentials u(T) >= 0, v(D) >= 0 with u(T) + v(D) >= w(T, D) on every such pair bound every
   matching's weight by sum u + sum v;
-* a witness matching M that an answer can complete (every track outside M has a solo action),
-  each of its pairs tight (u + v = w) and every node of positive potential in M, reaches that
-  bound, so the bound is the level-10 optimum;
-* then every level-10 optimum, and so every lexicographic optimum, assigns only tight pairs and
+* a witness matching M that an answer can complete (every track outside M has a solo action,
+  every resume of M can be explained), each of its pairs tight (u + v = w) and every node of
+  positive potential in M, reaches that bound, so the bound is the level-10 optimum;
+* then every level-10 optimum, and so every lexicographic optimum, takes only tight pairs and
   covers every node of positive potential: the pruning model/certificate.lp adds.
-
-Level 5 (the resumes, weight IoU) gets the same among the answers optimal at level 10: on the
-resume pairs whose detection has level-10 potential 0, with a witness apart from level 10's.
 
 This module only proposes the numbers (``certificate``: the witness by scipy's
 linear_sum_assignment, the potentials as the rounded-down midpoint of the greatest and the least
@@ -31,10 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.assignment import linear_sum_assignment
-from ..core.constants import resolve_constants
 from ..core.spec import FrameProblem
 from ..knowledge.event_table import explaining
-from .admissibility import assignment_constraints
 from .common import candidate_pairs
 
 
@@ -68,13 +64,14 @@ CERTIFIED_STATEMENTS = frozenset({
     # level 3: ignoring costs, below the levels the certificate prunes
     ":~ ignore_det(Det). [10@3,Det,ignore_det]",
     ":~ ignore_trk(Trk). [10@3,Trk,ignore_trk]",
-    # levels 10 and 5: assigns only, resumes only ([level10_likelihood], [level10_count],
-    # [level5_resume_likelihood]), and the empty statements that declare the levels
+    # level 10: the pair actions only ([level10_likelihood], [level10_count]); level 5 empty; the
+    # empty statements that declare the levels
     ":~ . [0@10]",
     ":~ . [0@5]",
     ":~ assign(Trk,Det); iou(Trk,Det,ML). [-ML@10,Trk,Det]",
+    ":~ resume(Trk,Det); iou(Trk,Det,ML). [-ML@10,Trk,Det]",
     ":~ assign(Trk,Det). [-1@10,Trk,Det,count]",
-    ":~ resume(Trk,Det); iou(Trk,Det,ML). [-ML@5,Trk,Det]",
+    ":~ resume(Trk,Det). [-1@10,Trk,Det,count]",
     # [level0_tiebreak]: priorities from refimpl's tie-break facts, all below level 1
     ":~ assign(Trk,Det); tiebreak_pair(Trk,Det,P,W). [W@P,Trk,Det,assign]",
     ":~ resume(Trk,Det); tiebreak_pair(Trk,Det,P,W). [W@P,Trk,Det,resume]",
@@ -82,7 +79,7 @@ CERTIFIED_STATEMENTS = frozenset({
 })
 """The preconditions of the certificate, as clingo prints the statements of model/ they rest on
 (docs/model.md 2.10, "Preconditions").  The argument needs ignore_det always admissible, ignore_trk
-admissible for every halted track, and only assigns at level 10 and only resumes at level 5.  An
+admissible for every halted track, and only assigns and resumes at level 10 and nothing at 5.  An
 encoding in which a statement outside this set mentions ``ignore_det`` or ``ignore_trk``, or
 weighs at priority 5 or more (or at a priority not written as a number), is not offered the
 certificate (refimpl.solvers.asp_model.certificate_preconditions, checked when a ClingoSolver is
@@ -94,33 +91,19 @@ until the argument is made again for the new text and the text is written here."
 @dataclass(frozen=True)
 class Certificate:
     """Potentials of the tracks and detections (every one of the problem), and the witness
-    matching, as (trk, det) pairs; ``resume``: the certificate of level 5, if there is one."""
+    matching, as (trk, det) pairs."""
 
     trk: tuple[tuple[str, int], ...]
     det: tuple[tuple[str, int], ...]
     matching: tuple[tuple[str, str], ...]
-    resume: "Certificate | None" = None
 
 
-def assign_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
-    """w(T, D) = IoU + 1 for every pair with assignment_constraints (its level-10 weight)."""
-    constants = resolve_constants(problem)
+def pair_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
+    """w(T, D) = IoU + 1 for every pair an assign or a resume may take (common.candidate_pairs:
+    assignment_constraints for an active track, resume_constraints for a halted one): its
+    level-10 weight."""
     iou = problem.iou_map
-    tracks = {t.id: t for t in problem.tracks}
-    dets = {d.id: d for d in problem.detections}
-    out: dict[tuple[str, str], int] = {}
-    for t, d, v in problem.iou:
-        trk, det = tracks.get(t), dets.get(d)
-        if trk is not None and det is not None and assignment_constraints(problem, constants, iou, trk, det):
-            out[(t, d)] = v + 1
-    return out
-
-
-def resume_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
-    """w(T, D) = IoU for every pair with resume_constraints (its level-5 weight)."""
-    halted = {t.id for t in problem.tracks if t.state == "halted"}
-    iou = problem.iou_map
-    return {(t, d): iou[(t, d)] for t, d in candidate_pairs(problem) if t in halted}
+    return {(t, d): iou[(t, d)] + 1 for t, d in candidate_pairs(problem)}
 
 
 def _max_matching(tracks: list[str], dets: list[str], w: dict[tuple[str, str], int]) -> list[tuple[str, str]]:
@@ -195,9 +178,9 @@ def _shortest(n: int, arcs: list[tuple[int, int, int]], source: int) -> list[int
 
 
 def certificate(problem: FrameProblem) -> Certificate | None:
-    """The proposed certificate of the problem's levels 10 and 5 (module docstring), or None when no
-    pair is assignable (nothing to prune)."""
-    w = assign_weights(problem)
+    """The proposed certificate of the problem's level 10 (module docstring), or None when no
+    pair can be taken (nothing to prune)."""
+    w = pair_weights(problem)
     if not w:
         return None
     tracks = [t.id for t in problem.tracks]
@@ -207,40 +190,14 @@ def certificate(problem: FrameProblem) -> Certificate | None:
     if pot is None:
         return None
     u, v = pot
-    return Certificate(tuple((t, u[t]) for t in tracks), tuple((d, v[d]) for d in dets), tuple(matching),
-                       _resume_certificate(problem, tracks, dets, v, matching))
-
-
-def _resume_certificate(problem: FrameProblem, tracks: list[str], dets: list[str], v: dict[str, int],
-                        matching: list[tuple[str, str]]) -> Certificate | None:
-    """Level 5's certificate (model/certificate.lp [cert5_pairs]): the same for the resume pairs
-    whose detection has level-10 potential 0 (the others are assigned in every level-10 optimum),
-    with a witness that avoids the detections of the level-10 witness; None if no pair or if no
-    such witness is a maximum."""
-    w = {p: x for p, x in resume_weights(problem).items() if v[p[1]] == 0}
-    if not w:
-        return None
-    taken = {d for _, d in matching}
-    witness = _max_matching(tracks, dets, {p: x for p, x in w.items() if p[1] not in taken})
-    pot = _potentials(tracks, dets, w, witness)
-    if pot is None:
-        return None
-    u5, v5 = pot
-    return Certificate(tuple((t, u5[t]) for t in tracks), tuple((d, v5[d]) for d in dets), tuple(witness))
+    return Certificate(tuple((t, u[t]) for t in tracks), tuple((d, v[d]) for d in dets), tuple(matching))
 
 
 def certificate_facts(cert: Certificate | None) -> str:
-    """cert_trk(T, U), cert_det(D, V), cert_match(T, D) facts, and level 5's as cert5_trk/2,
-    cert5_det/2, cert5_match/2 (empty for None)."""
+    """cert_trk(T, U), cert_det(D, V), cert_match(T, D) facts (empty for None)."""
     if cert is None:
         return ""
-    return _facts("cert", cert) + _facts("cert5", cert.resume)
-
-
-def _facts(prefix: str, cert: Certificate | None) -> str:
-    if cert is None:
-        return ""
-    lines = [f"{prefix}_trk({t},{u})." for t, u in cert.trk]
-    lines += [f"{prefix}_det({d},{v})." for d, v in cert.det]
-    lines += [f"{prefix}_match({t},{d})." for t, d in cert.matching]
+    lines = [f"cert_trk({t},{u})." for t, u in cert.trk]
+    lines += [f"cert_det({d},{v})." for d, v in cert.det]
+    lines += [f"cert_match({t},{d})." for t, d in cert.matching]
     return "\n".join(lines) + "\n"

@@ -13,9 +13,9 @@ clingo options (fixed, so that a run is reproducible):
 * ``--parallel-mode=N``       N solver threads (default 1: single-threaded, deterministic; with
                               N > 1 clingo races N configurations and the optimal answer found
                               first may differ among equally good ones)
-* ``--opt-strategy=usc,oll,stratify``  with the level-10/5 certificate (``certify``,
+* ``--opt-strategy=usc,oll,stratify``  with the level-10 certificate (``certify``,
                               model/certificate.lp): core-guided optimisation with stratification.
-                              Once the certificate pins levels 10 and 5, what is left is a sum of
+                              Once the certificate pins level 10, what is left is a sum of
                               nearly independent choices (each action's explanation, start or
                               ignore per detection), which cores bound at once and branch and bound
                               (clingo's default, kept without the certificate) does not: a 200-track
@@ -189,7 +189,7 @@ class ClingoSolver(Solver):
     never the priorities clingo reports: for a user's encoding, refimpl.solvers.asp_model), ``name``
     (the backend name its answers carry: ``get_solver`` passes its entry's, a user's encoding its label),
     ``certify`` (default: True for the model in model/, False for other ``model_files``; True: each
-    solve also gets the certificate of levels 10 and 5 (refimpl.solvers.certificate) as facts, which
+    solve also gets the certificate of level 10 (refimpl.solvers.certificate) as facts, which
     model/certificate.lp checks and uses to prune, docs/model.md 2.10), ``own_constants`` (the
     constants a user's encoding defines itself, passed to it by no ``-c``: clingo_arguments),
     ``memory_cap`` (bytes of address space for the child process that solves a user's encoding;

@@ -173,7 +173,7 @@ class CpSatSolver(Solver):
             if deadline is not None and now >= deadline:
                 return self._fallback(problem, start, limit)
             am = build_model(part.problem, state, constants)
-            prune(am, part.problem)  # the level-10/5 certificate where it checks (cpsat_certificate)
+            prune(am, part.problem)  # the level-10 certificate where it checks (cpsat_certificate)
             # all that is left after building the model (a dense crowd's takes seconds, and it
             # counts): most parts are trivial
             share = None if deadline is None else max(0.0, deadline - time.perf_counter())
