@@ -51,7 +51,12 @@ def test_piles_get_the_answer_of_solving_every_chunk(n, dets, seed, pruned):
     # cycles decide a real tie
     problem = pile(n, dets, seed, side=120)
     res = solve_lexicographic(_model(problem, pruned), problem)
-    assert "MATCHED" in res.statuses and res.optimal
+    if (n, pruned) == (40, True):
+        # the certificate (with the resume pairs at level 10, docs/model.md 3.15) fixes all but a few
+        # pairs to 0, and the pair part left fits the objective of levels 10..1: no chunk to decide
+        assert res.statuses == ("OPTIMAL", "OPTIMAL") and res.optimal
+    else:
+        assert "MATCHED" in res.statuses and res.optimal
     slow = _every_chunk(problem, pruned)
     assert slow.optimal and (res.values, res.cost) == (slow.values, slow.cost)
     if (n, seed) == (100, 2):
@@ -60,7 +65,8 @@ def test_piles_get_the_answer_of_solving_every_chunk(n, dets, seed, pruned):
 
 
 def test_a_dense_crowd_gets_the_answer_of_solving_every_chunk():
-    problem = dense_frame(40, 1)
+    # 50 tracks: with 40, the pruned pair part fits one objective (no chunk to decide)
+    problem = dense_frame(50, 1)
     res = solve_lexicographic(_model(problem), problem)
     slow = _every_chunk(problem)
     assert "MATCHED" in res.statuses and res.optimal and slow.optimal
