@@ -71,12 +71,13 @@ def _agree_level_by_level(problem, solvers) -> None:
 @pytest.mark.parametrize("seed", REGRESSION_SEEDS)
 def test_the_frames_cpsat_got_wrong_agree_with_clingo_on_every_level(seed, solvers):
     problem = adversarial_frame(random.Random(seed))
-    # the shape: a halted track, two detections with the same box, and an objective of more than
-    # 52 bits had the levels been packed up to 62 bits as before
+    # the shape: a halted track and two detections with the same box.  Packed up to 62 bits as
+    # before issue 26, the objective then spanned more than 2^52 values; since docs/model.md 3.15
+    # merged the resumes' level 5 into level 10 it spans less (7.4e12 on seed 63), so the frames
+    # keep the shape and the agreement is what is asserted
     assert problem.tracks[0].state == "halted"
     boxes = [d.box for d in problem.detections]
     assert len(set(boxes)) < len(boxes)
-    assert max(_span(g) for g in _packed_in_one_sequence(_model(problem), 62)) > 1 << 52
     _agree_level_by_level(problem, solvers)
 
 

@@ -31,7 +31,10 @@ import numpy as np
 from ..core.assignment import linear_sum_assignment
 from ..core.spec import FrameProblem
 from ..knowledge.event_table import explaining
+from ..core.constants import resolve_constants
+from ..knowledge.events import EventState
 from .common import candidate_pairs
+from .cpsat_model import _has_explanation
 
 
 _AGAIN = "|".join(e.name for e in explaining("ignore_trk"))
@@ -100,10 +103,24 @@ class Certificate:
 
 def pair_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
     """w(T, D) = IoU + 1 for every pair an assign or a resume may take (common.candidate_pairs:
-    assignment_constraints for an active track, resume_constraints for a halted one): its
-    level-10 weight."""
+    assignment_constraints for an active track, resume_constraints for a halted one whose resume
+    has a possible explanation, model/certificate.lp [cert_pairs]): its level-10 weight."""
     iou = problem.iou_map
-    return {(t, d): iou[(t, d)] + 1 for t, d in candidate_pairs(problem)}
+    pairs = candidate_pairs(problem)
+    halted = {t for t, _ in pairs} & {t.id for t in problem.tracks if t.state == "halted"}
+    explained = _resume_explainable(problem, halted) if halted else set()
+    return {(t, d): iou[(t, d)] + 1 for t, d in pairs if t not in halted or t in explained}
+
+
+def _resume_explainable(problem: FrameProblem, halted: set[str]) -> set[str]:
+    """The tracks of ``halted`` whose resume some event can explain (model/events.lp
+    [resume_explainable]; the CP-SAT model's test, cpsat_model._has_explanation)."""
+    tracks = list(problem.tracks)
+    state = EventState.from_problem(problem)
+    constants = resolve_constants(problem)
+    by_id = {t.id: t for t in tracks}
+    return {t.id for i, t in enumerate(tracks) if t.id in halted
+            and _has_explanation("resume", i, tracks, None, state, constants, by_id)}
 
 
 def _max_matching(tracks: list[str], dets: list[str], w: dict[tuple[str, str], int]) -> list[tuple[str, str]]:
