@@ -194,10 +194,10 @@ def _shortest(n: int, arcs: list[tuple[int, int, int]], source: int) -> list[int
     return None
 
 
-def certificate(problem: FrameProblem) -> Certificate | None:
+def certificate(problem: FrameProblem, weights: dict[tuple[str, str], int] | None = None) -> Certificate | None:
     """The proposed certificate of the problem's level 10 (module docstring), or None when no
-    pair can be taken (nothing to prune)."""
-    w = pair_weights(problem)
+    pair can be taken (nothing to prune).  ``weights``: pair_weights(problem), if the caller has them."""
+    w = pair_weights(problem) if weights is None else weights
     if not w:
         return None
     tracks = [t.id for t in problem.tracks]

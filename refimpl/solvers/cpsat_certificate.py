@@ -59,10 +59,10 @@ def _reorder(am, zero: set[int]) -> None:
 def _prune(am, problem: FrameProblem, zero: set[int]) -> bool:
     if not _only_pairs_at_level_10(am):
         return False
-    cert = certificate(problem)
+    weights = pair_weights(problem)  # once: it folds the event state to ask which resumes are explainable
+    cert = certificate(problem, weights)
     if cert is None:
         return False
-    weights = pair_weights(problem)
     variables = {}
     for pair in weights:
         var = am.actions.get(f"assign({pair[0]},{pair[1]})")
