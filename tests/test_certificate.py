@@ -353,3 +353,23 @@ def test_model_meets_the_preconditions():
     # argument is made again for the new text and CERTIFIED_STATEMENTS says so
     solver = ClingoSolver(isolate=False)
     assert solver.certify and solver.certificate_withdrawn == ()
+
+
+@pytest.mark.parametrize("seed", [2095, 2120, 2313, 2337])
+def test_a_rejected_certificate_leaves_clingo_to_branch_and_bound_and_the_optimum_is_proven(seed):
+    # adversarial frames (tests/adversarial.py) on which the witness leaves out an active track
+    # that has no possible halt, as in the test above: model/certificate.lp rejects the
+    # certificate and prunes nothing.  The core-guided strategy the certificate is meant for then
+    # ran for minutes on each of these frames (unbounded cores over the tie-break's powers of
+    # two); the backend goes back to branch and bound, which proves each in well under a second.
+    # The limit of 60 s is for a hang only: out of time, the answer would be flagged not optimal.
+    import random
+
+    from adversarial import adversarial_frame
+
+    problem = adversarial_frame(random.Random(seed))
+    assert _derived(problem, certificate_facts(certificate(problem)))["cert_ok"] == set()
+    h = ClingoSolver(isolate=False).solve(problem, time_limit=60.0)
+    ref = get_solver("cpsat-full").solve(problem)
+    assert h.optimal and ref.optimal
+    assert h.cost == ref.cost and sorted(h.actions) == sorted(ref.actions)
