@@ -363,3 +363,55 @@ def test_a_car_started_with_the_scene_motion_is_matched_where_it_stands():
     result = run_sequence(seq, setup_with("cpsat", scene_velocity=True))
     standing = [[f for f, box in rec.observed if box[1] == 250.0] for rec in result.tracks]
     assert [f for f in standing if f] == [list(range(6, 13))]
+
+
+def _speeding_car() -> DetectionSequence:
+    """A 40 x 40 car moving right at 16 px per frame in frames 0-5, missed in frames 6-10, and seen
+    again in frames 11-13 where a higher speed puts it: at frame 11 its centre 1.5 times as far from
+    frame 5's as SORT's filter predicts (the filter's own prediction, computed here with
+    refimpl.tracking.motion.BoxKalman as the tracker runs it: one predict per frame, an update per
+    detection), then on at 16 px per frame."""
+    from refimpl.tracking.motion import BoxKalman
+    seen = [np.array([100.0 + 16 * f, 250.0, 40.0, 40.0]) for f in range(6)]
+    kalman = BoxKalman(seen[0])
+    for box in seen[1:]:
+        kalman.predict()
+        kalman.update(box)
+    for _ in range(6):  # frames 6 to 11
+        predicted = kalman.predict()
+    start = seen[5][:2] + 20  # frame 5's centre
+    moved = predicted[:2] + predicted[2:] / 2 - start
+    again = np.array([*(start + 1.5 * moved - predicted[2:] / 2), *predicted[2:]])
+    frames = [DetectionFrame(f, box[None], np.ones(1), np.full(1, 90), ("car",)) for f, box in enumerate(seen)]
+    frames += [DetectionFrame(f, np.zeros((0, 4)), np.zeros(0), np.zeros(0, dtype=int), ()) for f in range(6, 11)]
+    frames += [DetectionFrame(11 + k, (again + [16.0 * k, 0, 0, 0])[None], np.ones(1), np.full(1, 90), ("car",))
+               for k in range(3)]  # then 16 px a frame again
+    assert (again - predicted)[0] > 40  # the prediction lies more than a box width behind: IoU 0
+    return DetectionSequence("speeding", tuple(frames), 1, (1400, 600), 10.0)
+
+
+@pytest.mark.parametrize("backend", ["cpsat", "cpsat-full", "clingo"])
+def test_a_car_seen_again_faster_than_predicted_resumes_with_uncertain_speed(backend):
+    # docs/model.md 3.27.  The filter predicts the car at frame 11 some 96 px on from frame 5 (16 px
+    # a frame, six predictions); it is 1.5 times as far, 48 px beyond the prediction, more than its
+    # 40 px width, so the plain likelihood is 0 and only a new track can take it.  (Frame to frame
+    # a new track, started at rest, overlaps its next box by (40 - 16) / (40 + 16) = 0.43 > 0.3.)
+    # With uncertain_speed the halted track is also matched at 0.75, 1.25 and 1.5 times the
+    # predicted motion: at 1.5 the box is the detection's, IoU 1 (100000), and the car resumes.
+    if backend == "clingo":
+        pytest.importorskip("clingo")
+    seq = _speeding_car()
+    constants = {"lost_after_missing": 8}  # halted at 6, not yet lost at 11
+    with_rule = run_sequence(seq, setup_with(backend, constants, uncertain_speed=True))
+    without = run_sequence(seq, setup_with(backend, constants))
+    frames = [[f for f, _ in rec.observed] for rec in with_rule.tracks]
+    assert frames == [[0, 1, 2, 3, 4, 5, 11, 12, 13]]
+    assert [[f for f, _ in rec.observed] for rec in without.tracks] == [[0, 1, 2, 3, 4, 5], [11, 12, 13]]
+    tracker = AbductionTracker(get_solver(backend), {"img_width": 1400, "img_height": 600, **constants},
+                               options=TrackerOptions(uncertain_speed=True))
+    for fr in seq.frames[:11]:
+        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types)
+    fr = seq.frames[11]
+    problem = tracker.frame_problem(fr.frame, fr.boxes, fr.confidences, fr.types)
+    ((trk, det, ml),) = problem.iou
+    assert (trk, det) == ("trk_1", "det_0") and ml >= 99_999  # IoU 1 up to the float's last bit

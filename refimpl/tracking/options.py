@@ -158,6 +158,10 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero; until it is "
                   "seen again it is matched by the better of that prediction and rest"),
+    TrackerOption("uncertain_speed", _switch("uncertain_speed"), ("yes", "no"),
+                  "a halted track is matched by the best overlap of its predicted box and of that box moved "
+                  "0.75, 1.25 and 1.5 times as far as the filter predicts since its last observation (an "
+                  "unseen object's speed is known only roughly) instead of the prediction alone"),
     TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
                   "a halted track's prediction keeps its size and a bounded constant velocity "
                   "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),
@@ -182,6 +186,7 @@ class TrackerOptions:
     bridge_conf: int = 90
     write_evidence: int = 0
     scene_velocity: bool = False
+    uncertain_speed: bool = False
     hold_hidden: bool = False
     reupdate_on_resume: bool = False
 
