@@ -207,20 +207,24 @@ def test_an_image_that_is_no_image_is_a_clear_error():
 
 
 def test_a_presets_durations_mean_the_same_seconds_at_another_frame_rate():
-    # model/presets.json: mot/pedestrian was tuned at 25 fps with lost_after_missing 10 and
-    # fill_hidden 30 frames, and model/constants.lp's lost_after_hidden 30 and noise_max_age 3.
+    # model/presets.json: mot/pedestrian was tuned at 25 fps with lost_after_missing 10,
+    # fill_hidden 30 frames and noise_max_age 0, and model/constants.lp's lost_after_hidden 30.
     # At 50 fps each is twice as many frames (frames_at: round half up of frames * 50 / 25); at
-    # 25 fps exactly the preset's; at 5 fps a fifth: 2, 6, 6 and round(0.6) = 1.
+    # 25 fps exactly the preset's; at 5 fps a fifth: 2, 6, 0 and 6 (0 s is 0 frames at any rate).
     def durations(**kw):
         t = refimpl.Tracker(**kw)._tracker
         c = {**default_constants(), **t.constant_map}
         return [c[n] for n in ("lost_after_missing", "lost_after_hidden", "noise_max_age")] + [t.options.fill_hidden]
-    assert durations(fps=25) == [10, 30, 3, 30]
-    assert durations(fps=50) == [20, 60, 6, 60]
-    assert durations(fps=5) == [2, 6, 1, 6]
+    assert durations(fps=25) == [10, 30, 0, 30]
+    assert durations(fps=50) == [20, 60, 0, 60]
+    assert durations(fps=5) == [2, 6, 0, 6]
     # without a frame rate the preset's frames stay; a duration the user gives is frames as given
-    assert durations() == [10, 30, 3, 30]
-    assert durations(fps=50, constants={"lost_after_missing": 7}, fill_hidden=4) == [7, 60, 6, 4]
+    assert durations() == [10, 30, 0, 30]
+    assert durations(fps=50, constants={"lost_after_missing": 7}, fill_hidden=4) == [7, 60, 0, 4]
+    # kitti/pedestrian, tuned at 10 fps, keeps constants.lp's noise_max_age 3: at 20 fps 6 frames, at
+    # 5 fps round(1.5) = 2 (half up); its lost_after_missing 10 and fill_hidden 30 as above
+    assert durations(preset="kitti/pedestrian", fps=20) == [20, 60, 6, 60]
+    assert durations(preset="kitti/pedestrian", fps=5) == [5, 15, 2, 15]
 
 
 def test_the_pixel_constants_scale_with_the_image():

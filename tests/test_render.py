@@ -50,8 +50,11 @@ def test_boxes_ids_states_and_events_on_every_frame(made, capsys):
             x, y, w, h = (int(round(v)) for v in b.box)
             if not (0 < x and x + w < 639 and 20 < y and y + h < 479):
                 continue  # a box at the border: its edges may be clipped
-            others = [o.box for o in boxes if o is not b]  # another box, its label above it (~20 px) on top
-            if any(ox - 3 <= x + w // 2 <= ox + ow + 3 and oy - 25 <= y + h <= oy + oh + 3 for ox, oy, ow, oh in others):
+            # another box, its label above it (~20 px) on top, or its edge across the two points
+            # probed below (the bottom edge and 6 px above it; TUD-Campus frame 71: trk_8's bottom
+            # edge runs 4 px above trk_10's)
+            others = [o.box for o in boxes if o is not b]
+            if any(ox - 3 <= x + w // 2 <= ox + ow + 3 and oy - 25 <= y + h <= oy + oh + 9 for ox, oy, ow, oh in others):
                 continue
             # the bottom edge at the middle of the box carries its state's colour (observed green,
             # halted orange); the box's middle stays the frame's own grey (nothing is filled)
