@@ -280,13 +280,18 @@ class AbductionTracker:
         halted = [k for k, t in enumerate(tracks) if t.state == "halted" and t.observed]
         if not halted:
             return
-        last = np.array([tracks[k].observed[max(tracks[k].observed)] for k in halted], dtype=float).reshape(-1, 4)
+        # the last key of a track's observed frames is its last observed frame: they are inserted as
+        # the frames come, in increasing order, and _forget keeps them sorted
+        last = np.array([tracks[k].observed[next(reversed(tracks[k].observed))] for k in halted],
+                        dtype=float).reshape(-1, 4)
         pred = predicted[halted]
         start, size = last[:, :2] + last[:, 2:] / 2, pred[:, 2:]
         moved = pred[:, :2] + size / 2 - start
-        for factor in GAP_SPEEDS:
-            corner = start + factor * moved - size / 2
-            ml[halted] = np.maximum(ml[halted], scale_iou(iou_matrix(np.hstack([corner, size]), boxes)))
+        factors = np.array(GAP_SPEEDS)[:, None, None]
+        corners = (start + factors * moved - size / 2).reshape(-1, 2)  # factor by factor, each every track
+        moved_boxes = np.hstack([corners, np.tile(size, (len(GAP_SPEEDS), 1))])
+        best = iou_matrix(moved_boxes, boxes).reshape(len(GAP_SPEEDS), len(halted), -1).max(axis=0)
+        ml[halted] = np.maximum(ml[halted], scale_iou(best))  # scale_iou is monotone: the max commutes
 
     def _bounded(self, box: np.ndarray) -> np.ndarray:
         """A prediction clipped to the image extended by one image size on every side, its area
