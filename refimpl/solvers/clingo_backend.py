@@ -25,7 +25,7 @@ clingo options (fixed, so that a run is reproducible):
                               frames that branch and bound proves in 0.04 s (docs/model.md 2.10).
                               Only where model/certificate.lp accepts the certificate (``cert_ok``
                               a fact after grounding): a rejected one prunes nothing, and without
-                              the pruning the cores are unbounded (4 of 2,400 adversarial frames
+                              the pruning the cores are unbounded (4 of 2,500 adversarial frames
                               ran for minutes with usc and solve in < 0.1 s with branch and bound,
                               each an active track without a possible halt that the witness left
                               unmatched); the search then goes back to branch and bound

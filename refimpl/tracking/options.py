@@ -128,6 +128,14 @@ class TrackerOption:
         return value
 
 
+GAP_SPEEDS = (0.75, 1.25, 1.5)
+"""The tracker option uncertain_speed (docs/model.md 3.27): the factors on the motion a halted
+track's filter predicts since its last observation at which it is matched besides 1 (the
+prediction itself).  Chosen on the tuning sets' worst case over the shifts (model/presets.json);
+slower ones lost HOTA under bursty misses on kitti-car-train (63.2 -> 62.3 with 1, 0.75, 0.5, in a
+first version that scaled the size too)."""
+
+
 TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("written_box", WrittenBox.parse, tuple(w.value for w in WrittenBox),
                   "the box written for an observed frame: the detection's own box, the Kalman state after "
@@ -160,8 +168,9 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "seen again it is matched by the better of that prediction and rest"),
     TrackerOption("uncertain_speed", _switch("uncertain_speed"), ("yes", "no"),
                   "a halted track is matched by the best overlap of its predicted box and of that box moved "
-                  "0.75, 1.25 and 1.5 times as far as the filter predicts since its last observation (an "
-                  "unseen object's speed is known only roughly) instead of the prediction alone"),
+                  f"{', '.join(f'{f:g}' for f in GAP_SPEEDS[:-1])} and {GAP_SPEEDS[-1]:g} times as far as the "
+                  "filter predicts since its last observation (an unseen object's speed is known only "
+                  "roughly) instead of the prediction alone"),
     TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
                   "a halted track's prediction keeps its size and a bounded constant velocity "
                   "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),

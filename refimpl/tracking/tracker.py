@@ -48,7 +48,7 @@ from ..core.geometry import integer_box_array, integer_boxes, iou_matrix, scale_
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
-from .options import TrackerOptions, WrittenBox
+from .options import GAP_SPEEDS, TrackerOptions, WrittenBox
 from .written_box import WrittenBoxLearner
 from ..core.ranges import check_ranges, integer_boxes_fit
 from ..solvers import Solver
@@ -60,12 +60,6 @@ _STARTING = frozenset(e.name for e in explaining("start"))
 _UNHIDING = frozenset(e.name for e in explaining("resume") if e.unhides)
 _HIDING = frozenset(e.name for e in explaining("halt") if e.hides)
 MAX_BOX_AREA = 20_000_000
-GAP_SPEEDS = (0.75, 1.25, 1.5)
-"""The tracker option uncertain_speed (docs/model.md 3.27): the factors on the motion a halted
-track's filter predicts since its last observation at which it is matched besides 1 (the
-prediction itself).  Chosen on the tuning sets' worst case over the shifts (model/presets.json);
-slower ones lost HOTA under bursty misses on kitti-car-train (63.2 -> 62.3 with 1, 0.75, 0.5, in a
-first version that scaled the size too)."""
 """px^2: 100 * area stays below clingo's 2^31 integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
