@@ -171,6 +171,11 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   f"{', '.join(f'{f:g}' for f in GAP_SPEEDS[:-1])} and {GAP_SPEEDS[-1]:g} times as far as the "
                   "filter predicts since its last observation (an unseen object's speed is known only "
                   "roughly) instead of the prediction alone"),
+    TrackerOption("scene_shift", _switch("scene_shift"), ("yes", "no"),
+                  "when most tracks seen in the previous frame overlap no detection and one image shift of "
+                  "their predictions makes at least 3 of them, and 3 more than without it, overlap one (IoU "
+                  ">= 0.5), every track that overlaps no detection is also matched at its prediction moved by "
+                  "that shift (a turning camera moves every object alike)"),
     TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
                   "a halted track's prediction keeps its size and a bounded constant velocity "
                   "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),
@@ -196,6 +201,7 @@ class TrackerOptions:
     write_evidence: int = 0
     scene_velocity: bool = False
     uncertain_speed: bool = False
+    scene_shift: bool = False
     hold_hidden: bool = False
     reupdate_on_resume: bool = False
 

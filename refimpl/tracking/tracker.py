@@ -49,6 +49,7 @@ from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
 from .options import GAP_SPEEDS, TrackerOptions, WrittenBox
+from .scene_shift import scene_shift, shifted_likelihood
 from .written_box import WrittenBoxLearner
 from ..core.ranges import check_ranges, integer_boxes_fit
 from ..solvers import Solver
@@ -230,6 +231,8 @@ class AbductionTracker:
         iou: tuple[tuple[str, str, int], ...] = ()
         if len(tracks) and len(boxes):
             ml = scale_iou(iou_matrix(predicted, boxes))
+            if self.options.scene_shift:
+                self._scene_shift(tracks, predicted, boxes, ml)
             self._either_motion(tracks, boxes, ml)
             if self.options.uncertain_speed:
                 self._uncertain_speed(tracks, predicted, boxes, ml)
@@ -251,6 +254,17 @@ class AbductionTracker:
             make = FrameProblem
         return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self.constants,
                     history=history)
+
+    @staticmethod
+    def _scene_shift(tracks: list[_Track], predicted: np.ndarray, boxes: np.ndarray, ml: np.ndarray) -> None:
+        """The tracker option scene_shift, refimpl decision (docs/model.md 3.28): when the camera
+        turns, every object moves by the same image shift; where most active tracks miss their
+        detections and one shift of their predictions matches them, a track that overlaps no
+        detection is also matched at its prediction moved by that shift (ML_t, in place)."""
+        active = [k for k, t in enumerate(tracks) if t.state == "active"]
+        shift = scene_shift(predicted[active], boxes, ml[active]) if active else None
+        if shift is not None:
+            shifted_likelihood(predicted, boxes, ml, shift)
 
     @staticmethod
     def _either_motion(tracks: list[_Track], boxes: np.ndarray, ml: np.ndarray) -> None:
