@@ -18,9 +18,9 @@ from test_streaming_output import _walk
 from test_abduction_tracker import _occlusion_sequence
 
 
-PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "fill_hidden": 0,
-                 "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0}
-"""The values that make the plain tracker (SORT's filter and output, no occlusion filled in, and
+PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "backfill_gap": 0,
+                 "fill_hidden": 0, "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0}
+"""The values that make the plain tracker (SORT's filter and output, no gap backfilled or occlusion filled in, and
 the tracker's bridge of old: gaps of at most 2 frames resumed at confidence >= 90, docs/tracking.md)
 for the options that are not switches; every switch (choices yes/no) is off."""
 
@@ -119,6 +119,52 @@ def test_backfilled_rows_stream_to_the_same_file(keep_records):
                  keep_records=keep_records)
     assert out.getvalue() == format_mot_results(result.rows, 1)
     assert len(result.rows) > len(run_sequence(seq, Setup("cpsat")).rows)
+
+
+def _blinking_car() -> DetectionSequence:
+    """A car driving through frames 1-14 (it keeps the frame count past min_hits) and a parked car
+    detected from frame 6 on, missed once, at frame 8."""
+    frames = []
+    for f in range(1, 15):
+        boxes = [[10.0 * f, 50.0, 40.0, 80.0]]
+        if f >= 6 and f != 8:
+            boxes.append([600.0, 300.0, 40.0, 80.0])
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.ones(n), np.full(n, 90), ("car",) * n))
+    return DetectionSequence("blink", tuple(frames), 1, (1000, 600), 10.0)
+
+
+@pytest.mark.parametrize("backend", ["cpsat", "cpsat-full", "clingo"])
+def test_backfill_gap_writes_a_new_tracks_frames_before_a_missed_one(backend):
+    # The parked car starts trk_2 at frame 6 (streak 0), is updated at 7 (1), missed at 8
+    # (missing_detections: halted; noise_max_age 0, so no end as noise) and resumed at 9 (recover):
+    # its streak restarts, 1 at 9, 2 at 10, 3 = min_hits at 11, SORT's first written frame.
+    # Backfill writes the streak, 9 and 10.  With backfill_gap 2 the walk back also crosses the
+    # one-frame gap: 7 and 6 are written and 8 interpolated between the boxes of 7 and 9, equal.
+    if backend == "clingo":
+        pytest.importorskip("clingo")
+    constants = {"noise_max_age": 0}
+    plain = run_sequence(_blinking_car(), setup_with(backend, constants))
+    streak = run_sequence(_blinking_car(), setup_with(backend, constants, backfill=True))
+    gaps = run_sequence(_blinking_car(), setup_with(backend, constants, backfill=True, backfill_gap=2))
+    assert _rows_of(plain, 2) == list(range(11, 15))
+    assert _rows_of(streak, 2) == list(range(9, 15))
+    assert _rows_of(gaps, 2) == list(range(6, 15))
+    assert [r[2:6] for r in gaps.rows.tolist() if r[:2] == [8, 2]] == [[600.0, 300.0, 40.0, 80.0]]
+    assert [str(e) for e in gaps.events] == [str(e) for e in plain.events]  # the same hypotheses
+    assert _rows_of(gaps, 1) == list(range(1, 15))
+
+
+@pytest.mark.parametrize("keep_records", [False, True])
+def test_rows_backfilled_across_gaps_stream_to_the_same_file(keep_records):
+    # the gap's interpolated rows are handed to the sink with the confirmation, within the delay
+    # (min_hits + backfill_gap frames): the streamed file equals the one written at the end
+    setup = setup_with("cpsat", {"noise_max_age": 0}, backfill=True, backfill_gap=2)
+    result = run_sequence(_blinking_car(), setup)
+    out = stdio.StringIO()
+    run_sequence(_blinking_car(), setup, sink=ResultWriter(out, first_frame=1), keep_records=keep_records)
+    assert out.getvalue() == format_mot_results(result.rows, 1)
+    assert len(result.rows) == 14 + 9  # both cars, every frame of each (8 interpolated)
 
 
 def _doubtful_walkers() -> DetectionSequence:

@@ -149,6 +149,10 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("backfill", _switch("backfill"), ("yes", "no"),
                   "when a track is confirmed (min_hits consecutive updates), also write the earlier frames "
                   "of that streak, a new track's first frame included (results final min_hits frames late)"),
+    TrackerOption("backfill_gap", _frames("backfill_gap"), None,
+                  "with backfill, a confirmation also writes the track's earlier frames across gaps of at most "
+                  "this many unobserved frames, the gaps interpolated: the object was there before its streak "
+                  "(0: the streak's consecutive frames only)"),
     TrackerOption("fill_hidden", _frames("fill_hidden"), None,
                   "write the interpolated boxes of a confirmed track's occlusion episode of at most this many "
                   "frames (halted by hides_behind, resumed by unhides_from_behind); 0: never (results final "
@@ -195,6 +199,7 @@ class TrackerOptions:
     velocity_noise: float = 1.0
     area_noise: float = 1.0
     backfill: bool = False
+    backfill_gap: int = 0
     fill_hidden: int = 0
     bridge_gap: int = 2
     bridge_conf: int = 90

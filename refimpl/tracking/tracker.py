@@ -200,12 +200,13 @@ class AbductionTracker:
         self._integer_boxes: np.ndarray | None = None  # the last problem's integer boxes, detections first
         self._latest_event = -math.inf  # the time of the latest event logged
         self._learner = WrittenBoxLearner() if options.written_box is WrittenBox.AUTO else None
-        self.delay = max(self.options.bridge_gap, min_hits if self.options.backfill else 0,
+        self.delay = max(self.options.bridge_gap, min_hits + self.options.backfill_gap if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled episodes, backfills)."""
-        self._backfill_span = self.delay if self.options.write_evidence else min_hits
+        self._backfill_span = self.delay if self.options.write_evidence or self.options.backfill_gap else min_hits
         """How far back a confirmation writes its streak: min_hits (SORT's streak), or with
-        write_evidence as far as rows are not final yet (the frames before the evidence sufficed)."""
+        write_evidence or backfill_gap as far as rows are not final yet (the frames before the
+        evidence sufficed, the frames before a gap)."""
 
     # -- step 1: the problem specification ---------------------------------------------------
     def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
@@ -530,8 +531,7 @@ class AbductionTracker:
             trk.evident = True
         first = frame
         if self.options.backfill and frame - 1 not in trk.confirmed:  # the streak's frames, a new track's first included
-            while first - 1 in trk.observed and first - 1 not in trk.confirmed and frame - first < self._backfill_span:
-                first -= 1
+            first = self._backfilled(trk, frame)
         if trk.episode is not None and trk.streak >= self.min_hits:
             last, resumed = trk.episode
             trk.gaps.append(trk.episode)
@@ -544,6 +544,23 @@ class AbductionTracker:
                 trk.confirmed.add(f)
                 if self.sink is not None:
                     self._pending.setdefault(f, []).append([f, _trk_number(trk.id), *trk.observed[f]])
+
+    def _backfilled(self, trk: _Track, frame: int) -> int:
+        """The first frame a confirmation at ``frame`` writes with backfill: back over the track's
+        observed frames not yet written, at most _backfill_span frames back, across gaps of at most
+        backfill_gap unobserved frames (each such gap bridged: written interpolated, as bridge_gap
+        does for a confirmed track; 0: the streak's consecutive frames only)."""
+        first = frame
+        for f in range(frame - 1, frame - self._backfill_span - 1, -1):
+            if f in trk.confirmed or first - f - 1 > self.options.backfill_gap:
+                break
+            if f in trk.observed:
+                if first - f > 1:
+                    trk.gaps.append((f, first))
+                    if self.sink is not None:
+                        self._pend_gap(trk, f, first)
+                first = f
+        return first
 
     def _pend_gap(self, trk: _Track, last: int, resumed: int) -> None:
         """The interpolated rows of a bridged gap, exactly as result_rows computes them."""
