@@ -12,7 +12,7 @@ from refimpl.io import DetectionFrame, DetectionSequence
 from refimpl.solvers import get_solver
 from refimpl.tracking.options import TrackerOptions
 from refimpl.tracking.pipeline import run_sequence
-from refimpl.tracking.scene_shift import scene_shift, shifted_likelihood
+from refimpl.tracking.likelihood import scene_shift, shifted_likelihood
 from refimpl.tracking.tracker import AbductionTracker
 from tracking_helpers import setup_with
 

@@ -44,12 +44,12 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ..core.constants import resolve_constants
-from ..core.geometry import integer_box_array, integer_boxes, iou_matrix, scale_iou
+from ..core.geometry import integer_box_array, integer_boxes
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
-from .options import GAP_SPEEDS, TrackerOptions, WrittenBox
-from .scene_shift import scene_shift, shifted_likelihood
+from .likelihood import matching_likelihood
+from .options import TrackerOptions, WrittenBox
 from .written_box import WrittenBoxLearner
 from ..core.ranges import check_ranges, integer_boxes_fit
 from ..solvers import Solver
@@ -231,12 +231,13 @@ class AbductionTracker:
         predictions = tuple(TrackPrediction(t.id, t.type, t.state, b) for t, b in zip(tracks, track_boxes))
         iou: tuple[tuple[str, str, int], ...] = ()
         if len(tracks) and len(boxes):
-            ml = scale_iou(iou_matrix(predicted, boxes))
-            if self.options.scene_shift:
-                self._scene_shift(tracks, predicted, boxes, ml)
-            self._either_motion(tracks, boxes, ml)
-            if self.options.uncertain_speed:
-                self._uncertain_speed(tracks, predicted, boxes, ml)
+            # the last key of a track's observed frames is its last observed frame: they are inserted as
+            # the frames come, in increasing order, and _forget keeps them sorted
+            last_seen = [(k, t.observed[next(reversed(t.observed))]) for k, t in enumerate(tracks)
+                         if t.state == "halted" and t.observed] if self.options.uncertain_speed else []
+            ml = matching_likelihood(predicted, boxes, [t.state for t in tracks],
+                                     [(k, t.at_rest) for k, t in enumerate(tracks) if t.at_rest is not None],
+                                     last_seen, self.options)
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
             track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
             iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
@@ -255,52 +256,6 @@ class AbductionTracker:
             make = FrameProblem
         return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self.constants,
                     history=history)
-
-    @staticmethod
-    def _scene_shift(tracks: list[_Track], predicted: np.ndarray, boxes: np.ndarray, ml: np.ndarray) -> None:
-        """The tracker option scene_shift, refimpl decision (docs/model.md 3.28): when the camera
-        turns, every object moves by the same image shift; where most active tracks miss their
-        detections and one shift of their predictions matches them, a track that overlaps no
-        detection is also matched at its prediction moved by that shift (ML_t, in place)."""
-        active = [k for k, t in enumerate(tracks) if t.state == "active"]
-        shift = scene_shift(predicted[active], boxes, ml[active]) if active else None
-        if shift is not None:
-            shifted_likelihood(predicted, boxes, ml, shift)
-
-    @staticmethod
-    def _either_motion(tracks: list[_Track], boxes: np.ndarray, ml: np.ndarray) -> None:
-        """The tracker option scene_velocity, refimpl decision (docs/model.md 3.20): a track started
-        with the scene's motion and not observed since has two predictions, the scene's motion and
-        rest where it was seen; its matching likelihood (ML_t, in place) is the better of the two.
-        The scene's median motion is the motion of a turning camera, not of a car on either side of
-        a camera driving forward."""
-        rest = [k for k, t in enumerate(tracks) if t.at_rest is not None]
-        if rest:
-            still = np.array([tracks[k].at_rest for k in rest], dtype=float).reshape(-1, 4)
-            ml[rest] = np.maximum(ml[rest], scale_iou(iou_matrix(still, boxes)))
-
-    @staticmethod
-    def _uncertain_speed(tracks: list[_Track], predicted: np.ndarray, boxes: np.ndarray, ml: np.ndarray) -> None:
-        """The tracker option uncertain_speed, refimpl decision (docs/model.md 3.27): an object not
-        seen for a while has moved at a speed known only roughly.  A halted track's matching
-        likelihood (ML_t, in place) is the best overlap of a detection with its predicted box and
-        with that box's centre moved GAP_SPEEDS times as far from the centre of its last observed
-        box as the filter predicts (the predicted size kept)."""
-        halted = [k for k, t in enumerate(tracks) if t.state == "halted" and t.observed]
-        if not halted:
-            return
-        # the last key of a track's observed frames is its last observed frame: they are inserted as
-        # the frames come, in increasing order, and _forget keeps them sorted
-        last = np.array([tracks[k].observed[next(reversed(tracks[k].observed))] for k in halted],
-                        dtype=float).reshape(-1, 4)
-        pred = predicted[halted]
-        start, size = last[:, :2] + last[:, 2:] / 2, pred[:, 2:]
-        moved = pred[:, :2] + size / 2 - start
-        factors = np.array(GAP_SPEEDS)[:, None, None]
-        corners = (start + factors * moved - size / 2).reshape(-1, 2)  # factor by factor, each every track
-        moved_boxes = np.hstack([corners, np.tile(size, (len(GAP_SPEEDS), 1))])
-        best = iou_matrix(moved_boxes, boxes).reshape(len(GAP_SPEEDS), len(halted), -1).max(axis=0)
-        ml[halted] = np.maximum(ml[halted], scale_iou(best))  # scale_iou is monotone: the max commutes
 
     def _bounded(self, box: np.ndarray) -> np.ndarray:
         """A prediction clipped to the image extended by one image size on every side, its area

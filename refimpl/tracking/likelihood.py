@@ -1,0 +1,139 @@
+"""The matching likelihood ML_t of a frame: the IoU "between predictions and detections" (the
+paper, Section 3.1), on its integer scale, with the alternative predictions the tracker options
+add (refimpl decisions, docs/model.md): a new track started with the scene's motion is also
+matched at rest (scene_velocity, 3.20), a halted track at faster and slower speeds along its path
+(uncertain_speed, 3.27), and an unmatched track at its prediction moved by the image shift a
+turning camera gave the scene (scene_shift, 3.28).  Only ML_t changes, never the boxes of P_t.
+
+scene_shift: the tracks observed in the frame before (active) are predicted; if most of them
+overlap no detection (IoU >= MATCHED_IOU), the shift is the one image translation of their
+predictions under which the most of them do, provided it explains at least SHIFT_SUPPORT of them
+and SHIFT_SUPPORT more than no shift does (:func:`scene_shift`); every track that overlaps no
+detection is then also matched at its prediction moved by it (:func:`shifted_likelihood`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.geometry import iou_matrix, scale_iou
+from ..core.spec import IOU_SCALE
+from .options import GAP_SPEEDS, TrackerOptions
+
+MATCHED_IOU = 0.5
+"""A track overlapping a detection by at least this is matched as predicted (the overlap at which
+the MOTChallenge and KITTI scorers take two boxes for one object; the model's iou_thresh_occupied)."""
+
+MATCHED_SHARE = 0.8
+"""No shift is looked for while at least this share of the active tracks is matched as predicted:
+the filters follow the scene."""
+
+SHIFT_SUPPORT = 3
+"""A shift must let at least this many active tracks be matched, and this many more than no shift
+does: one or two tracks that happen to land on a neighbour are no turn of the camera."""
+
+NEAREST = 3
+"""Candidate shifts: from each active track's prediction to its NEAREST nearest detections of a
+similar width (within SIZE_RATIO either way)."""
+
+SIZE_RATIO = 1.5
+
+_MATCHED = int(MATCHED_IOU * IOU_SCALE)  # MATCHED_IOU on ML_t's integer scale
+
+
+def scene_shift(active: np.ndarray, boxes: np.ndarray, likelihood: np.ndarray) -> np.ndarray | None:
+    """The image shift (dx, dy) that the scene shows between the active tracks' predicted boxes
+    ``active`` (n, 4 xywh) and the frame's detections ``boxes`` (m, 4 xywh), or None;
+    ``likelihood``: their ML_t as predicted (integer, n x m).
+
+    Deterministic: candidates are rounded to 0.1 px and taken in sorted order; among those that
+    match the most tracks the smallest shift wins, then the first in that order."""
+    if len(active) < SHIFT_SUPPORT or len(boxes) == 0:
+        return None
+    matched = likelihood.max(axis=1) >= _MATCHED
+    if matched.mean() >= MATCHED_SHARE or len(active) - matched.sum() < SHIFT_SUPPORT:
+        return None  # (a shift matches at most the unmatched tracks besides the matched ones)
+    centres = active[:, :2] + active[:, 2:] / 2
+    disp = (boxes[:, :2] + boxes[:, 2:] / 2)[None] - centres[:, None]  # (n, m, 2)
+    ratio = boxes[None, :, 2] / active[:, None, 2]
+    distance = np.where((ratio > 1 / SIZE_RATIO) & (ratio < SIZE_RATIO), np.hypot(disp[..., 0], disp[..., 1]), np.inf)
+    nearest = np.argsort(distance, axis=1, kind="stable")[:, :NEAREST]  # (n, k): each track's nearest
+    rows = np.arange(len(active))[:, None]
+    usable = np.isfinite(distance[rows, nearest])
+    near_disp = disp[rows, nearest]  # (n, k, 2)
+    from_unmatched = usable & ~matched[:, None]  # a matched track's own detection proposes no shift
+    candidates = np.unique(np.round(near_disp[from_unmatched], 1).reshape(-1, 2), axis=0)
+    if not len(candidates):
+        return None
+    # a track supports a shift c when c moves its predicted box onto one of its nearest detections
+    # (IoU >= MATCHED_IOU): the IoU of two boxes whose centres are (near_disp - c) apart
+    size, other = active[:, None, 2:], boxes[nearest][..., 2:]  # (n, 1, 2), (n, k, 2)
+    offset = np.abs(near_disp[None] - candidates[:, None, None])  # (c, n, k, 2)
+    side = np.clip(np.minimum((size + other) / 2 - offset, np.minimum(size, other)), 0, None)
+    inter = side[..., 0] * side[..., 1]
+    union = size[..., 0] * size[..., 1] + other[..., 0] * other[..., 1] - inter
+    support = ((inter >= MATCHED_IOU * union) & usable).any(axis=2).sum(axis=1)
+    best = np.lexsort((np.hypot(candidates[:, 0], candidates[:, 1]), -support))[0]
+    if support[best] < int(matched.sum()) + SHIFT_SUPPORT:  # >= SHIFT_SUPPORT, and that many more
+        return None
+    return candidates[best]
+
+
+def shifted_likelihood(predicted: np.ndarray, boxes: np.ndarray, ml: np.ndarray, shift: np.ndarray) -> None:
+    """ML_t (integer, tracks x detections, in place): a track that overlaps no detection by
+    MATCHED_IOU is also matched at its predicted box moved by ``shift`` (the better of the two)."""
+    unmatched = ml.max(axis=1) < _MATCHED
+    if unmatched.any():
+        moved = np.hstack([predicted[unmatched, :2] + shift, predicted[unmatched, 2:]])
+        ml[unmatched] = np.maximum(ml[unmatched], scale_iou(iou_matrix(moved, boxes)))
+
+
+def matching_likelihood(predicted: np.ndarray, boxes: np.ndarray, states: list[str],
+                        at_rest: list[tuple[int, np.ndarray]], last_seen: list[tuple[int, np.ndarray]],
+                        options: TrackerOptions) -> np.ndarray:
+    """ML_t (integer, tracks x detections) of the tracks' ``predicted`` boxes (n, 4) and the
+    frame's detections ``boxes`` (m, 4): the scaled IoU, then each option's alternative prediction
+    where it is better.  ``states``: each track's state; ``at_rest``: (index, first box) of the
+    tracks started with the scene's motion and not seen since; ``last_seen``: (index, last
+    observed box) of the halted tracks (read with uncertain_speed)."""
+    ml = scale_iou(iou_matrix(predicted, boxes))
+    if options.scene_shift:
+        active = [k for k, state in enumerate(states) if state == "active"]
+        shift = scene_shift(predicted[active], boxes, ml[active]) if active else None
+        if shift is not None:
+            shifted_likelihood(predicted, boxes, ml, shift)
+    if at_rest:
+        either_motion(at_rest, boxes, ml)
+    if options.uncertain_speed and last_seen:
+        uncertain_speed(last_seen, predicted, boxes, ml)
+    return ml
+
+
+def either_motion(at_rest: list[tuple[int, np.ndarray]], boxes: np.ndarray, ml: np.ndarray) -> None:
+    """The tracker option scene_velocity, refimpl decision (docs/model.md 3.20): a track started
+    with the scene's motion and not observed since has two predictions, the scene's motion and
+    rest where it was seen; its matching likelihood (ML_t, in place) is the better of the two.
+    The scene's median motion is the motion of a turning camera, not of a car on either side of
+    a camera driving forward."""
+    rest = [k for k, _ in at_rest]
+    still = np.array([box for _, box in at_rest], dtype=float).reshape(-1, 4)
+    ml[rest] = np.maximum(ml[rest], scale_iou(iou_matrix(still, boxes)))
+
+
+def uncertain_speed(last_seen: list[tuple[int, np.ndarray]], predicted: np.ndarray, boxes: np.ndarray,
+                    ml: np.ndarray) -> None:
+    """The tracker option uncertain_speed, refimpl decision (docs/model.md 3.27): an object not
+    seen for a while has moved at a speed known only roughly.  A halted track's matching
+    likelihood (ML_t, in place) is the best overlap of a detection with its predicted box and
+    with that box's centre moved GAP_SPEEDS times as far from the centre of its last observed
+    box as the filter predicts (the predicted size kept)."""
+    halted = [k for k, _ in last_seen]
+    last = np.array([box for _, box in last_seen], dtype=float).reshape(-1, 4)
+    pred = predicted[halted]
+    start, size = last[:, :2] + last[:, 2:] / 2, pred[:, 2:]
+    moved = pred[:, :2] + size / 2 - start
+    factors = np.array(GAP_SPEEDS)[:, None, None]
+    corners = (start + factors * moved - size / 2).reshape(-1, 2)  # factor by factor, each every track
+    moved_boxes = np.hstack([corners, np.tile(size, (len(GAP_SPEEDS), 1))])
+    best = iou_matrix(moved_boxes, boxes).reshape(len(GAP_SPEEDS), len(halted), -1).max(axis=0)
+    ml[halted] = np.maximum(ml[halted], scale_iou(best))  # scale_iou is monotone: the max commutes
