@@ -18,7 +18,13 @@ import numpy as np
 
 from ..core.geometry import iou_matrix, scale_iou
 from ..core.spec import IOU_SCALE
-from .options import GAP_SPEEDS, TrackerOptions
+
+GAP_SPEEDS = (0.75, 1.25, 1.5)
+"""The tracker option uncertain_speed (docs/model.md 3.27): the factors on the motion a halted
+track's filter predicts since its last observation at which it is matched besides 1 (the
+prediction itself).  Chosen on the tuning sets' worst case over the shifts (model/presets.json);
+slower ones lost HOTA under bursty misses on kitti-car-train (63.2 -> 62.3 with 1, 0.75, 0.5, in a
+first version that scaled the size too)."""
 
 MATCHED_IOU = 0.5
 """A track overlapping a detection by at least this is matched as predicted (the overlap at which
@@ -90,21 +96,23 @@ def shifted_likelihood(predicted: np.ndarray, boxes: np.ndarray, ml: np.ndarray,
 
 def matching_likelihood(predicted: np.ndarray, boxes: np.ndarray, states: list[str],
                         at_rest: list[tuple[int, np.ndarray]], last_seen: list[tuple[int, np.ndarray]],
-                        options: TrackerOptions) -> np.ndarray:
+                        shifted: bool) -> np.ndarray:
     """ML_t (integer, tracks x detections) of the tracks' ``predicted`` boxes (n, 4) and the
     frame's detections ``boxes`` (m, 4): the scaled IoU, then each option's alternative prediction
     where it is better.  ``states``: each track's state; ``at_rest``: (index, first box) of the
-    tracks started with the scene's motion and not seen since; ``last_seen``: (index, last
-    observed box) of the halted tracks (read with uncertain_speed)."""
+    tracks started with the scene's motion and not seen since (scene_velocity); ``last_seen``:
+    (index, last observed box) of the halted tracks, given with uncertain_speed; ``shifted``:
+    the option scene_shift.  (The tracker options are read by the caller: options.py reads this
+    module's constants for its help texts.)"""
     ml = scale_iou(iou_matrix(predicted, boxes))
-    if options.scene_shift:
+    if shifted:
         active = [k for k, state in enumerate(states) if state == "active"]
         shift = scene_shift(predicted[active], boxes, ml[active]) if active else None
         if shift is not None:
             shifted_likelihood(predicted, boxes, ml, shift)
     if at_rest:
         either_motion(at_rest, boxes, ml)
-    if options.uncertain_speed and last_seen:
+    if last_seen:
         uncertain_speed(last_seen, predicted, boxes, ml)
     return ml
 

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, Mapping
 
+from .likelihood import GAP_SPEEDS, MATCHED_IOU, SHIFT_SUPPORT
+
 
 class WrittenBox(str, Enum):
     """Which box a track writes for a frame in which it was observed (a tracker option, not a
@@ -128,14 +130,6 @@ class TrackerOption:
         return value
 
 
-GAP_SPEEDS = (0.75, 1.25, 1.5)
-"""The tracker option uncertain_speed (docs/model.md 3.27): the factors on the motion a halted
-track's filter predicts since its last observation at which it is matched besides 1 (the
-prediction itself).  Chosen on the tuning sets' worst case over the shifts (model/presets.json);
-slower ones lost HOTA under bursty misses on kitti-car-train (63.2 -> 62.3 with 1, 0.75, 0.5, in a
-first version that scaled the size too)."""
-
-
 TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("written_box", WrittenBox.parse, tuple(w.value for w in WrittenBox),
                   "the box written for an observed frame: the detection's own box, the Kalman state after "
@@ -177,9 +171,9 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "roughly) instead of the prediction alone"),
     TrackerOption("scene_shift", _switch("scene_shift"), ("yes", "no"),
                   "when most tracks seen in the previous frame overlap no detection and one image shift of "
-                  "their predictions makes at least 3 of them, and 3 more than without it, overlap one (IoU "
-                  ">= 0.5), every track that overlaps no detection is also matched at its prediction moved by "
-                  "that shift (a turning camera moves every object alike)"),
+                  f"their predictions makes at least {SHIFT_SUPPORT} of them, and {SHIFT_SUPPORT} more than without "
+                  f"it, overlap one (IoU >= {MATCHED_IOU:g}), every track that overlaps no detection is also "
+                  "matched at its prediction moved by that shift (a turning camera moves every object alike)"),
     TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
                   "a halted track's prediction keeps its size and a bounded constant velocity "
                   "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),

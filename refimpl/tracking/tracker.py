@@ -237,7 +237,7 @@ class AbductionTracker:
                          if t.state == "halted" and t.observed] if self.options.uncertain_speed else []
             ml = matching_likelihood(predicted, boxes, [t.state for t in tracks],
                                      [(k, t.at_rest) for k, t in enumerate(tracks) if t.at_rest is not None],
-                                     last_seen, self.options)
+                                     last_seen, self.options.scene_shift)
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
             track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
             iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
