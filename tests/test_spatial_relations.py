@@ -29,6 +29,7 @@ from refimpl.knowledge.relations import (
     near_border,
     orientation,
     overlap,
+    overlapped_from_the_top,
     overlapping_top,
     part_of,
     proper_part,
@@ -353,6 +354,33 @@ def test_overlapping_top_hand_computed():
     assert overlapping_top(b1, b3, 10)
     b4 = (0, -5, 10, 14)  # bottom 9 < 10: behind b1 -> False despite 90 % cover
     assert not overlapping_top(b1, b4, 10)
+
+
+def test_overlapped_from_the_top_hand_computed():
+    b1 = (0, 0, 10, 10)
+    # the b2 .. b4 of the test above: only b3 (and b2 at 9 %) covers b1 from the top
+    assert not overlapped_from_the_top(b1, [("b2", (0, 9, 10, 10)), ("b4", (0, -5, 10, 14))], 10)
+    assert overlapped_from_the_top(b1, [("b2", (0, 9, 10, 10)), ("b4", (0, -5, 10, 14))], 9)
+    assert overlapped_from_the_top(b1, [("b4", (0, -5, 10, 14)), ("b3", (0, -5, 10, 15))], 10)
+    # the box itself covers itself from the top (100 % > 10 %, bottom equal): skipped by its key
+    assert overlapped_from_the_top(b1, [("t1", b1)], 10)
+    assert not overlapped_from_the_top(b1, [("t1", b1)], 10, skip="t1")
+    # sharing only an edge (x + w == x'): no pixel in common, so not even at hide_overlap 0
+    assert not overlapped_from_the_top(b1, [("e", (10, 0, 10, 10))], 0)
+    assert overlapped_from_the_top(b1, [("p", (9, 0, 10, 10))], 0)  # one column: 10 px^2 > 0
+    assert not overlapped_from_the_top(b1, [], 0)
+
+
+_int_box = st.tuples(st.integers(-20, 40), st.integers(-20, 40), st.integers(1, 30), st.integers(1, 30))
+
+
+@settings(max_examples=400, deadline=None)
+@given(_int_box, st.lists(st.tuples(st.sampled_from("abcd"), _int_box), max_size=6),
+       st.integers(0, 120), st.sampled_from([None, "a", "b"]))
+def test_overlapped_from_the_top_is_any_overlapping_top(b1, others, hide_overlap, skip):
+    # the cheaper loop kept_in_mind asks of every track must be the relation itself, pair by pair
+    expected = any(key != skip and overlapping_top(b1, b2, hide_overlap) for key, b2 in others)
+    assert overlapped_from_the_top(b1, others, hide_overlap, skip=skip) is expected
 
 
 def test_near_border_hand_computed():

@@ -18,7 +18,7 @@ from typing import Callable, Mapping, Protocol, Union
 
 from ..core.geometry import intersection_area
 from ..core.spec import TrackPrediction
-from .relations import near_border, out_of_view, outside_fov, overlapping_top
+from .relations import near_border, out_of_view, outside_fov, overlapped_from_the_top, overlapping_top
 
 
 class FluentState(Protocol):
@@ -121,7 +121,8 @@ def kept_in_mind(state: FluentState, constants: Mapping[str, int], trk: TrackPre
         return False
     box, hide_overlap = trk.box, constants["hide_overlap"]
     return (any(intersection_area(box, other.box) > 0 for other in _hidden_by(state, trk.id, tracks))
-            or any(t2 != trk.id and overlapping_top(box, other.box, hide_overlap) for t2, other in tracks.items()))
+            or overlapped_from_the_top(box, ((t2, other.box) for t2, other in tracks.items()), hide_overlap,
+                                       skip=trk.id))
 
 
 def _hidden_by(state: FluentState, trk: str, tracks: Mapping[str, TrackPrediction]) -> list[TrackPrediction]:

@@ -45,6 +45,22 @@ def overlapping_top(b1: Box, b2: Box, hide_overlap: int) -> bool:
     )
 
 
+def overlapped_from_the_top(b1: Box, others, hide_overlap: int, skip: object = None) -> bool:
+    """any(key != skip and overlapping_top(b1, b2, hide_overlap) for key, b2 in others): whether
+    some box of ``others`` ((key, box) pairs) covers b1 from the top.  The same integer tests in a
+    cheaper order (the depth cue, two comparisons, before the overlap's area) and without a call
+    per pair: a crowd's halted tracks ask it of every other track every frame (kept_in_mind)."""
+    x, y, w, h = b1
+    right, bottom, least = x + w, y + h, hide_overlap * w * h
+    for key, (x2, y2, w2, h2) in others:
+        if y2 + h2 >= bottom and key != skip:
+            iw = min(right, x2 + w2) - max(x, x2)
+            ih = min(bottom, y2 + h2) - max(y, y2)
+            if 100 * (iw if iw > 0 else 0) * (ih if ih > 0 else 0) > least:
+                return True
+    return False
+
+
 def near_border(b: Box, img_width: int, img_height: int, margin: int) -> bool:
     """The box is within margin px of (or beyond) a border of the field of view; 0 = size unknown."""
     x, y, w, h = b
