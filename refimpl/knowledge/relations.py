@@ -4,8 +4,8 @@ Boxes are (x, y, w, h) sequences in image pixels: top-left corner, width, height
 downwards.  A box spans the closed extent [x, x + w] x [y, y + h]; for integer boxes this is the
 pixel grid with pixels x .. x + w - 1, so two boxes with x + w == x' share an edge but no pixel.
 
-The first six functions (overlapping_top, near_border, outside_fov, visible_area, out_of_view, area) are pure
-integer functions that give
+The first seven functions (overlapping_top and overlapped_from_the_top, its any() over many
+boxes; near_border, outside_fov, visible_area, out_of_view, area) are pure integer functions that give
 exactly what the ASP encoding computes from box2d/5 facts.  The rest implement the relations of
 Table 2 that apply to axis-aligned boxes over time and accept integers or floats:
 
