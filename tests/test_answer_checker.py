@@ -78,6 +78,27 @@ def test_start_below_the_confidence_threshold_is_reported(examples):
     assert "start_constraints" in _rules(p, _hyp())
 
 
+def test_a_resume_with_a_claimed_detection_is_reported():
+    # [resume_claimed] (docs/model.md 3.29): trk_2 was halted at 7, 10 - 7 >= claim_after 3; det_0
+    # is active trk_1's only detection, at IoU 0.6 > iou_thresh_claim 0.5.  Every other rule holds
+    # for resume(trk_2,det_0) explained by recover, with trk_1 halted by missing_detections; the
+    # same answer with trk_2 halted at 8 (10 - 8 < 3) is admissible.
+    from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+    box = (300, 300, 50, 50)
+
+    def problem(halted_at):
+        return FrameProblem(time=10, detections=(Detection("det_0", "car", 90, box),),
+                            tracks=(TrackPrediction("trk_1", "car", "active", box),
+                                    TrackPrediction("trk_2", "car", "halted", box)),
+                            iou=(("trk_1", "det_0", 60000), ("trk_2", "det_0", 90000)),
+                            history=(HistoryEvent(Term("missing_detections", (Term("trk_2"),)), halted_at),))
+
+    answer = _hyp(("halt(trk_1)", "resume(trk_2,det_0)"),
+                  ("occurs_at(missing_detections(trk_1),10)", "occurs_at(recover(trk_2),10)"))
+    assert _rules(problem(7), answer) == {"resume_claimed"}
+    assert _rules(problem(8), answer) == set()
+
+
 @pytest.mark.parametrize("event", [
     "occurs_at(unhides_from_behind(trk_13,trk_99),235)",  # unknown track
     "occurs_at(unhides_from_behind(trk_13),235)",  # wrong arity

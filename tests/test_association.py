@@ -323,6 +323,39 @@ def test_resume_needs_a_halted_track(backend):
         solve(backend, p)
 
 
+# --- resume_claimed (refimpl rule, docs/model.md 3.29) ---------------------------------------------
+
+def _claimed_frame(halted_at: int, claim_iou: int = 60000, better: int | None = None):
+    # trk_1 active, trk_2 halted at `halted_at` by missing_detections; det_0 overlaps trk_1 by
+    # claim_iou and trk_2 by 0.9.  With `better`, det_1 overlaps trk_1 by that much (and nothing else).
+    dets = [det(0)] + ([det(1, box=(600, 300, 50, 50))] if better is not None else [])
+    iou = [("trk_1", "det_0", claim_iou), ("trk_2", "det_0", 90000)]
+    iou += [("trk_1", "det_1", better)] if better is not None else []
+    return frame(dets, [trk(1), trk(2, "halted")], iou, [hist("missing_detections(trk_2)", halted_at)])
+
+
+@pytest.mark.parametrize("halted_at,claim_iou,better,resumed", [
+    (7, 60000, None, False),   # 10 - 7 = 3 >= claim_after 3, det_0 is trk_1's best at 0.6 > 0.5: claimed
+    (8, 60000, None, True),    # 10 - 8 = 2 < 3: a track just missed competes for it
+    (7, 50000, None, True),    # exactly 0.5 is not above iou_thresh_claim 50000: not claimed
+    (7, 60000, 80000, True),   # trk_1's best is det_1 (0.8): det_0 is not claimed
+])
+def test_a_detection_that_continues_an_active_track_is_not_taken_by_a_track_halted_a_while(
+        backend, halted_at, claim_iou, better, resumed):
+    # Level 10 sums IoU + 1 over the pair actions: resume(trk_2,det_0) with halt(trk_1) gives
+    # 90001 against assign(trk_1,det_0)'s claim_iou + 1 (det_1, if any, goes to trk_1 either way),
+    # so wherever the resume is admissible it is taken; where [resume_claimed] forbids it, trk_1
+    # keeps det_0 and trk_2 does not resume.
+    h = solve(backend, _claimed_frame(halted_at, claim_iou, better))
+    assert ("resume(trk_2,det_0)" in h.actions) is resumed
+    if resumed:
+        assert ("halt(trk_1)" in h.actions) is (better is None)
+    else:
+        assert "assign(trk_1,det_0)" in h.actions
+    if better is not None:
+        assert "assign(trk_1,det_1)" in h.actions
+
+
 # --- start_constraints ---------------------------------------------------------------------------
 
 @pytest.mark.parametrize("conf,started", [(40, False), (41, True)])

@@ -197,8 +197,9 @@ def test_the_explanations_the_certificate_asks_about_are_those_of_the_explanatio
     assert listed == {e.name for e in EVENT_TABLE.values() if e.explains == action}
 
 
-# Resumes at level 10 (docs/model.md 3.15).  trk_1 active, trk_2 halted (missing at t=95: clipped,
-# so recover explains a resume); iou(1,1) = 80000 is the only assignable pair; trk_2 may resume
+# Resumes at level 10 (docs/model.md 3.15).  trk_1 active, trk_2 halted (missing at t=98: clipped,
+# so recover explains a resume; 100 - 98 < claim_after 3, so det_1, trk_1's claimed detection, stays
+# a candidate of trk_2's, docs/model.md 3.29); iou(1,1) = 80000 is the only assignable pair; trk_2 may resume
 # det_1 (60000) or det_2 (30000).  Level 10 weighs every pair ML + 1: {(1,1), (2,2)} = 110002 beats
 # {(2,1)} = 60001 (trk_1 halted), so trk_2 resumes det_2.
 RESUME = TWO_CARS + """trk_state(trk_2, halted).
@@ -206,7 +207,7 @@ box2d(trk_2, 500, 0, 50, 50).
 iou(trk_1,det_1,80000).
 iou(trk_2,det_1,60000).
 iou(trk_2,det_2,30000).
-occurs_at(missing_detections(trk_2),95).
+occurs_at(missing_detections(trk_2),98).
 """
 
 
@@ -251,7 +252,7 @@ def test_a_witness_resume_that_cannot_be_explained_is_rejected():
     # the same frame with trk_2 never missing (not clipped: recover impossible) and alone in the
     # image (no unhides_from_behind): resume_explainable fails, so the hand-derived certificate,
     # whose witness resumes trk_2, is not used
-    problem = _problem(RESUME.replace("occurs_at(missing_detections(trk_2),95).\n", ""))
+    problem = _problem(RESUME.replace("occurs_at(missing_detections(trk_2),98).\n", ""))
     facts = certificate_facts(Certificate((("trk_1", 25000), ("trk_2", 15000)), (("det_1", 55001), ("det_2", 15001)),
                                           (("trk_1", "det_1"), ("trk_2", "det_2"))))
     assert _derived(problem, facts)["cert_ok"] == set()

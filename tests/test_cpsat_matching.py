@@ -78,7 +78,7 @@ def test_random_and_adversarial_frames_get_the_answer_of_solving_every_chunk():
     # the cycles decide them (adversarial frames: identical detections, ties on levels 10..1)
     rng = random.Random(7)
     matched = 0
-    for k in range(240):
+    for k in range(270):  # 240 gave 58 matched once resume_claimed (docs/model.md 3.29) cut some pairs
         problem = adversarial_frame(rng) if k % 3 == 0 else random_frame(rng, with_history=k % 2 == 1)
         for pruned in (False, True):
             try:

@@ -52,7 +52,7 @@ from .constants import resolve_constants
 
 BOX_LIMIT = 2 ** 28
 TIME_LIMIT = 2 ** 30
-_TEMPORAL = ("lost_after_missing", "lost_after_hidden", "noise_max_age", "mintime")
+_TEMPORAL = ("lost_after_missing", "lost_after_hidden", "noise_max_age", "claim_after", "mintime")
 _BORDER = ("img_width", "img_height", "border_margin")
 
 

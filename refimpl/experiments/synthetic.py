@@ -460,7 +460,8 @@ def dense_frame(n_tracks: int, seed: int, time: int = 100, image_size: tuple[int
     higher, with IoU 0.45..0.85, so that its detection or the other track's pairs the two (the
     track is detected if neither is); a false positive outside is dropped.  States and histories
     as in synthetic_frame; the track in front of a track is the one it piles on, else the track
-    covering it most from the front (bottom edge strictly lower).
+    covering it most from the front (bottom edge strictly lower).  The constant iou_thresh_claim =
+    100000 switches resume_claimed off (docs/model.md 3.29), which would cut halted tracks out.
     """
     n = int(n_tracks)
     if n < 1:
@@ -545,6 +546,8 @@ def _crowd(boxes, states, seen, det_jitter, fps, time, width, height, events) ->
     dets = [(_jitter(boxes[i], det_jitter[i][0], 0.03, 0.03), det_jitter[i][1]) for i in range(len(boxes)) if seen[i]]
     dets += [(_jitter(boxes[k], z, 0.1, 0.05), conf) for k, z, conf in fps]
     detections = tuple(Detection(f"det_{j}", DENSE_TYPE, conf, box) for j, (box, conf) in enumerate(dets))
+    # resume_claimed off (docs/model.md 3.29): the histories, drawn once the crowd is one component,
+    # would cut halted tracks out of it
     return FrameProblem(time=int(time), detections=detections, tracks=tracks, iou=iou_facts(tracks, detections),
-                        constants=(("img_width", width), ("img_height", height)),
+                        constants=(("img_width", width), ("img_height", height), ("iou_thresh_claim", 100000)),
                         history=tuple(e for evs in events for e in evs))

@@ -1,6 +1,6 @@
 """The admissibility of actions (docs/model-spec.md section 1): match_type and the integrity
 constraints assignment_constraints, resume_constraints and start_constraints of Appendix A
-(with refimpl's start_occupied, docs/model.md 3.21).
+(with refimpl's start_occupied, docs/model.md 3.21, and resume_claimed, 3.29).
 
 Backend-neutral: the CP-SAT model, the fast path, the candidate pairs of the decomposition and
 the tie-break (refimpl.solvers.common) all read these rules from here, one place.
@@ -42,21 +42,70 @@ def assignment_constraints(problem: FrameProblem, constants: Mapping[str, int], 
 
 def resume_constraints(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
                        trk: TrackPrediction, det: Detection, state: EventState | None = None,
-                       by_id: Mapping[str, TrackPrediction] | None = None) -> bool:
+                       by_id: Mapping[str, TrackPrediction] | None = None, claims: "Claimed | None" = None) -> bool:
     """Appendix A resume_constraints(Trk, Det) plus refimpl's IoU condition (docs/model-spec.md);
     refimpl rule (docs/model.md 3.17): a track anticipated to unhide now (events.anticipated_unhide)
-    resumes with any detection above conf_thresh_new_track.  ``state``/``by_id``: the frame's event
-    state and tracks by id (computed from the problem when not given, only if needed)."""
-    if _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_resume", "iou_thresh_resume"):
-        return True
-    if not _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_new_track",
-                             "iou_thresh_resume"):
-        return False
+    resumes with any detection above conf_thresh_new_track; refimpl rule (3.29): not with a
+    detection that continues a track followed without a break (:func:`resume_claimed`).
+    ``state``/``by_id``/``claims``: the frame's event state, tracks by id and :class:`Claimed`
+    (computed from the problem when not given, only if needed)."""
+    if not _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_resume", "iou_thresh_resume"):
+        if not _pair_constraints(problem, constants, iou, trk, det, "halted", "conf_thresh_new_track",
+                                 "iou_thresh_resume"):
+            return False
+        if state is None:
+            state = EventState.from_problem(problem)
+        if by_id is None:
+            by_id = {t.id: t for t in problem.tracks}
+        if not anticipated_unhide(state, constants, trk, by_id):
+            return False
+    return not resume_claimed(problem, constants, iou, trk, det, state, claims)
+
+
+class Claimed:
+    """The frame's claimed detections (association.lp [claimed], docs/model.md 3.29): for every
+    active track, the detections it may be assigned (assignment_constraints) with its greatest IoU,
+    where that IoU is above iou_thresh_claim: the detection that continues a track followed without
+    a break.  Computed on the first question, once per frame."""
+
+    def __init__(self, problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int]):
+        self.problem, self.constants, self.iou = problem, constants, iou
+        self._ids: frozenset[str] | None = None
+
+    def __contains__(self, det_id: str) -> bool:
+        if self._ids is None:
+            self._ids = self._claimed()
+        return det_id in self._ids
+
+    def _claimed(self) -> frozenset[str]:
+        problem, constants, iou = self.problem, self.constants, self.iou
+        active = {t.id: t for t in problem.tracks if t.state == "active"}
+        dets = {d.id: d for d in problem.detections}
+        best: dict[str, tuple[int, list[str]]] = {}  # track -> (greatest IoU, its detections)
+        for (tid, did), v in iou.items():
+            t, d = active.get(tid), dets.get(did)
+            if t is None or d is None or not assignment_constraints(problem, constants, iou, t, d):
+                continue
+            top = best.get(tid)
+            if top is None or v > top[0]:
+                best[tid] = (v, [did])
+            elif v == top[0]:
+                top[1].append(did)
+        limit = constants["iou_thresh_claim"]
+        return frozenset(d for v, ds in best.values() if v > limit for d in ds)
+
+
+def resume_claimed(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
+                   trk: TrackPrediction, det: Detection, state: EventState | None = None,
+                   claims: Claimed | None = None) -> bool:
+    """refimpl rule (docs/model.md 3.29, association.lp [resume_claimed]): a track halted at least
+    claim_after frames ago (halted_at) does not resume with a claimed detection (:class:`Claimed`)."""
     if state is None:
         state = EventState.from_problem(problem)
-    if by_id is None:
-        by_id = {t.id: t for t in problem.tracks}
-    return anticipated_unhide(state, constants, trk, by_id)
+    halted = state.halted_at(trk.id)
+    if halted is None or problem.time - halted < constants["claim_after"]:
+        return False
+    return det.id in (Claimed(problem, constants, iou) if claims is None else claims)
 
 
 def occupying_pairs(problem: FrameProblem, constants: Mapping[str, int]) -> list[tuple[str, str]]:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 from dataclasses import dataclass
+from functools import cached_property
 
 from ..core.constants import resolve_constants
 from ..knowledge.events import EventState, poss
@@ -83,14 +84,31 @@ class FrameRules:
     def match_type(self, a: str, b: str) -> bool:
         return a == b or (a, b) in self.problem.match_types
 
+    def assignable(self, t, d) -> bool:
+        """association.lp assignment_constraints(T, D)."""
+        c, iou = self.c, self.iou
+        return (t.state == "active" and self.match_type(t.type, d.type) and d.conf > c["conf_thresh_assign"]
+                and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh"])
+
+    @cached_property
+    def claimed(self) -> dict:
+        """association.lp [claimed] (docs/model.md 3.29): each detection claimed, with the active track
+        that claims it: one an active track may be assigned with no other it may be assigned at a
+        greater IoU, and at an IoU above iou_thresh_claim."""
+        out = {}
+        for t in self.tracks.values():
+            options = [(self.iou[(t.id, d.id)], d.id) for d in self.dets.values() if self.assignable(t, d)]
+            if options:
+                top = max(v for v, _ in options)
+                out.update({d: t.id for v, d in options if v == top and v > self.c["iou_thresh_claim"]})
+        return out
+
     def action_violation(self, name: str, args: tuple[str, ...]) -> Violation | None:
         """The integrity constraint the action (of known ids) breaks, or None."""
         c, tracks, dets, iou, state = self.c, self.tracks, self.dets, self.iou, self.state
         atom = f"{name}({','.join(args)})"
         if name == "assign":
-            t, d = tracks[args[0]], dets[args[1]]
-            if not (t.state == "active" and self.match_type(t.type, d.type) and d.conf > c["conf_thresh_assign"]
-                    and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh"]):
+            if not self.assignable(tracks[args[0]], dets[args[1]]):
                 return Violation("assignment_constraints", f"{atom} is not admissible")
         elif name == "resume":
             t, d = tracks[args[0]], dets[args[1]]
@@ -104,6 +122,12 @@ class FrameRules:
             if not (t.state == "halted" and self.match_type(t.type, d.type) and d.conf > need
                     and (t.id, d.id) in iou and iou[(t.id, d.id)] > c["iou_thresh_resume"]):
                 return Violation("resume_constraints", f"{atom} is not admissible")
+            # association.lp [resume_claimed]: halted at least claim_after frames ago, and the
+            # detection continues an active track
+            halted = state.halted_at(t.id)
+            if halted is not None and self.problem.time - halted >= c["claim_after"] and d.id in self.claimed:
+                return Violation("resume_claimed", f"{atom}: {d.id} continues {self.claimed[d.id]}, and {t.id} "
+                                 f"was halted at {halted}")
         elif name == "start":
             d = dets[args[0]]
             if not (d.conf > c["conf_thresh_new_track"] and d.box[2] * d.box[3] > c["size_threshold"]):

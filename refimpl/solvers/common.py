@@ -9,7 +9,8 @@ detection: "exactly one action" is per node, an event explains exactly one actio
 argument, and every event's precondition reads the history and the (fixed) boxes only, never
 another choice of this frame (refimpl's [start_occupied] reads a detection's iou/3 facts with the
 tracks: facts, not choices; refimpl.solvers.decompose keeps such a detection and track in one
-sub-problem).  So the connected components of the bipartite graph of candidate pairs (tracks and
+sub-problem; refimpl's [resume_claimed] reads an active track's iou/3 facts with the detections it
+may be assigned, all of them in that track's component).  So the connected components of the bipartite graph of candidate pairs (tracks and
 detections as nodes; a node without a pair is a component of its own) are
 independent: the answers of the frame are exactly the unions of one answer per component, and
 every cost level is a sum over the components.  The lexicographic optimum of the frame is the
@@ -58,7 +59,7 @@ from ..knowledge.events import EventState
 from ..knowledge.event_table import EFFECTS, EVENT_NAMES
 from ..core.ranges import EXPLANATION_LIMIT
 from ..core.spec import Box, FrameProblem, event_of, natural_key, parse_atom
-from .admissibility import assignment_constraints, resume_constraints
+from .admissibility import Claimed, assignment_constraints, resume_constraints
 
 
 def intersection_matrix(boxes: Sequence[Box]) -> np.ndarray:
@@ -92,15 +93,17 @@ class Component:
     """The iou/3 pairs inside, in natural (trk, det) order."""
 
 
-def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
+def candidate_pairs(problem: FrameProblem, state: EventState | None = None) -> list[tuple[str, str]]:
     """The (trk, det) pairs that can take a pair action: an iou/3 fact and the assign or resume
-    integrity constraint (whether a resume can be explained is not asked: a superset is safe)."""
+    integrity constraint (whether a resume can be explained is not asked: a superset is safe).
+    ``state``: the event state the resumes read (default: the problem's history)."""
     constants = resolve_constants(problem)
     iou = problem.iou_map
     tracks = {t.id: t for t in problem.tracks}
     dets = {d.id: d for d in problem.detections}
     out = []
-    state = None  # the event state, built once if a resume needs it (anticipated_unhide)
+    # the event state, built once if a resume needs it (anticipated_unhide, halted_at)
+    claims = Claimed(problem, constants, iou)  # [resume_claimed], computed if a resume asks
     for t, d, _ in problem.iou:
         trk, det = tracks.get(t), dets.get(d)
         if trk is None or det is None:
@@ -108,9 +111,9 @@ def candidate_pairs(problem: FrameProblem) -> list[tuple[str, str]]:
         if trk.state == "active":
             ok = assignment_constraints(problem, constants, iou, trk, det)
         else:
-            if state is None and det.conf <= constants["conf_thresh_resume"]:
+            if state is None:
                 state = EventState.from_problem(problem)
-            ok = resume_constraints(problem, constants, iou, trk, det, state, tracks)
+            ok = resume_constraints(problem, constants, iou, trk, det, state, tracks, claims)
         if ok:
             out.append((t, d))
     return out
@@ -159,9 +162,9 @@ class DisjointSets:
                 parent[a] = b
 
 
-def components(problem: FrameProblem) -> list[Component]:
+def components(problem: FrameProblem, state: EventState | None = None) -> list[Component]:
     """The independent components of the frame (module docstring), in the order of their first
-    node (tracks before detections, problem order)."""
+    node (tracks before detections, problem order); ``state`` as candidate_pairs'."""
     tracks, dets = problem.tracks, problem.detections
     nt = len(tracks)
     t_index = {t.id: i for i, t in enumerate(tracks)}
@@ -169,7 +172,7 @@ def components(problem: FrameProblem) -> list[Component]:
     sets = DisjointSets(nt + len(dets))
     find = sets.find
 
-    pairs = candidate_pairs(problem)
+    pairs = candidate_pairs(problem, state)
     for t, d in pairs:
         sets.union(t_index[t], d_index[d])
     groups: dict[int, list[int]] = {}
@@ -232,17 +235,19 @@ def _event_candidates(problem: FrameProblem, inter: np.ndarray | None = None) ->
     return out
 
 
-def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None) -> TiebreakWeights:
+def tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None = None,
+                     state: EventState | None = None) -> TiebreakWeights:
     """The level-0 weights of every pair and event of the frame (module docstring).
 
     ``inter`` optionally passes ``intersection_matrix`` of the track boxes (in problem.tracks
     order) when the caller has it already.  Without it the weights of the last two problems are
     memoised (read them, never change them): one solve prices its problem's tie-break several
     times (clingo's range check, the fallback's check, the answer's level 0), 0.44 s each on a
-    400-track crowd, time its time limit must cover."""
-    if inter is None:
+    400-track crowd, time its time limit must cover.  ``state``: the event state the candidate
+    pairs' resumes read, where a solver is given one (default: the problem's history)."""
+    if inter is None and state is None:
         return _tiebreak_weights(problem)
-    return _compute_tiebreak_weights(problem, inter)
+    return _compute_tiebreak_weights(problem, inter, state)
 
 
 @lru_cache(maxsize=2)
@@ -250,8 +255,9 @@ def _tiebreak_weights(problem: FrameProblem) -> TiebreakWeights:
     return _compute_tiebreak_weights(problem, None)
 
 
-def _compute_tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None) -> TiebreakWeights:
-    comps = components(problem)
+def _compute_tiebreak_weights(problem: FrameProblem, inter: np.ndarray | None,
+                              state: EventState | None = None) -> TiebreakWeights:
+    comps = components(problem, state)
     cands = _event_candidates(problem, inter)
     event = {e: idx for evs in cands.values() for idx, e in enumerate(evs)}
     # the largest possible index sum: a track or detection takes one action, explained by at

@@ -24,7 +24,7 @@ from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplai
 from ..core.hypothesis import ACTION_TABLE, EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL, action_cost
 from ..core.spec import Detection, FrameProblem, TrackPrediction
 from . import NoAdmissibleHypothesis
-from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
+from .admissibility import Claimed, assignment_constraints, occupied, resume_constraints, start_constraints
 from .common import intersection_matrix, tiebreak_weights
 
 _EVENT_AT = PRIORITIES.index(EVENT_LEVEL)
@@ -195,11 +195,12 @@ class _Builder:
         self.problem, self.state, self.constants, self.model, self.am = problem, state, constants, model, am
         self.iou = problem.iou_map
         inter = intersection_matrix([t.box for t in problem.tracks])
-        self.tb = tiebreak_weights(problem, inter)
+        self.tb = tiebreak_weights(problem, inter, state)
         self.w = self.tb.pair  # 2^q per pair; events: tb.event (common.py)
         am.tiebreak_shift = self.tb.shift
         self.partners = _partners(problem)
         self.by_id = {t.id: t for t in problem.tracks}
+        self.claims = Claimed(problem, constants, self.iou)  # [resume_claimed]
         self.top = _overlapping_top_matrix(problem.tracks, inter, constants["hide_overlap"])
         self.cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
         self.per_trk: dict[str, list[cp_model.IntVar]] = {t.id: [] for t in problem.tracks}
@@ -267,7 +268,8 @@ class _Builder:
             self.explain([ig], [self.event(spec, args) for spec, args in again])
         # resume(T, D) <=> exactly one of its possible explanations   (explain_resume)
         resumable = [d for d in self.partners.get(t.id, ())
-                     if resume_constraints(self.problem, self.constants, self.iou, t, d, self.state, self.by_id)]
+                     if resume_constraints(self.problem, self.constants, self.iou, t, d, self.state, self.by_id,
+                                           self.claims)]
         expl = self.explanations("resume", i) if resumable else []
         if resumable and expl:
             res = [self.pair("resume", t, d) for d in resumable]

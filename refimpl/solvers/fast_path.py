@@ -18,7 +18,7 @@ from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplai
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
 from ..core.spec import FrameProblem
 from .common import DisjointSets, LazyTiebreak, disjoint_pairs as _disjoint
-from .admissibility import assignment_constraints, occupied, resume_constraints, start_constraints
+from .admissibility import Claimed, assignment_constraints, occupied, resume_constraints, start_constraints
 from .cpsat_model import _cost, _explanations, _has_explanation
 
 # ---------------------------------------------------------------------------------------
@@ -305,6 +305,7 @@ def _candidate_pairs(problem: FrameProblem, state: EventState, constants: Mappin
     iou = problem.iou_map if iou is None else iou
     above = {"active": constants["iou_thresh"], "halted": constants["iou_thresh_resume"]}
     lowest = min(above.values())
+    claims = Claimed(problem, constants, iou)  # [resume_claimed], computed if a resume asks
     pairs: list[tuple[int, int]] = []
     for (tid, did), v in iou.items():
         if v <= lowest:
@@ -317,7 +318,7 @@ def _candidate_pairs(problem: FrameProblem, state: EventState, constants: Mappin
         if limit is None or v <= limit:
             continue
         if (assignment_constraints(problem, constants, iou, t, d) if t.state == "active"
-                else resume_constraints(problem, constants, iou, t, d, state, by_id)):
+                else resume_constraints(problem, constants, iou, t, d, state, by_id, claims)):
             pairs.append((i, j))
     return pairs
 
