@@ -82,7 +82,12 @@ class Claimed:
         active = {t.id: t for t in problem.tracks if t.state == "active"}
         dets = {d.id: d for d in problem.detections}
         best: dict[str, tuple[int, list[str]]] = {}  # track -> (greatest IoU, its detections)
+        # a detection at or below iou_thresh_claim is never claimed, nor the best of a track whose
+        # best is claimed; one at or below iou_thresh is not assignable: neither is looked at
+        floor = max(constants["iou_thresh_claim"], constants["iou_thresh"])
         for (tid, did), v in iou.items():
+            if v <= floor:
+                continue
             t, d = active.get(tid), dets.get(did)
             if t is None or d is None or not assignment_constraints(problem, constants, iou, t, d):
                 continue
@@ -91,8 +96,7 @@ class Claimed:
                 best[tid] = (v, [did])
             elif v == top[0]:
                 top[1].append(did)
-        limit = constants["iou_thresh_claim"]
-        return frozenset(d for v, ds in best.values() if v > limit for d in ds)
+        return frozenset(d for _, ds in best.values() for d in ds)
 
 
 def resume_claimed(problem: FrameProblem, constants: Mapping[str, int], iou: Mapping[tuple[str, str], int],
