@@ -10,8 +10,9 @@ argument, and every event's precondition reads the history and the (fixed) boxes
 another choice of this frame (refimpl's [start_occupied] reads a detection's iou/3 facts with the
 tracks: facts, not choices; refimpl.solvers.decompose keeps such a detection and track in one
 sub-problem; refimpl's [resume_claimed] reads an active track's iou/3 facts with the detections it
-may be assigned, all of them in that track's component).  So the connected components of the bipartite graph of candidate pairs (tracks and
-detections as nodes; a node without a pair is a component of its own) are
+may be assigned, all of them in that track's component).  So the connected components of the
+bipartite graph of candidate pairs (tracks and detections as nodes; a node without a pair is a
+component of its own) are
 independent: the answers of the frame are exactly the unions of one answer per component, and
 every cost level is a sum over the components.  The lexicographic optimum of the frame is the
 union of the components' optima.
@@ -102,16 +103,16 @@ def candidate_pairs(problem: FrameProblem, state: EventState | None = None) -> l
     tracks = {t.id: t for t in problem.tracks}
     dets = {d.id: d for d in problem.detections}
     out = []
-    # the event state, built once if a resume needs it (anticipated_unhide, halted_at)
     claims = Claimed(problem, constants, iou)  # [resume_claimed], computed if a resume asks
-    for t, d, _ in problem.iou:
+    for t, d, v in problem.iou:
         trk, det = tracks.get(t), dets.get(d)
         if trk is None or det is None:
             continue
         if trk.state == "active":
             ok = assignment_constraints(problem, constants, iou, trk, det)
         else:
-            if state is None:
+            if state is None and v > constants["iou_thresh_resume"]:
+                # the event state, built once where a resume may need it (anticipated_unhide, halted_at)
                 state = EventState.from_problem(problem)
             ok = resume_constraints(problem, constants, iou, trk, det, state, tracks, claims)
         if ok:
