@@ -94,6 +94,22 @@ def test_evidence_rule_learns_which_scores_persist():
     assert conf[11].tolist() == [100, 36]
 
 
+def test_evidence_rules_prior_never_falls_below_the_floor():
+    # Nothing labelled yet, so the prior alone: the rank rule gives 0.3, 0.1, 0.2 100, 33, 67
+    # (test_rank_rule_on_two_frames); EVIDENCE_FLOOR 40 lifts the 33: a detection the sequence has not
+    # yet shown to flicker may continue a track (assign, resume at 30), not start one (> 50)
+    assert PersistenceEvidence().confidences(np.zeros((3, 4)) + [0, 0, 10, 10], [0.3, 0.1, 0.2]).tolist() == [100, 40, 67]
+    # Blended: frame 11 of the steady / jumping pair (n = 20 labelled, the curve 0 for the low scores,
+    # as in test_evidence_rule_learns_which_scores_persist) with a third, far box scored 0.0.  It is
+    # the lowest of the 25 scores seen: rank floor(100 / 25 + 1/2) = 4, lifted to 40; no labelled score
+    # is <= 0.0, so bin 0, learned 0: (20 * 0 + 50 * 40) / 70 = 28.6 -> 29 (rank alone: 200 / 70 -> 3)
+    frames = _persistent_and_flickering(12)
+    last = frames[11]
+    frames[11] = DetectionFrame(11, np.vstack([last.boxes, [[900.0, 900.0, 10.0, 10.0]]]),
+                                np.append(last.scores, 0.0), np.zeros(3, np.int64), last.types + ("pedestrian",))
+    assert evidence_confidences(frames)[11].tolist()[2] == 29
+
+
 def test_evidence_rule_counts_only_an_overlap_of_the_same_type():
     frames = _persistent_and_flickering(12)
     # the steady box's neighbours are cars while it is a pedestrian in frames 1..10: nothing persists,

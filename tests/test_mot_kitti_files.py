@@ -265,11 +265,12 @@ def test_scores_of_any_scale_are_read_by_default_without_a_warning(tmp_path, rec
     p = write(tmp_path / "det.txt", "1,-1,0,0,10,10,42.5,-1\n1,-1,0,0,10,10,-0.8\n1,-1,0,0,10,10,139\n"
               "1,-1,0,0,10,10,0.5,-1,-1\n2,-1,0,0,10,10,40\n")
     # three of five scores outside [0,1]: the default rule (evidence) reads any scale.  Before 20
-    # detections are labelled its confidences are its prior, the rank rule: frame 1 (n = 4, sorted
-    # -0.8 0.5 42.5 139): 42.5 has 3 <= it -> 75, -0.8 1 -> 25, 139 4 -> 100, 0.5 2 -> 50; frame 2
-    # (n = 5): 40 has 3 <= it -> 60
+    # detections are labelled its confidences are its prior, the rank rule never below 40
+    # (EVIDENCE_FLOOR): frame 1 (n = 4, sorted -0.8 0.5 42.5 139): 42.5 has 3 <= it -> 75, -0.8 1 ->
+    # 25 -> 40, 139 4 -> 100, 0.5 2 -> 50; frame 2 (n = 5): 40 has 3 <= it -> 60
     seq = io.read_mot_detections(p)
-    assert [f.confidences.tolist() for f in seq.frames] == [[75, 25, 100, 50], [60]]
+    assert [f.confidences.tolist() for f in seq.frames] == [[75, 40, 100, 50], [60]]
+    assert io.read_mot_detections(p, scores_rule="rank").frames[0].confidences.tolist() == [75, 25, 100, 50]
     assert io.read_mot_detections(p, scores_rule="rank").frames[1].confidences.tolist() == [60]
     assert not [w for w in recwarn if issubclass(w.category, io.InputFormatWarning)]
 

@@ -14,7 +14,7 @@ ones (:class:`PersistenceEvidence`): it depends on the order of the scores alone
 increasing rescale of a detector's scores (x 0.6, a power, logits for probabilities) gives the
 same confidences and the same tracks, and a threshold of 50 means "half as persistent as this
 detector's best" whatever the detector.  Its prior, before the sequence has shown enough, is the
-rank rule below.
+rank rule below, never below EVIDENCE_FLOOR.
 
 The rank rule (``rank``) maps each score to its place among every score the sequence has shown
 so far, this frame included:
@@ -44,8 +44,15 @@ IoU >= 0.3 (SORT's association threshold)."""
 EVIDENCE_BINS = 20
 """The persistence curve is estimated on this many equal-count bins of the scores seen so far."""
 EVIDENCE_PRIOR = 50
-"""The rank prior counts as this many detections: with n labelled detections the confidence is
-(n * learned + EVIDENCE_PRIOR * rank) / (n + EVIDENCE_PRIOR)."""
+"""The prior counts as this many detections: with n labelled detections the confidence is
+(n * learned + EVIDENCE_PRIOR * prior) / (n + EVIDENCE_PRIOR)."""
+EVIDENCE_FLOOR = 40
+"""The prior is the rank rule's confidence, never below this: before the sequence has shown
+evidence, no detection is taken for less than 40 % as persistent as the detector's best, which
+every preset lets continue a track (assign and resume at 30) and not start one (a new track needs
+more than 50).  Rank alone called the lower half of a sparse, clean sequence's detections (KITTI
+pedestrians) unfit even to continue a track.  Chosen among 0 (rank alone), 40, 50, 55, 60 by the
+worst case over the shifts on the tuning sets (docs/model.md 3.19)."""
 
 
 SCORE_WINDOW = 2 ** 17
@@ -155,7 +162,7 @@ class PersistenceEvidence:
     the labelled scores, sorted, fall into EVIDENCE_BINS equal-count bins; the share of persistent
     detections per bin, made non-decreasing in the score (isotonic) and divided by the highest
     bin's share, is the learned curve; a score's confidence is the curve at its bin, blended with
-    the rank prior (EVIDENCE_PRIOR), times 100, rounded half up."""
+    the prior (EVIDENCE_PRIOR: the rank rule, at least EVIDENCE_FLOOR), times 100, rounded half up."""
 
     def __init__(self) -> None:
         self.reset()
@@ -204,7 +211,7 @@ class PersistenceEvidence:
         s = np.asarray(scores, dtype=float).reshape(-1)
         b = np.asarray(boxes, dtype=float).reshape(-1, 4)
         kinds = tuple(types) if types is not None else ("",) * len(s)
-        prior = self._rank.confidences(s)  # checks the scores are finite
+        prior = np.maximum(self._rank.confidences(s), EVIDENCE_FLOOR)  # (the rank rule checks the scores are finite)
         self._label(b, kinds)
         self._recent.append((b, s, kinds))
         if not len(s):
