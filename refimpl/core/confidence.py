@@ -50,8 +50,8 @@ EVIDENCE_FLOOR = 40
 """The prior is the rank rule's confidence, never below this: before the sequence has shown
 evidence, no detection is taken for less than 40 % as persistent as the detector's best, which
 every preset lets continue a track (assign and resume at 30) and not start one (a new track needs
-more than 50).  Rank alone called the lower half of a sparse, clean sequence's detections (KITTI
-pedestrians) unfit even to continue a track.  Chosen among 0 (rank alone), 40, 50, 55, 60 by the
+more than 50).  Rank alone called the lowest 30 % of a sparse, clean sequence's first detections
+(KITTI pedestrians) unfit even to continue a track.  Chosen among 0 (rank alone), 40, 50, 55, 60 by the
 worst case over the shifts on the tuning sets (docs/model.md 3.19)."""
 
 
