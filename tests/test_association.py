@@ -877,6 +877,39 @@ def test_a_halted_track_on_a_detection_takes_it_from_a_track_that_overlaps_it_le
     assert dict(h.cost)[10] == -70001
 
 
+# --- the matching likelihood weighed by the detection's confidence (docs/model.md 3.30) --------
+
+@pytest.mark.parametrize("weight, taken, level10", [
+    # likelihood_conf = 100: ML = IoU x conf / 100: det_1 62000 x 98 / 100 = 60760 beats
+    # det_2 63000 x 64 / 100 = 40320; level 10 -(60760 + 1)
+    (100, "det_1", -60761),
+    # likelihood_conf = 0 (the paper's IoU alone, model/constants.lp): 63000 beats 62000; -(63000 + 1)
+    (0, "det_2", -63001),
+])
+def test_of_two_detections_a_track_overlaps_alike_it_takes_the_surer_one(backend, weight, taken, level10):
+    # kitti-car-train 0009 frame 34 under bursty misses: the track overlaps a confident detection
+    # of its car (conf 98) at IoU 0.62 and a faint one of nothing labelled (conf 64) at 0.63.  The
+    # detection the track does not take overlaps it above iou_thresh_occupied (0.5): it cannot
+    # start ([start_occupied]) and is ignored (10 at level 3) either way; only level 10 differs.
+    p = frame([det(1, conf=98), det(2, conf=64)], [trk(1)],
+              [("trk_1", "det_1", 62000), ("trk_1", "det_2", 63000)],
+              constants=[("likelihood_conf", weight)])
+    h = solve(backend, p)
+    other = "det_2" if taken == "det_1" else "det_1"
+    assert h.actions == tuple(sorted([f"assign(trk_1,{taken})", f"ignore_det({other})"]))
+    assert h.optimal and dict(h.cost)[10] == level10 and dict(h.cost)[3] == 10
+
+
+def test_the_weighed_likelihood_is_computed_in_integers_as_clingo_divides(backend):
+    # likelihood_conf = 50, conf 77, IoU 33333: 33333 x (10000 - 50 x (100 - 77)) / 10000
+    # = 33333 x 8850 / 10000 = 294997050 / 10000 = 29499.705, truncated (every operand >= 0) to
+    # 29499; level 10: -(29499 + 1)
+    p = frame([det(1, conf=77)], [trk(1)], [("trk_1", "det_1", 33333)], constants=[("likelihood_conf", 50)])
+    h = solve(backend, p)
+    assert h.actions == ("assign(trk_1,det_1)",)
+    assert dict(h.cost)[10] == -29500
+
+
 # --- explain_ignore (docs/model.md 3.16) and anticipated_unhide (3.17) ------------------------
 
 BUS = (200, 250, 300, 150)  # x 200..500, y 250..400: bottom edge 400

@@ -162,9 +162,9 @@ def test_the_action_costs_and_priorities_are_those_of_optimisation_lp():
                 if a.level is not None and a.name not in MAXIMISED}
     assert found == expected
     # assign and resume are maximised at @10 (resume: docs/model.md 3.15): ML + 1 per pair, i.e. a
-    # cost of -(ML + 1), and nothing at @2 for a resume
-    assert re.search(r"#maximize \{ ML@10, Trk, Det : assign\(Trk, Det\), iou\(Trk, Det, ML\);\s+"
-                     r"ML@10, Trk, Det : resume\(Trk, Det\), iou\(Trk, Det, ML\) \}", text)
+    # cost of -(ML + 1), and nothing at @2 for a resume; ML is the pair's matching_likelihood (3.30)
+    assert re.search(r"#maximize \{ ML@10, Trk, Det : assign\(Trk, Det\), matching_likelihood\(Trk, Det, ML\);\s+"
+                     r"ML@10, Trk, Det : resume\(Trk, Det\), matching_likelihood\(Trk, Det, ML\) \}", text)
     assert re.search(r"#maximize \{ 1@10, Trk, Det, count : assign\(Trk, Det\);\s+"
                      r"1@10, Trk, Det, count : resume\(Trk, Det\) \}", text)
     assert action_cost("assign", 500) == (-501, 0, 0, 0, 0, 0)

@@ -119,6 +119,17 @@ def test_leave_visible_must_be_a_percentage(capsys, value, refused):
     assert (f"leave_visible={value} must be within 0..100" in err) == refused
 
 
+@pytest.mark.parametrize("value,refused", [(-1, True), (0, False), (100, False), (101, True)])
+def test_likelihood_conf_must_be_a_percentage(capsys, value, refused):
+    # [matching_likelihood] (docs/model.md 3.30) weighs IoU by 10000 - likelihood_conf x (100 - Conf):
+    # only 0..100 keeps that factor within 0..10000 (at 101 and conf 0 it is -100: a negative
+    # weight at level 10) and IoU x factor within 10^9 < 2^31
+    code = cli.main(["solve", "data/examples/kitti_0020_t79.lp", "--const", f"likelihood_conf={value}"])
+    err = capsys.readouterr().err
+    assert code == (2 if refused else 0)
+    assert (f"likelihood_conf={value} must be within 0..100" in err) == refused
+
+
 def test_at_the_exact_limits_every_backend_still_agrees(solvers):
     # the largest accepted time difference: 2^30 - (-2^30 + 1) = 2^31 - 1.  The track halted at
     # -2^30 + 1 by missing_detections (cost 2), so at curr_time it may be lost (curr_time - T =

@@ -28,6 +28,9 @@ What the model computes (model/*.lp, the same in refimpl/knowledge/relations.py 
 * ``leave_visible`` within 0..100: ``100 * VW * VH <= leave_visible * W * H`` (model/spatial.lp
   [out_of_view], VW <= W and VH <= H the box's part inside the image) then fits wherever
   ``100 * W * H`` does;
+* ``likelihood_conf`` within 0..100: a pair's matching likelihood ``IOU * (10000 -
+  likelihood_conf * (100 - Conf)) / 10000`` (model/optimisation.lp [matching_likelihood]) then
+  stays within 0..IoU and its product within 10^9;
 * ``hide_overlap`` >= 0: it is a percentage, and below 0 ``100 * I > hide_overlap * W * H``
   holds for tracks that do not overlap at all, so any track could hide behind any other and the
   canonical tie-break (refimpl/solvers/common.py, which ranks only overlapping or
@@ -67,6 +70,10 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
     if name == "leave_visible" and not 0 <= value <= 100:
         raise ProblemFormatError(f"leave_visible={value} must be within 0..100 (a percentage of the track's box; "
                                  "model/spatial.lp [out_of_view] multiplies it by the box area)", source)
+    if name == "likelihood_conf" and not 0 <= value <= 100:
+        raise ProblemFormatError(f"likelihood_conf={value} must be within 0..100 (how much a detection's confidence "
+                                 "weighs in the matching likelihood; outside it a pair's weight at level 10 could be "
+                                 "negative or leave clingo's 32-bit integers)", source)
     if name == "hide_overlap" and value < 0:
         raise ProblemFormatError(f"hide_overlap={value} must be >= 0 (a percentage of the track's box; below 0 "
                                  "every pair of tracks would count as overlapping)", source)

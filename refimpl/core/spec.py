@@ -31,6 +31,20 @@ from .errors import UserFacingError
 IOU_SCALE = 100_000
 """Matching likelihood unit: IoU 1.0 is written as 100000 (the paper's iou/3 facts)."""
 
+CONF_WEIGHT_SCALE = 10_000
+"""likelihood_conf (0..100) times a confidence gap (0..100): the unit of the weight
+pair_likelihood multiplies the IoU by; IOU_SCALE x CONF_WEIGHT_SCALE = 10^9 fits clingo's 32 bits."""
+
+
+def pair_likelihood(iou: int, conf: int, likelihood_conf: int) -> int:
+    """A pair's matching likelihood, the weight its assign or resume adds at level 10
+    (model/optimisation.lp [matching_likelihood], refimpl decision, docs/model.md 3.30): the IoU
+    (x 100000) weighed by the detection's confidence, IoU x (1 - likelihood_conf/100 x (1 - conf/100)),
+    in integers as clingo computes it (every operand >= 0, so its truncating division is floor).
+    likelihood_conf 0: the IoU alone (the paper); 100: IoU x conf / 100."""
+    return iou * (CONF_WEIGHT_SCALE - likelihood_conf * (100 - conf)) // CONF_WEIGHT_SCALE
+
+
 TRACK_STATES = ("active", "halted")
 
 ASP_INT_MIN, ASP_INT_MAX = -2 ** 31, 2 ** 31 - 1
@@ -225,6 +239,13 @@ class FrameProblem:
     @property
     def iou_map(self) -> dict[tuple[str, str], int]:
         return {(t, d): v for t, d, v in self.iou}
+
+    def likelihood_map(self, likelihood_conf: int) -> dict[tuple[str, str], int]:
+        """(trk, det) -> the pair's matching likelihood at level 10 (pair_likelihood), for every iou/3 fact."""
+        if not likelihood_conf:
+            return self.iou_map
+        conf = {d.id: d.conf for d in self.detections}
+        return {(t, d): pair_likelihood(v, conf[d], likelihood_conf) for t, d, v in self.iou}
 
     def detection(self, det_id: str) -> Detection:
         for d in self.detections:

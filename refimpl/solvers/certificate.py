@@ -71,8 +71,8 @@ CERTIFIED_STATEMENTS = frozenset({
     # empty statements that declare the levels
     ":~ . [0@10]",
     ":~ . [0@5]",
-    ":~ assign(Trk,Det); iou(Trk,Det,ML). [-ML@10,Trk,Det]",
-    ":~ resume(Trk,Det); iou(Trk,Det,ML). [-ML@10,Trk,Det]",
+    ":~ assign(Trk,Det); matching_likelihood(Trk,Det,ML). [-ML@10,Trk,Det]",
+    ":~ resume(Trk,Det); matching_likelihood(Trk,Det,ML). [-ML@10,Trk,Det]",
     ":~ assign(Trk,Det). [-1@10,Trk,Det,count]",
     ":~ resume(Trk,Det). [-1@10,Trk,Det,count]",
     # [level0_tiebreak]: priorities from refimpl's tie-break facts, all below level 1
@@ -102,10 +102,11 @@ class Certificate:
 
 
 def pair_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
-    """w(T, D) = IoU + 1 for every pair an assign or a resume may take (common.candidate_pairs:
+    """w(T, D) = ML + 1 for every pair an assign or a resume may take (common.candidate_pairs:
     assignment_constraints for an active track, resume_constraints for a halted one whose resume
-    has a possible explanation, model/certificate.lp [cert_pairs]): its level-10 weight."""
-    iou = problem.iou_map
+    has a possible explanation, model/certificate.lp [cert_pairs]): its level-10 weight (ML: the
+    matching likelihood, model/optimisation.lp [matching_likelihood])."""
+    iou = problem.likelihood_map(resolve_constants(problem)["likelihood_conf"])
     pairs = candidate_pairs(problem)
     halted = {t for t, _ in pairs} & {t.id for t in problem.tracks if t.state == "halted"}
     explained = _resume_explainable(problem, halted) if halted else set()

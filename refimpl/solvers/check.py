@@ -270,7 +270,10 @@ def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c, 
     """The cost vector of an answer, every level of PRIORITIES (docs/model-spec.md section 5); every
     level is a sum over the answer's atoms, so it is also the cost of part of an answer.  ``weights``:
     the frame's tie-break weights (refimpl.solvers.common.tiebreak_weights), when the caller has them."""
-    iou = problem.iou_map
+    # [matching_likelihood]: the IoU weighed by the detection's confidence, computed here from the
+    # rule's text (model/optimisation.lp), not from the solvers' refimpl.core.spec.pair_likelihood
+    conf, k = {d.id: d.conf for d in problem.detections}, c["likelihood_conf"]
+    ml = {(t, d): v * (10000 - k * (100 - conf[d])) // 10000 for t, d, v in problem.iou}
     level = dict.fromkeys(PRIORITIES, 0)
     for atom in actions:
         term = parse_term(atom)
@@ -281,7 +284,7 @@ def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c, 
         if spec.level is not None:
             level[spec.level] += spec.weight
         if spec.likelihood_level is not None:
-            level[spec.likelihood_level] -= iou.get(args, 0)
+            level[spec.likelihood_level] -= ml.get(args, 0)
     level[TIEBREAK_LEVEL] += tiebreak_level(problem, actions, event_atoms, weights)  # the canonical tie-break
     level[EVENT_LEVEL] += sum(c[EVENT_TABLE[name].cost_constant] for name in event_names if name in EVENT_TABLE)
     return tuple((p, level[p]) for p in PRIORITIES)

@@ -194,6 +194,7 @@ class _Builder:
                  model: cp_model.CpModel, am: AbductionModel):
         self.problem, self.state, self.constants, self.model, self.am = problem, state, constants, model, am
         self.iou = problem.iou_map
+        self.ml = problem.likelihood_map(constants["likelihood_conf"])  # [matching_likelihood]
         inter = intersection_matrix([t.box for t in problem.tracks])
         self.tb = tiebreak_weights(problem, inter, state)
         self.w = self.tb.pair  # 2^q per pair; events: tb.event (common.py)
@@ -235,7 +236,7 @@ class _Builder:
 
     def pair(self, name: str, t: TrackPrediction, d: Detection) -> cp_model.IntVar:
         """assign(T, D) or resume(T, D): an action of the track and of the detection, with its tie-break."""
-        a = self.action(f"{name}({t.id},{d.id})", name, self.iou[(t.id, d.id)])
+        a = self.action(f"{name}({t.id},{d.id})", name, self.ml[(t.id, d.id)])
         self.per_trk[t.id].append(a)
         self.per_det[d.id].append(a)
         self.am.objectives[TIEBREAK_LEVEL].append((self.w[(t.id, d.id)], a))

@@ -16,7 +16,7 @@ import numpy as np
 from ..knowledge.events import EventState
 from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
-from ..core.spec import FrameProblem
+from ..core.spec import FrameProblem, pair_likelihood
 from .common import DisjointSets, LazyTiebreak, disjoint_pairs as _disjoint
 from .admissibility import Claimed, assignment_constraints, occupied, resume_constraints, start_constraints
 from .cpsat_model import _cost, _explanations, _has_explanation
@@ -445,17 +445,22 @@ class _FrameOptions:
     def _edges(self) -> None:
         self.edges: list[tuple[int, int, tuple[int, ...]]] = []  # (track, detection, cost above the event level)
         self.edge_opt: list[_Option | None] = []
+        self.ml: list[int] = []  # each edge's matching likelihood ([matching_likelihood])
+        k = self.constants["likelihood_conf"]
         for i, j in self.pairs:  # candidate pairs, in iou/3 order
             t, d = self.tracks[i], self.dets[j]
             tid, did = t.id, d.id
             if t.state == "active":
-                o = _Option(f"assign({tid},{did})", None,
-                            _cost("assign", self.iou[(tid, did)], tiebreak=self.w[(tid, did)]))
+                ml = pair_likelihood(self.iou[(tid, did)], d.conf, k)
+                o = _Option(f"assign({tid},{did})", None, _cost("assign", ml, tiebreak=self.w[(tid, did)]))
                 self.edges.append((i, j, o.cost[:_HIGH]))
                 self.edge_opt.append(o)
+                self.ml.append(ml)
             elif i in self.resumable:
-                self.edges.append((i, j, _cost("resume", self.iou[(tid, did)])[:_HIGH]))
+                ml = pair_likelihood(self.iou[(tid, did)], d.conf, k)
+                self.edges.append((i, j, _cost("resume", ml)[:_HIGH]))
                 self.edge_opt.append(None)
+                self.ml.append(ml)
 
     def edge_of(self, k: int) -> _Option:
         """Edge k's pair option, priced now."""
@@ -466,7 +471,7 @@ class _FrameOptions:
             (c1, c0), event, tie = self.resume_of(i)
             o = self.edge_opt[k] = _Option(
                 f"resume({tid},{did})", event,
-                _cost("resume", self.iou[(tid, did)], event=c1, tiebreak=self.w[(tid, did)] + c0), tie)
+                _cost("resume", self.ml[k], event=c1, tiebreak=self.w[(tid, did)] + c0), tie)
         return o
 
 

@@ -103,6 +103,8 @@ def _constants(rng: random.Random) -> dict[str, int]:
             pool += [IOU_SCALE, IOU_SCALE - 1, rng.randint(0, IOU_SCALE)]
         if name.startswith("conf_thresh"):
             pool += [100, 99, rng.randint(0, 100)]
+        if name == "likelihood_conf":  # 0..100 (refimpl.core.ranges); the presets' 100
+            pool += [100, 50, rng.randint(0, 100)]
         rng.shuffle(pool)
         for value in pool:
             try:
