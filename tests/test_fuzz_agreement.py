@@ -109,25 +109,19 @@ def test_hide_overlap_below_zero_is_refused_as_a_const_option(capsys):
     assert "hide_overlap=-1 must be >= 0" in capsys.readouterr().err
 
 
+# The constants that are percentages, and why only 0..100 keeps the backends' arithmetic in range:
+# * leave_visible: out_of_view (docs/model.md 3.25) compares 100 * VW * VH with leave_visible * W * H;
+#   only 0..100 keeps the right side within the 100 * W * H that check_ranges already bounds;
+# * likelihood_conf: [matching_likelihood] (3.30) weighs IoU by 10000 - likelihood_conf x (100 - Conf);
+#   only 0..100 keeps that factor within 0..10000 (at 101 and conf 0 it is -100: a negative weight at
+#   level 10) and IoU x factor within 10^9 < 2^31.
+@pytest.mark.parametrize("name", ["leave_visible", "likelihood_conf"])
 @pytest.mark.parametrize("value,refused", [(-1, True), (0, False), (100, False), (101, True)])
-def test_leave_visible_must_be_a_percentage(capsys, value, refused):
-    # out_of_view (docs/model.md 3.25) compares 100 * VW * VH with leave_visible * W * H; only
-    # 0..100 keeps the right side within the 100 * W * H that check_ranges already bounds
-    code = cli.main(["solve", "data/examples/kitti_0020_t79.lp", "--const", f"leave_visible={value}"])
+def test_percentage_constants_must_be_within_0_to_100(capsys, name, value, refused):
+    code = cli.main(["solve", "data/examples/kitti_0020_t79.lp", "--const", f"{name}={value}"])
     err = capsys.readouterr().err
     assert code == (2 if refused else 0)
-    assert (f"leave_visible={value} must be within 0..100" in err) == refused
-
-
-@pytest.mark.parametrize("value,refused", [(-1, True), (0, False), (100, False), (101, True)])
-def test_likelihood_conf_must_be_a_percentage(capsys, value, refused):
-    # [matching_likelihood] (docs/model.md 3.30) weighs IoU by 10000 - likelihood_conf x (100 - Conf):
-    # only 0..100 keeps that factor within 0..10000 (at 101 and conf 0 it is -100: a negative
-    # weight at level 10) and IoU x factor within 10^9 < 2^31
-    code = cli.main(["solve", "data/examples/kitti_0020_t79.lp", "--const", f"likelihood_conf={value}"])
-    err = capsys.readouterr().err
-    assert code == (2 if refused else 0)
-    assert (f"likelihood_conf={value} must be within 0..100" in err) == refused
+    assert (f"{name}={value} must be within 0..100" in err) == refused
 
 
 def test_at_the_exact_limits_every_backend_still_agrees(solvers):
