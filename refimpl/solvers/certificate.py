@@ -106,11 +106,11 @@ def pair_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
     assignment_constraints for an active track, resume_constraints for a halted one whose resume
     has a possible explanation, model/certificate.lp [cert_pairs]): its level-10 weight (ML: the
     matching likelihood, model/optimisation.lp [matching_likelihood])."""
-    iou = problem.likelihood_map(resolve_constants(problem)["likelihood_conf"])
+    ml = problem.likelihood_map(resolve_constants(problem)["likelihood_conf"])
     pairs = candidate_pairs(problem)
     halted = {t for t, _ in pairs} & {t.id for t in problem.tracks if t.state == "halted"}
     explained = _resume_explainable(problem, halted) if halted else set()
-    return {(t, d): iou[(t, d)] + 1 for t, d in pairs if t not in halted or t in explained}
+    return {(t, d): ml[(t, d)] + 1 for t, d in pairs if t not in halted or t in explained}
 
 
 def _resume_explainable(problem: FrameProblem, halted: set[str]) -> set[str]:

@@ -449,18 +449,19 @@ class _FrameOptions:
         k = self.constants["likelihood_conf"]
         for i, j in self.pairs:  # candidate pairs, in iou/3 order
             t, d = self.tracks[i], self.dets[j]
+            active = t.state == "active"
+            if not active and i not in self.resumable:
+                continue
             tid, did = t.id, d.id
-            if t.state == "active":
-                ml = pair_likelihood(self.iou[(tid, did)], d.conf, k)
+            ml = pair_likelihood(self.iou[(tid, did)], d.conf, k)
+            self.ml.append(ml)
+            if active:
                 o = _Option(f"assign({tid},{did})", None, _cost("assign", ml, tiebreak=self.w[(tid, did)]))
                 self.edges.append((i, j, o.cost[:_HIGH]))
                 self.edge_opt.append(o)
-                self.ml.append(ml)
-            elif i in self.resumable:
-                ml = pair_likelihood(self.iou[(tid, did)], d.conf, k)
+            else:
                 self.edges.append((i, j, _cost("resume", ml)[:_HIGH]))
                 self.edge_opt.append(None)
-                self.ml.append(ml)
 
     def edge_of(self, k: int) -> _Option:
         """Edge k's pair option, priced now."""
