@@ -60,6 +60,7 @@ from numpy.typing import ArrayLike
 
 from .core.confidence import online_rule
 from .core.constants import default_constants
+from .core.ranges import check_constant
 from .core.spec import HistoryEvent, track_number
 from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMATS, InputFormatWarning, MAX_COORD,
                  MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type, get_format)
@@ -250,6 +251,7 @@ class Tracker:
                 raise ValueError(f"unknown model constant {key!r} (known: {', '.join(sorted(known))})")
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
                 raise ValueError(f"model constant {key} must be an integer, got {value!r}")
+            check_constant(key, int(value), "refimpl.Tracker(constants=...)")  # its range, now, not at a frame
             out[key] = int(value)
         return out
 

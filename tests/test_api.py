@@ -148,6 +148,10 @@ def test_bad_input_is_a_clear_error(dets, classes, message):
     ({"backend": "baseline"}, f"backend must be one of {', '.join(BACKENDS)}"),
     ({"constants": {"iou_treshold": 1}}, "unknown model constant 'iou_treshold'"),
     ({"constants": {"iou_thresh": 0.3}}, "must be an integer"),
+    # a value outside the range its rule needs (refimpl.core.ranges.check_constant), refused when
+    # the tracker is made rather than at its first frame
+    ({"constants": {"likelihood_conf": 150}}, "likelihood_conf=150 must be within 0..100"),
+    ({"constants": {"leave_visible": -1}}, "leave_visible=-1 must be within 0..100"),
     ({"img_size": (640,)}, "(width, height)"),
     ({"img_size": (640, 0)}, "positive integers"),
     ({"min_hits": -1}, "non-negative integer"),
