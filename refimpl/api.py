@@ -424,7 +424,7 @@ class Tracker:
                           stacklevel=3)
         conf = self._confidences(boxes, scores, types)
         ended = len(self._tracker.finished)
-        self._tracker.step(frame, boxes, conf, types)
+        self._tracker.step(frame, boxes, conf, types, scores=scores)
         self._count += 1
         if self.history:
             self._frames.append(DetectionFrame(frame, boxes, scores, conf, types))

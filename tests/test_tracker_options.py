@@ -19,7 +19,7 @@ from test_abduction_tracker import _occlusion_sequence
 
 
 PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "backfill_gap": 0,
-                 "fill_hidden": 0, "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0}
+                 "fill_hidden": 0, "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0, "write_peak": 0}
 """The values that make the plain tracker (SORT's filter and output, no gap backfilled or occlusion filled in, and
 the tracker's bridge of old: gaps of at most 2 frames resumed at confidence >= 90, docs/tracking.md)
 for the options that are not switches; every switch (choices yes/no) is off."""
@@ -197,6 +197,45 @@ def test_write_evidence_writes_a_track_once_its_mean_confidence_reaches_it(backe
     assert [_rows_of(plain, n) for n in (1, 2, 3)] == [list(range(1, 13)), list(range(1, 13)), list(range(6, 13))]
     assert [_rows_of(gated, n) for n in (1, 2, 3)] == [list(range(1, 13)), [], list(range(7, 13))]
     assert [str(e) for e in gated.events] == [str(e) for e in plain.events]  # only the writing differs
+
+
+def _ranked_walkers() -> DetectionSequence:
+    """_doubtful_walkers' three at confidence 90 throughout, the detector's own scores apart:
+    A 0.9, the pole C 0.2, B (from frame 6) 0.5."""
+    frames = []
+    for fr in _doubtful_walkers().frames:
+        n = len(fr.boxes)
+        frames.append(dataclasses.replace(fr, scores=np.array([0.9, 0.2, 0.5][:n]), confidences=np.full(n, 90)))
+    return dataclasses.replace(_doubtful_walkers(), frames=tuple(frames))
+
+
+@pytest.mark.parametrize("backend", ["cpsat", "cpsat-full", "clingo"])
+def test_write_peak_writes_a_track_once_one_detection_ranked_high_enough(backend):
+    if backend == "clingo":
+        pytest.importorskip("clingo")
+    # A detection's rank is floor(100 k / n + 1/2), k of the n scores seen so far (this frame's
+    # included) at most its own.  Frames 1-5 add 0.9 and 0.2: C ranks f / 2f = 50, A 100.  From
+    # frame 6 each frame adds 0.9, 0.2 and 0.5 (n = 3f - 5): B ranks (2f - 5) / (3f - 5) = 7/13 ->
+    # 54 at 6, 56, 58, 59, then 15/25 = 60 at frame 10.  With write_peak 60: A is written as before;
+    # C's peak stays 50 (never written); B (confirmed at 8) is written from frame 10, and backfilled
+    # over the delay of 3 frames whose rows are not final yet: 7, 8, 9.  With 55, B's peak is 58 at
+    # its confirmation: written as without the option.
+    plain = run_sequence(_ranked_walkers(), setup_with(backend, backfill=True))
+    gated = run_sequence(_ranked_walkers(), setup_with(backend, backfill=True, write_peak=60))
+    lower = run_sequence(_ranked_walkers(), setup_with(backend, backfill=True, write_peak=55))
+    assert [_rows_of(plain, n) for n in (1, 2, 3)] == [list(range(1, 13)), list(range(1, 13)), list(range(6, 13))]
+    assert [_rows_of(gated, n) for n in (1, 2, 3)] == [list(range(1, 13)), [], list(range(7, 13))]
+    assert [_rows_of(lower, n) for n in (1, 2, 3)] == [list(range(1, 13)), [], list(range(6, 13))]
+    assert [str(e) for e in gated.events] == [str(e) for e in plain.events]  # only the writing differs
+
+
+def test_write_peak_reads_the_scores_order_not_their_scale():
+    # any strictly increasing rescale of the scores gives the same ranks, so the same rows
+    seq = _ranked_walkers()
+    rescaled = dataclasses.replace(seq, frames=tuple(dataclasses.replace(fr, scores=3.0 * fr.scores ** 3 - 7.0)
+                                                     for fr in seq.frames))
+    setup = setup_with("cpsat", backfill=True, write_peak=60)
+    assert run_sequence(rescaled, setup).rows.tolist() == run_sequence(seq, setup).rows.tolist()
 
 
 @pytest.mark.parametrize("keep_records", [False, True])

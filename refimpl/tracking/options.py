@@ -160,6 +160,9 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("write_evidence", _confidence("write_evidence"), None,
                   "a track is first written once the mean confidence (0..100) of the detections it has taken "
                   "is at least this, besides min_hits (0: min_hits alone, as SORT)"),
+    TrackerOption("write_peak", _confidence("write_peak"), None,
+                  "a track is first written once one of its detections ranked at least this (0..100) among the "
+                  "scores seen so far (the rank rule), besides write_evidence (0: never asked)"),
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero; until it is "
@@ -198,6 +201,7 @@ class TrackerOptions:
     bridge_gap: int = 2
     bridge_conf: int = 90
     write_evidence: int = 0
+    write_peak: int = 0
     scene_velocity: bool = False
     uncertain_speed: bool = False
     scene_shift: bool = False

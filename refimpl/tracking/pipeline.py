@@ -172,7 +172,7 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     watch = observe if (observer is not None or on_frame is not None) else None
     for fr in seq.frames:
         start = _cpu(tracker.solver) if frame_times is not None else 0.0
-        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, watch)
+        tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, watch, scores=fr.scores)
         if frame_times is not None:
             frame_times.append(_cpu(tracker.solver) - start)
     tracker.finish()

@@ -43,6 +43,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from ..core.confidence import OnlineRank
 from ..core.constants import resolve_constants
 from ..core.geometry import integer_box_array, integer_boxes
 from ..knowledge.event_table import explaining
@@ -107,6 +108,7 @@ class _Track:
     hits: int = 0  # detections taken (write_evidence)
     evidence: int = 0  # the sum of their confidences
     evident: bool = False  # its mean confidence has reached write_evidence: it may be written
+    peak: int = 0  # the highest rank of a detection it has taken (write_peak)
 
 
 @dataclass(frozen=True)
@@ -200,6 +202,8 @@ class AbductionTracker:
         self._integer_boxes: np.ndarray | None = None  # the last problem's integer boxes, detections first
         self._latest_event = -math.inf  # the time of the latest event logged
         self._learner = WrittenBoxLearner() if options.written_box is WrittenBox.AUTO else None
+        self._ranker = OnlineRank()
+        self._ranks = np.zeros(0, dtype=np.int64)
         self.delay = max(self.options.bridge_gap, min_hits + self.options.backfill_gap if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled episodes, backfills)."""
@@ -290,9 +294,14 @@ class AbductionTracker:
 
     # -- steps 2-3 and the update ------------------------------------------------------------
     def step(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...],
-             observer: FrameObserver | None = None) -> Hypothesis:
+             observer: FrameObserver | None = None, scores: np.ndarray | None = None) -> Hypothesis:
+        """Track one frame: its problem, the solver's hypothesis, the update.  ``scores``: the
+        detector's own scores, whose ranks among the scores seen so far the option write_peak reads
+        (the confidences' where not given)."""
         started = perf_counter()
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        if self.options.write_peak:  # each detection's rank among the scores seen so far (write_peak)
+            self._ranks = self._ranker.confidences(confidences if scores is None else scores)
         problem = self.frame_problem(frame, boxes, confidences, types)
         rounded = self._integer_boxes  # the frame's integer boxes: their range tests on the array
         checked = rounded is not None and integer_boxes_fit(rounded, len(boxes),
@@ -369,7 +378,8 @@ class AbductionTracker:
         detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
         states = BoxKalman.update_many([trk.kalman for trk in assigned], detected)  # as floats, or None
         for k, (trk, (_, det_id)) in enumerate(zip(assigned, assignments)):
-            self._observed(trk, frame, detected[k], int(confidences[index[det_id]]), None if states is None else states[k])
+            self._observed(trk, frame, detected[k], int(confidences[index[det_id]]), None if states is None else states[k],
+                           index[det_id])
         unhidden = {args[0] for name, args in event_terms
                     if name in _UNHIDING} if self.options.fill_hidden and resumes else set()
         for trk_id, det_id in resumes:
@@ -384,7 +394,7 @@ class AbductionTracker:
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
-            self._observe(trk, frame, boxes[j], int(confidences[j]), resumed=True)
+            self._observe(trk, frame, boxes[j], int(confidences[j]), j, resumed=True)
             if trk.bridged and self.sink is not None:
                 self._pend_gap(trk, last, frame)
         for (trk_id,) in acts.get("halt", ()):
@@ -399,6 +409,8 @@ class AbductionTracker:
             trk = _Track(trk_id, types[j], kalman, at_rest=None if scene is None else boxes[j].copy())
             trk.observed[frame] = self._written(trk_id, frame, kalman, boxes[j])
             trk.hits, trk.evidence = 1, int(confidences[j])
+            if self.options.write_peak:
+                trk.peak = int(self._ranks[j])
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
@@ -446,21 +458,23 @@ class AbductionTracker:
                   if t.state == "active" and frame - 1 in t.observed and t.streak >= 1]
         return column_medians(np.array(moving)) if len(moving) >= 2 else None
 
-    def _observe(self, trk: _Track, frame: int, box: np.ndarray, conf: int, resumed: bool = False) -> None:
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray, conf: int, j: int, resumed: bool = False) -> None:
         """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
         if resumed and self.options.reupdate_on_resume:
             trk.kalman.reupdate(box)  # observation-centric re-update along the gap
         else:
             trk.kalman.update(box)
-        self._observed(trk, frame, box, conf)
+        self._observed(trk, frame, box, conf, None, j)
 
-    def _observed(self, trk: _Track, frame: int, box: np.ndarray, conf: int, state: list[float] | None = None) -> None:
+    def _observed(self, trk: _Track, frame: int, box: np.ndarray, conf: int, state: list[float] | None, j: int) -> None:
         """After the track's filter took the detection: SORT's hit streak, the written box, the rows
         (``state``: the filter's state as floats, where the caller has them)."""
         trk.streak = trk.streak + 1 if frame - 1 in trk.observed else 1
         trk.at_rest = None
         trk.hits += 1
         trk.evidence += conf
+        if self.options.write_peak:
+            trk.peak = max(trk.peak, int(self._ranks[j]))
         trk.observed[frame] = self._written(trk.id, frame, trk.kalman, box, state)
         self._confirm(trk, frame)
 
@@ -481,7 +495,7 @@ class AbductionTracker:
         if not (trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged):
             return
         if not trk.evident:
-            if trk.evidence < self.options.write_evidence * trk.hits:
+            if trk.evidence < self.options.write_evidence * trk.hits or trk.peak < self.options.write_peak:
                 return
             trk.evident = True
         first = frame
