@@ -46,6 +46,18 @@ def test_rank_rule_on_two_frames():
     assert rank_confidences([[1, 2, 3, 4, 5, 6, 7, 8]])[0].tolist() == [13, 25, 38, 50, 63, 75, 88, 100]
 
 
+def test_a_rank_prior_counts_scores_below_every_real_one():
+    r = OnlineRank(prior=50)
+    # frame 1 sees 0.2 alone: (50 + 1) / (50 + 1) -> 100: a first score ranks at the top
+    assert r.confidences([0.2]).tolist() == [100]
+    # frame 2 adds 0.9 and 0.1: n = 3 + 50; 0.9 has 3 + 50 at most it -> 100, 0.1 has 1 + 50 ->
+    # floor(100 * 51 / 53 + 1/2) = floor(96.7) = 96
+    assert r.confidences([0.9, 0.1]).tolist() == [100, 96]
+    # a thousand more at 0.5: 0.1 is then floor(100 * 52 / 1054 + 1/2) = floor(5.4) = 5: the prior fades
+    r.confidences(np.full(1000, 0.5))
+    assert r.confidences([0.1]).tolist() == [5]
+
+
 def test_ties_share_the_highest_rank_and_bad_scores_are_refused():
     assert OnlineRank().confidences([5, 5, 5]).tolist() == [100, 100, 100]
     with pytest.raises(ValueError, match="NaN or infinite"):

@@ -19,7 +19,8 @@ from test_abduction_tracker import _occlusion_sequence
 
 
 PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "backfill_gap": 0,
-                 "fill_hidden": 0, "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0, "write_peak": 0}
+                 "fill_hidden": 0, "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0, "write_peak": 0,
+                 "peak_wait": 0}
 """The values that make the plain tracker (SORT's filter and output, no gap backfilled or occlusion filled in, and
 the tracker's bridge of old: gaps of at most 2 frames resumed at confidence >= 90, docs/tracking.md)
 for the options that are not switches; every switch (choices yes/no) is off."""
@@ -200,33 +201,39 @@ def test_write_evidence_writes_a_track_once_its_mean_confidence_reaches_it(backe
 
 
 def _ranked_walkers() -> DetectionSequence:
-    """_doubtful_walkers' three at confidence 90 throughout, the detector's own scores apart:
-    A 0.9, the pole C 0.2, B (from frame 6) 0.5."""
+    """Walkers A (score 0.9) and D (0.8) in frames 1-40; from frame 31 C, a pole at 0.2: every
+    detection at confidence 90, so only the scores' ranks differ."""
     frames = []
-    for fr in _doubtful_walkers().frames:
-        n = len(fr.boxes)
-        frames.append(dataclasses.replace(fr, scores=np.array([0.9, 0.2, 0.5][:n]), confidences=np.full(n, 90)))
-    return dataclasses.replace(_doubtful_walkers(), frames=tuple(frames))
+    for f in range(1, 41):
+        boxes, scores = [[10.0 * f, 50.0, 40.0, 80.0], [800.0 - 10.0 * f, 300.0, 40.0, 80.0]], [0.9, 0.8]
+        if f >= 31:
+            boxes.append([900.0, 400.0, 40.0, 80.0])
+            scores.append(0.2)
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.array(scores), np.full(n, 90), ("pedestrian",) * n))
+    return DetectionSequence("ranked", tuple(frames), 1, (1000, 600), 25.0)
 
 
 @pytest.mark.parametrize("backend", ["cpsat", "cpsat-full", "clingo"])
-def test_write_peak_writes_a_track_once_one_detection_ranked_high_enough(backend):
+def test_write_peak_holds_back_a_track_the_detector_never_ranked_high(backend):
     if backend == "clingo":
         pytest.importorskip("clingo")
-    # A detection's rank is floor(100 k / n + 1/2), k of the n scores seen so far (this frame's
-    # included) at most its own.  Frames 1-5 add 0.9 and 0.2: C ranks f / 2f = 50, A 100.  From
-    # frame 6 each frame adds 0.9, 0.2 and 0.5 (n = 3f - 5): B ranks (2f - 5) / (3f - 5) = 7/13 ->
-    # 54 at 6, 56, 58, 59, then 15/25 = 60 at frame 10.  With write_peak 60: A is written as before;
-    # C's peak stays 50 (never written); B (confirmed at 8) is written from frame 10, and backfilled
-    # over the delay of 3 frames whose rows are not final yet: 7, 8, 9.  With 55, B's peak is 58 at
-    # its confirmation: written as without the option.
-    plain = run_sequence(_ranked_walkers(), setup_with(backend, backfill=True))
-    gated = run_sequence(_ranked_walkers(), setup_with(backend, backfill=True, write_peak=60))
-    lower = run_sequence(_ranked_walkers(), setup_with(backend, backfill=True, write_peak=55))
-    assert [_rows_of(plain, n) for n in (1, 2, 3)] == [list(range(1, 13)), list(range(1, 13)), list(range(6, 13))]
-    assert [_rows_of(gated, n) for n in (1, 2, 3)] == [list(range(1, 13)), [], list(range(7, 13))]
-    assert [_rows_of(lower, n) for n in (1, 2, 3)] == [list(range(1, 13)), [], list(range(6, 13))]
-    assert [str(e) for e in gated.events] == [str(e) for e in plain.events]  # only the writing differs
+    # trk_1 = A, trk_2 = D, trk_3 = C.  A rank is floor(100 (k + 50) / (n + 50) + 1/2): k of the n
+    # scores seen so far at most its own, RANK_PRIOR = 50 more below every one.  D's first
+    # detection ranks (50 + 1) / (50 + 2) -> 98.  C's first, at frame 31, is the lowest of n = 63:
+    # 51 / 113 -> 45, and each later frame adds two higher scores, so 45 is its peak.  Rows (with
+    # backfill the delay is max(bridge_gap 2, min_hits 3) = 3 frames):
+    # * no option: C confirmed at 33 (min_hits), written from its first frame, 31;
+    # * write_peak 55: C never written; A and D as before;
+    # * write_peak 45: C's peak suffices: as without the option;
+    # * write_peak 55, peak_wait 5: C written at its fifth detection (frame 35), backfilled to 32.
+    runs = [run_sequence(_ranked_walkers(), setup_with(backend, backfill=True, **o))
+            for o in ({}, {"write_peak": 55}, {"write_peak": 45}, {"write_peak": 55, "peak_wait": 5})]
+    every = list(range(1, 41))
+    assert [[_rows_of(r, n) for n in (1, 2, 3)] for r in runs] == [
+        [every, every, list(range(31, 41))], [every, every, []], [every, every, list(range(31, 41))],
+        [every, every, list(range(32, 41))]]
+    assert all([str(e) for e in r.events] == [str(e) for e in runs[0].events] for r in runs)  # only the writing differs
 
 
 def test_write_peak_reads_the_scores_order_not_their_scale():
@@ -234,8 +241,9 @@ def test_write_peak_reads_the_scores_order_not_their_scale():
     seq = _ranked_walkers()
     rescaled = dataclasses.replace(seq, frames=tuple(dataclasses.replace(fr, scores=3.0 * fr.scores ** 3 - 7.0)
                                                      for fr in seq.frames))
-    setup = setup_with("cpsat", backfill=True, write_peak=60)
+    setup = setup_with("cpsat", backfill=True, write_peak=55)
     assert run_sequence(rescaled, setup).rows.tolist() == run_sequence(seq, setup).rows.tolist()
+    assert _rows_of(run_sequence(seq, setup), 3) == []  # the pole held back: the option did something
 
 
 @pytest.mark.parametrize("keep_records", [False, True])

@@ -46,6 +46,12 @@ EVIDENCE_BINS = 20
 EVIDENCE_PRIOR = 50
 """The prior counts as this many detections: with n labelled detections the confidence is
 (n * learned + EVIDENCE_PRIOR * prior) / (n + EVIDENCE_PRIOR)."""
+RANK_PRIOR = 50
+"""The tracker option write_peak's ranks count this many scores below every real one
+(OnlineRank's ``prior``), as the evidence rule's prior weighs as much as EVIDENCE_PRIOR labelled
+detections: a sequence's first detections rank high until it has shown lower scores (a clean
+detector's second-best object is not "below the median" of four scores).  Chosen with
+write_peak on mot15 (docs/tracking.md, "Written once the detector was sure of it")."""
 EVIDENCE_FLOOR = 40
 """The prior is the rank rule's confidence, never below this: before the sequence has shown
 evidence, no detection is taken for less than 40 % as persistent as the detector's best, which
@@ -98,10 +104,13 @@ class SortedWindow:
 
 class OnlineRank:
     """The rank rule's state: the last SCORE_WINDOW scores seen, sorted.  ``confidences(scores)``
-    adds one frame's scores and returns their confidences."""
+    adds one frame's scores and returns their confidences.  ``prior``: that many scores taken to
+    have been seen below every real one (0: the rank rule), so that the first scores of a sequence
+    rank high until it has shown lower ones."""
 
-    def __init__(self) -> None:
+    def __init__(self, prior: int = 0) -> None:
         self._seen = SortedWindow()
+        self.prior = int(prior)
 
     def confidences(self, scores) -> np.ndarray:
         s = np.asarray(scores, dtype=float).reshape(-1)
@@ -111,8 +120,9 @@ class OnlineRank:
             raise ValueError("a detection score is NaN or infinite")
         self._seen.add(np.sort(s, kind="stable"))
         seen = self._seen.values
-        at_most = np.searchsorted(seen, s, side="right")  # scores seen so far <= s, itself included
-        return (100 * at_most * 2 + len(seen)) // (2 * len(seen))  # floor(100 * k / n + 1/2), exact
+        at_most = np.searchsorted(seen, s, side="right") + self.prior  # scores seen so far <= s, itself included
+        n = len(seen) + self.prior
+        return (100 * at_most * 2 + n) // (2 * n)  # floor(100 * k / n + 1/2), exact
 
     def reset(self) -> None:
         self._seen = SortedWindow()

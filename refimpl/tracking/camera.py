@@ -18,7 +18,7 @@ DURATIONS = ("lost_after_missing", "lost_after_hidden", "noise_max_age", "claim_
 """The model constants that are durations in frames: a preset's are converted from the frame rate
 it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as are the tracker
 options of FRAME_OPTIONS."""
-FRAME_OPTIONS = ("backfill_gap", "fill_hidden", "bridge_gap")
+FRAME_OPTIONS = ("backfill_gap", "fill_hidden", "bridge_gap", "peak_wait")
 """The tracker options that are durations in frames, converted as DURATIONS are."""
 
 

@@ -43,7 +43,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..core.confidence import OnlineRank
+from ..core.confidence import RANK_PRIOR, OnlineRank
 from ..core.constants import resolve_constants
 from ..core.geometry import integer_box_array, integer_boxes
 from ..knowledge.event_table import explaining
@@ -202,7 +202,7 @@ class AbductionTracker:
         self._integer_boxes: np.ndarray | None = None  # the last problem's integer boxes, detections first
         self._latest_event = -math.inf  # the time of the latest event logged
         self._learner = WrittenBoxLearner() if options.written_box is WrittenBox.AUTO else None
-        self._ranker = OnlineRank()
+        self._ranker = OnlineRank(prior=RANK_PRIOR)
         self._ranks = np.zeros(0, dtype=np.int64)
         self.delay = max(self.options.bridge_gap, min_hits + self.options.backfill_gap if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
@@ -495,7 +495,9 @@ class AbductionTracker:
         if not (trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged):
             return
         if not trk.evident:
-            if trk.evidence < self.options.write_evidence * trk.hits or trk.peak < self.options.write_peak:
+            if trk.evidence < self.options.write_evidence * trk.hits:
+                return
+            if trk.peak < self.options.write_peak and not 0 < self.options.peak_wait <= trk.hits:
                 return
             trk.evident = True
         first = frame
