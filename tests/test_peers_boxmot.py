@@ -73,11 +73,12 @@ def test_boxmot_peers_run_on_detections_alone_and_write_the_detections_box(boxmo
         for f, _, x, y, w, h in run.rows:  # every written box is a detection box of its frame (xyxy and back)
             assert np.abs(seq.frame(int(f)).boxes - [x, y, w, h]).max(axis=1).min() < 1e-9
         assert np.array_equal(run.rows, peers.run_peer(seq, name).rows)  # deterministic
-    # ByteTrack returns its Kalman state: the same rows per frame as the package, but the detection's box
+    # ByteTrack returns its Kalman state: the same rows per frame as the package, but the detection's box;
+    # the package is fed as run_peer feeds it: the scores as probabilities (probability_scale)
     tracker = peers.peer_class("boxmot-bytetrack")(frame_rate=25)
     written = peers.run_peer(seq, "boxmot-bytetrack").rows
     moved = 0
-    for fr in seq.frames:
+    for fr in peers.probability_scale(seq).frames:
         b = fr.boxes
         dets = np.column_stack([b[:, :2], b[:, :2] + b[:, 2:], fr.confidences / 100, np.zeros(len(b))])
         raw = tracker.update(dets)
