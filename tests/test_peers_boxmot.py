@@ -34,16 +34,22 @@ def _still_object(gap: int, fps: float, conf: int = 90) -> DetectionSequence:
     return DetectionSequence("still", tuple(frames), 1, (640, 480), fps)
 
 
-def test_the_registry_holds_boxmots_five_motion_only_trackers_and_all_means_every_peer():
+def test_the_registry_holds_boxmots_eight_motion_only_trackers_and_all_means_every_peer():
+    # every tracker BoxMOT 25.0.0 can run from boxes alone (StrongSort needs embeddings, Sam2Mot masks)
     assert BOXMOT == ("boxmot-bytetrack", "boxmot-ocsort", "boxmot-botsort", "boxmot-hybridsort",
-                      "boxmot-boosttrack")
-    assert peers.parse_peers("all") == tuple(peers.PEERS) and len(peers.PEERS) == 8
+                      "boxmot-boosttrack", "boxmot-deepocsort", "boxmot-sfsort", "boxmot-occluboost")
+    assert peers.parse_peers("all") == tuple(peers.PEERS) and len(peers.PEERS) == 11
     assert peers.parse_peers(" sort, boxmot-ocsort ") == ("sort", "boxmot-ocsort")
-    # no ReID and no camera-motion compensation wherever the constructor has them (they need images)
+    # no ReID and no camera-motion compensation wherever the constructor has them (they need images):
+    # each switch is off, whichever way its constructor spells it
+    off = {"use_embeddings": False, "use_cmc": False, "cmc_method": None, "cmc_off": True}
     for name in BOXMOT:
         settings = peers.PEERS[name].settings
-        assert all(v in (False, None) for v in settings.values())
+        assert all(off[k] == v for k, v in settings.items())
     assert dict(peers.PEERS["boxmot-hybridsort"].settings) == {"use_embeddings": False, "cmc_method": None}
+    assert dict(peers.PEERS["boxmot-deepocsort"].settings) == {"use_embeddings": False, "cmc_off": True}
+    # SFSORT is told the image size (it would read it off the image); nobody else is
+    assert [p.name for p in peers.PEERS.values() if p.image_size] == ["boxmot-sfsort"]
     for bad in ("", "all,sort", "deepocsort"):
         with pytest.raises(ValueError, match="--peers takes 'all' or"):
             peers.parse_peers(bad)
@@ -61,7 +67,8 @@ def test_a_missing_boxmot_is_one_line_before_any_data_is_read(monkeypatch, capsy
     assert main(["benchmark", "kitti-cyc", "--peers", "all", "--data", "/nonexistent"]) == 2
     first, *rest = capsys.readouterr().err.strip().splitlines()
     assert first == ("refimpl benchmark: not run: boxmot-bytetrack, boxmot-ocsort, boxmot-botsort, "
-                     "boxmot-hybridsort, boxmot-boosttrack (package not installed: boxmot)")
+                     "boxmot-hybridsort, boxmot-boosttrack, boxmot-deepocsort, boxmot-sfsort, "
+                     "boxmot-occluboost (package not installed: boxmot)")
     assert len(rest) == 1 and "/nonexistent" in rest[0]
 
 
@@ -100,9 +107,28 @@ def test_boxmot_peers_see_confidence_over_100_and_the_frame_rate_where_they_take
     for name in ("boxmot-bytetrack", "boxmot-botsort"):
         assert (ids(name, 10.0), ids(name, 30.0)) == (2, 1)
         assert peers.peer_parameters(name, 10.0)["frame_rate"] == 10.0
-    for name in ("boxmot-ocsort", "boxmot-hybridsort", "boxmot-boosttrack"):
+    for name in ("boxmot-ocsort", "boxmot-hybridsort", "boxmot-boosttrack", "boxmot-deepocsort",
+                 "boxmot-occluboost"):
         assert (ids(name, 10.0), ids(name, 30.0)) == (1, 1)
         assert "frame_rate" not in peers.peer_parameters(name, 10.0)
+    # SFSORT's defaults keep no lost track (marginal_timeout = central_timeout = 0 frames): one
+    # missed frame is a new id at any rate; and it starts a track at once (new_track_th 0.7 < 0.9),
+    # so every one of the 20 detections is written
+    one_missed = peers.run_peer(_still_object(1, 10.0), "boxmot-sfsort").rows
+    assert len(one_missed) == 20 and len(np.unique(one_missed[:, 1])) == 2
+    assert ids("boxmot-sfsort", 30.0) == 2
+
+
+def test_sfsort_is_told_the_image_size_or_the_extent_of_the_boxes(boxmot):
+    seq = _still_object(1, 10.0)  # image 640 x 480
+    assert peers.image_extent(seq) == (640, 480)
+    params = peers.peer_parameters("boxmot-sfsort", image_size=peers.image_extent(seq))
+    assert (params["frame_width"], params["frame_height"]) == (640, 480)
+    # without one: the largest x + w and y + h of the boxes, 100 + 40 and 100 + 80
+    from dataclasses import replace
+    assert peers.image_extent(replace(seq, image_size=None)) == (140, 180)
+    with pytest.raises(ValueError, match="SFSORT needs the image size"):
+        peers.peer_parameters("boxmot-sfsort")
 
 
 def test_boxmot_parameters_are_the_constructor_defaults_listed_under_the_table(boxmot):

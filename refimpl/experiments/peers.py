@@ -1,5 +1,6 @@
 """Peer trackers on refimpl's detections: SORT, ByteTrack and OC-SORT from the ``trackers`` package,
-and BoxMOT's motion-only trackers (ByteTrack, OC-SORT, BoT-SORT, HybridSORT, BoostTrack).
+and BoxMOT's motion-only trackers (ByteTrack, OC-SORT, BoT-SORT, HybridSORT, BoostTrack, Deep OC-SORT,
+SFSORT, OccluBoost).
 
 The peers are a second reference beside refimpl's own SORT baseline (which reproduces the
 paper's baseline): what a user already runs.  Every peer is one ``Peer`` row of ``PEERS``
@@ -9,7 +10,8 @@ is set beyond the class's constructor defaults.
 * ``trackers`` (roboflow; optional extra ``peers``, ``trackers==2.6.1``): the package's *default*
   parameters, except for the two things a caller must say: the frame rate and the confidences.
 * BoxMOT (optional extra ``peers-boxmot``, ``boxmot==25.0.0``; it brings torch): the constructor
-  defaults, the sequence's frame rate where the constructor takes one (ByteTrack, BoT-SORT), and
+  defaults, the sequence's frame rate where the constructor takes one (ByteTrack, BoT-SORT), its
+  image size where the tracker would read it off the image (SFSORT: :func:`image_extent`), and
   the switches that make a tracker motion-only: no appearance embeddings (ReID) and no
   camera-motion compensation (both need the images, which a detection file does not carry).
 
@@ -127,15 +129,21 @@ def _constructor_defaults(cls) -> dict:
     return out
 
 
-def peer_parameters(name: str, frame_rate: float | None = None, **overrides) -> dict:
+def peer_parameters(name: str, frame_rate: float | None = None, image_size: tuple[int, int] | None = None,
+                    **overrides) -> dict:
     """The parameters a peer runs with: its constructor defaults (read from the signatures), its
-    settings, the sequence's frame rate where it takes one, then explicit overrides (e.g. for tests)."""
+    settings, the sequence's frame rate and image size where it takes them, then explicit
+    overrides (e.g. for tests)."""
     entry = peer(name)
     cls = peer_class(name)
     params = _constructor_defaults(cls)
     params.update(entry.settings)
     if entry.frame_rate:
         params["frame_rate"] = float(frame_rate) if frame_rate else DEFAULT_FRAME_RATE
+    if entry.image_size:
+        if image_size is None:
+            raise ValueError(f"{entry.class_name} needs the image size (frame_width, frame_height)")
+        params["frame_width"], params["frame_height"] = (int(v) for v in image_size)
     for k, v in overrides.items():
         if k not in params:
             raise ValueError(f"{entry.class_name} has no parameter {k!r} (has: {', '.join(params)})")
@@ -218,12 +226,25 @@ def _track_boxmot(seq, tracker) -> tuple[list[np.ndarray], list[float]]:
     return out, times
 
 
+def image_extent(seq) -> tuple[int, int]:
+    """The sequence's image size (width, height), or, where it has none, the extent of its boxes
+    (the largest x + w and y + h, rounded up; at least 1 x 1)."""
+    if getattr(seq, "image_size", None):
+        return tuple(int(v) for v in seq.image_size)
+    boxes = [np.asarray(f.boxes, dtype=float).reshape(-1, 4) for f in seq.frames]
+    every = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    if not len(every):
+        return (1, 1)
+    return (max(1, int(np.ceil((every[:, 0] + every[:, 2]).max()))), max(1, int(np.ceil((every[:, 1] + every[:, 3]).max()))))
+
+
 def run_peer(seq, name: str, **overrides) -> PeerRun:
     """Track a DetectionSequence with a peer; see the module docstring for inputs and outputs."""
     seq = probability_scale(seq)  # the scores as a caller of these libraries gives them (0..1)
     entry = peer(name)
     overrides = dict(overrides)
-    params = peer_parameters(name, overrides.pop("frame_rate", getattr(seq, "fps", None)), **overrides)
+    params = peer_parameters(name, overrides.pop("frame_rate", getattr(seq, "fps", None)),
+                             overrides.pop("image_size", None) or image_extent(seq), **overrides)
     cls = peer_class(name)
     if entry.package == "trackers":
         out, times = _track_trackers(seq, cls(**params))
@@ -231,7 +252,7 @@ def run_peer(seq, name: str, **overrides) -> PeerRun:
         # only what differs from the constructor's defaults is passed (BoxMOT's ByteTrack refuses
         # its base tracker's det_thresh, which it replaces by track_thresh)
         defaults = _constructor_defaults(cls)
-        given = {k: v for k, v in params.items() if k in entry.settings or k == "frame_rate"
+        given = {k: v for k, v in params.items() if k in entry.settings or k in ("frame_rate", "frame_width", "frame_height")
                  or k in overrides or defaults.get(k, v) != v}
         with _boxmot_quiet():
             out, times = _track_boxmot(seq, cls(**given))

@@ -43,6 +43,9 @@ class Peer:
     """Set beyond the constructor defaults (BoxMOT: no ReID, no camera-motion compensation)."""
     frame_rate: bool = True
     """The constructor takes the sequence's frame rate (``frame_rate``)."""
+    image_size: bool = False
+    """The constructor takes the image's size (``frame_width``, ``frame_height``; BoxMOT's SFSORT,
+    which otherwise reads it off the image, and a detection file has none)."""
     shown: tuple[str, ...] = ()
     """The parameters listed under a comparison table (the ones that shape the result)."""
 
@@ -74,6 +77,16 @@ _ROWS = (
     Peer("boxmot-boosttrack", "boxmot", "BoostTrack", {**_NO_REID, "use_cmc": False}, frame_rate=False,
          shown=(*_SORT_FAMILY, "min_box_area", "aspect_ratio_thresh", "lambda_iou", "lambda_mhd", "lambda_shape",
                 "use_dlo_boost", "use_duo_boost", "dlo_boost_coef", "use_embeddings", "use_cmc")),
+    Peer("boxmot-deepocsort", "boxmot", "DeepOcSort", {**_NO_REID, "cmc_off": True}, frame_rate=False,
+         shown=(*_SORT_FAMILY, "delta_t", "inertia", "w_association_emb", "aw_off", "aw_param", "use_embeddings",
+                "cmc_off")),
+    Peer("boxmot-sfsort", "boxmot", "SFSORT", frame_rate=False, image_size=True,
+         shown=("high_th", "match_th_first", "new_track_th", "low_th", "match_th_second", "dynamic_tuning",
+                "marginal_timeout", "central_timeout")),
+    Peer("boxmot-occluboost", "boxmot", "OccluBoost", {**_NO_REID, "use_cmc": False}, frame_rate=False,
+         shown=(*_SORT_FAMILY, "new_track_thresh", "track_low_thresh", "confirm_hits", "instant_confirm_thresh",
+                "tentative_max_age", "recovery_iou_thresh", "recovery_max_age", "use_second_pass", "use_embeddings",
+                "use_cmc")),
 )
 PEERS: dict[str, Peer] = {p.name: p for p in _ROWS}
 """Peer name (as on the command line) -> Peer; ``--peers all`` runs every one."""
