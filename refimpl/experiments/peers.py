@@ -235,7 +235,8 @@ def image_extent(seq) -> tuple[int, int]:
     every = np.concatenate(boxes) if boxes else np.zeros((0, 4))
     if not len(every):
         return (1, 1)
-    return (max(1, int(np.ceil((every[:, 0] + every[:, 2]).max()))), max(1, int(np.ceil((every[:, 1] + every[:, 3]).max()))))
+    far = np.ceil((every[:, :2] + every[:, 2:]).max(axis=0))
+    return (max(1, int(far[0])), max(1, int(far[1])))
 
 
 def run_peer(seq, name: str, **overrides) -> PeerRun:
@@ -243,8 +244,9 @@ def run_peer(seq, name: str, **overrides) -> PeerRun:
     seq = probability_scale(seq)  # the scores as a caller of these libraries gives them (0..1)
     entry = peer(name)
     overrides = dict(overrides)
-    params = peer_parameters(name, overrides.pop("frame_rate", getattr(seq, "fps", None)),
-                             overrides.pop("image_size", None) or image_extent(seq), **overrides)
+    frame_rate = overrides.pop("frame_rate", getattr(seq, "fps", None))
+    image_size = overrides.pop("image_size", None) or (image_extent(seq) if entry.image_size else None)
+    params = peer_parameters(name, frame_rate, image_size, **overrides)
     cls = peer_class(name)
     if entry.package == "trackers":
         out, times = _track_trackers(seq, cls(**params))
@@ -252,7 +254,8 @@ def run_peer(seq, name: str, **overrides) -> PeerRun:
         # only what differs from the constructor's defaults is passed (BoxMOT's ByteTrack refuses
         # its base tracker's det_thresh, which it replaces by track_thresh)
         defaults = _constructor_defaults(cls)
-        given = {k: v for k, v in params.items() if k in entry.settings or k in ("frame_rate", "frame_width", "frame_height")
+        told = ("frame_rate", "frame_width", "frame_height")  # what the sequence says, default or not
+        given = {k: v for k, v in params.items() if k in entry.settings or k in told
                  or k in overrides or defaults.get(k, v) != v}
         with _boxmot_quiet():
             out, times = _track_boxmot(seq, cls(**given))
