@@ -53,12 +53,13 @@ import logging
 import math
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .core.confidence import online_rule
+from .core.confidence import RunEvidence, online_rule, pooled, sequence_evidence
 from .core.constants import default_constants
 from .core.ranges import check_constant
 from .core.spec import HistoryEvent, track_number
@@ -131,6 +132,11 @@ class Tracker:
     scores: how a score becomes the model's confidence, as the file readers do it (refimpl.io.SCORE_RULES,
         the same on every format): "auto" (default) is "evidence" (refimpl.core.confidence), or
         "rank", "probability" (scores in 0..1, times 100), "sigmoid" (logits), "raw" (0..100).
+    calibrate_with: detection files of the same detector, other videos (paths, read with this
+        tracker's ``format`` and ``object_type``): the score rule ("evidence" or "rank") learns from
+        them, whole, before the first frame, as ``refimpl track`` with several --dets calibrates
+        each file on the others (docs/model.md 3.19, "A run's files pooled"): a video whose best
+        detections are false no longer takes them for the detector's best.  Default: none.
     object_type: the class of the detections when ``update`` gets no classes (any class name:
         "car", "Pedestrian", "person", "bus"; refimpl.io.class_type), and with ``format`` the
         preset.  Default: "pedestrian" for format "mot" (MOTChallenge's class, as ``refimpl
@@ -169,7 +175,8 @@ class Tracker:
                  object_type: str | None = None, first_frame: int | None = None, name: str = "sequence",
                  fps: float | None = None, scores: str = "auto",
                  class_types: Mapping[int, str] | None = None, history: bool = False,
-                 frame_budget: float | None | str = AUTO, **options: object) -> None:
+                 frame_budget: float | None | str = AUTO, calibrate_with: Sequence[str | Path] = (),
+                 **options: object) -> None:
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
         if format not in FORMATS:
@@ -207,6 +214,7 @@ class Tracker:
         self.first_frame = int(first_frame)
         self.scores = resolve_rule(scores, fmt.score_rule)
         """The score rule in use: ``auto`` is the format's own scale, as the file readers read it."""
+        self._evidence = self._read_evidence(calibrate_with, fmt, object_type)
         self._min_hits = int(min_hits)
         if not isinstance(history, bool):
             raise ValueError(f"history must be True or False, got {history!r}")
@@ -220,7 +228,7 @@ class Tracker:
         self.image_size = self._given_size or self._format_size
         """(width, height) the field-of-view border is tested with (None: not tested)."""
         self._tracker = self._new_tracker(self.image_size)
-        self._rule = online_rule(self.scores)
+        self._rule = online_rule(self.scores, self._evidence)
         self._count = 0  # frames tracked
         self._frames: list[DetectionFrame] = []  # with history only
         self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
@@ -242,6 +250,20 @@ class Tracker:
         return f"refimpl.Tracker({self.setup.describe()}, image size {self.image_size}, fps {self.fps})"
 
     # -- validation --------------------------------------------------------------------------
+    @staticmethod
+    def _read_evidence(paths: Sequence[str | Path], fmt, object_type: str | None) -> RunEvidence | None:
+        """What the files of ``calibrate_with`` show the score rule, pooled (None: no file)."""
+        if isinstance(paths, (str, Path)):
+            raise ValueError("calibrate_with must be a list of detection files, got one path: "
+                             f"calibrate_with=[{str(paths)!r}]")
+        seqs = []
+        for path in paths:
+            try:
+                seqs.append(fmt.read_detections(str(path), object_class=object_type if fmt.needs_class else None))
+            except (OSError, ValueError) as exc:  # the readers' InputFormatError is a ValueError naming the file
+                raise ValueError(f"calibrate_with: {exc}") from None
+        return pooled([sequence_evidence(seq.frames) for seq in seqs])
+
     @staticmethod
     def _constants(constants: Mapping[str, int] | None) -> dict[str, int]:
         known = default_constants()

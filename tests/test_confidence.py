@@ -11,7 +11,8 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
-from refimpl.core.confidence import OnlineRank, PersistenceEvidence
+from refimpl.core.confidence import (SEED_SIZE, OnlineRank, PersistenceEvidence, RankFrames, RunEvidence,
+                                    sequence_evidence)
 from refimpl.io import DetectionFrame
 
 RESCALES = {
@@ -229,3 +230,59 @@ def test_a_fixed_scale_reads_every_format(shared_data, tmp_path):
                  "--out", str(tmp_path / "c.txt")]) == 0
     assert main(["track", "--dets", str(logits), "--scores", "sigmoid", "--quiet", "--out", str(tmp_path / "d.txt")]) == 0
     assert (tmp_path / "c.txt").read_bytes() == (tmp_path / "d.txt").read_bytes() != b""
+
+
+def _steady(n: int, score: float) -> list[DetectionFrame]:
+    """n frames of one box that stays put, scored ``score`` every frame."""
+    return [DetectionFrame(t, np.array([[0.0, 0.0, 10.0, 10.0]]), np.array([score]), np.zeros(1, np.int64),
+                           ("pedestrian",)) for t in range(n)]
+
+
+def test_other_files_of_the_run_tell_a_file_that_its_best_detection_is_weak():
+    # A file whose one detection (score 0.2) persists: alone, it is the best this detector has shown
+    # (rank 1 of 1 -> 100), enough to start a track.  Seeded with another file of the run (the
+    # steady 0.80x box that always persisted and the jumping 0.10x box that never did): frame 0
+    # has seen the other file's 24 scores and its own, 13 of 25 <= 0.2 -> rank floor(100 * 13 / 25
+    # + 1/2) = 52 (above the floor 40); the 20 labelled scores of frames 1..10 (frame 11 has no
+    # frame after it) make the curve 0 for the ten low ones and 1 for the ten high ones; 0.2 has ten
+    # labelled scores <= it, bin 9, learned 0: (20 * 0 + 50 * 52) / 70 = 37.1 -> 37, below a new
+    # track's 50.
+    other = sequence_evidence(_persistent_and_flickering(12))
+    assert (len(other.seen), len(other.labelled), int(other.persistent.sum())) == (24, 20, 10)
+    assert PersistenceEvidence().confidences(*_frame_args(_steady(1, 0.2)[0])).tolist() == [100]
+    assert PersistenceEvidence(other).confidences(*_frame_args(_steady(1, 0.2)[0])).tolist() == [37]
+    # the rank rule seeded alike: 52
+    assert RankFrames(other).confidences(None, [0.2]).tolist() == [52]
+
+
+def _frame_args(f: DetectionFrame):
+    return f.boxes, f.scores, f.types
+
+
+def test_a_seed_weighs_at_most_seed_size_detections():
+    # 5,000 labelled scores of another file: the seed keeps SEED_SIZE of them, every k-th in score
+    # order (k = 5,000 / SEED_SIZE), so the seeded rule counts SEED_SIZE labelled detections
+    n = 5 * SEED_SIZE
+    values = np.arange(n, dtype=float)
+    big = RunEvidence(values, values, (values % 2 == 0).astype(float))
+    rule = PersistenceEvidence(big)
+    assert len(rule._labelled) == SEED_SIZE and len(rule._rank._seen) == SEED_SIZE
+    assert rule._labelled.values.tolist() == values[::5].tolist()
+
+
+def test_a_run_calibrates_each_file_on_the_others_in_any_order():
+    a = io.DetectionSequence("a", tuple(_persistent_and_flickering(12)), 0, None, None)
+    b = io.DetectionSequence("b", tuple(_steady(3, 0.2)), 0, None, None)
+    c = io.DetectionSequence("c", tuple(_steady(3, 0.805)), 0, None, None)
+    forward = io.calibrated_together([a, b, c], "evidence")
+    backward = io.calibrated_together([c, b, a], "evidence")[::-1]
+    for x, y in zip(forward, backward):
+        assert [f.confidences.tolist() for f in x.frames] == [f.confidences.tolist() for f in y.frames]
+    # b's steady 0.2 is weak beside a's detections (the test above, with c's three 0.805 seen too:
+    # 13 of 28 <= 0.2 -> rank 46; labelled a's 20 and c's middle frame, 21: bins of one but the top
+    # one of two, the ten low scores still bins 0..9, curve 0 there; 0.2 in bin 9, learned 0:
+    # (21 * 0 + 50 * 46) / 71 = 32.4 -> 32)
+    assert forward[1].frames[0].confidences.tolist() == [32]
+    # one file, or a fixed scale: as read
+    assert io.calibrated_together([b], "evidence")[0] is b
+    assert io.calibrated_together([a, b], "probability")[1] is b

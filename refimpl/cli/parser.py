@@ -134,6 +134,11 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
                         "scale: only the scores' order matters; docs/model.md 3.19); rank (their place among the "
                         "scores seen so far); or read as numbers: probability (0..1), sigmoid (logits, such as "
                         "KITTI's PointRCNN scores), raw (0..100)")
+    t.add_argument("--pool-scores", choices=("yes", "no"), default="yes",
+                   help="with several --dets and an online rule (evidence, rank): yes (the default) calibrates "
+                        "each file on its own frames so far and on the other files whole, one detector's scores "
+                        "meaning the same in every file of a run (docs/model.md 3.19); no: each file alone (files "
+                        "from different detectors)")
     t.add_argument("--out-dir", metavar="DIR", help="one results file per --dets, named after its MOTChallenge "
                    "sequence folder (.../TUD-Campus/det/det.txt -> TUD-Campus.txt) or its file stem (0011.txt)")
     t.add_argument("--out-format", choices=RESULT_FORMATS, default=MOT,

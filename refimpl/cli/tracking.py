@@ -93,6 +93,8 @@ def cmd_track(args: argparse.Namespace) -> int:
     plan = _plan(args)
     setup = _setup(args, args.format, args.cls, _track_constants(args) if args.backend != BASELINE else None)
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
+    if args.pool_scores == "yes":  # one detector's scores mean the same in every file (docs/model.md 3.19)
+        seqs = io.calibrated_together(seqs, io.resolve_rule(args.scores, in_fmt.score_rule))
     if args.img_size is not None:
         seqs = [replace(seq, image_size=args.img_size) for seq in seqs]
     if args.fps is not None:
@@ -160,10 +162,11 @@ def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
         print(f"refimpl track: note: {setup.describe()}", file=sys.stderr)
     if setup.preset == "none":
         return
-    for seq in seqs:
+    together = getattr(args, "pool_scores", "no") == "yes" and len(seqs) > 1  # one share for the run
+    for seq in seqs[:1] if together else seqs:
         if not isinstance(seq.frames, tuple):
             continue  # a pipe (refimpl.io.stream): its frames are read once, by the tracker
-        line = score_warning(preset_named(setup.preset), seq, dict(setup.constants))
+        line = score_warning(preset_named(setup.preset), seq, dict(setup.constants), seqs if together else ())
         if line:
             print(f"refimpl track: warning: {line}", file=sys.stderr)
 
@@ -183,6 +186,9 @@ def _warn_if_empty(seq, tracks: int, setup, args: argparse.Namespace) -> None:
             need = default_constants()["conf_thresh_new_track"]
         why = (f"{n} detections, confidences {low}..{high}" +
                (f" (a new track needs > {need}: conf_thresh_new_track; see --scores)" if need is not None else ""))
+        if getattr(args, "pool_scores", "no") == "yes" and len(args.dets) > 1 and not setup.baseline:
+            why += ("; its scores were calibrated beside the run's other files, read as one detector's "
+                    "(--pool-scores no reads each file alone)")
     print(f"refimpl track: warning: {seq.name}: no track written: {why}", file=sys.stderr)
 
 

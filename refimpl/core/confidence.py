@@ -32,6 +32,9 @@ rules (``--scores``); the file readers apply them (refimpl.io).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Sequence
+
 import numpy as np
 
 from .geometry import iou_matrix
@@ -102,15 +105,67 @@ class SortedWindow:
         return len(self.values)
 
 
+@dataclass(frozen=True)
+class RunEvidence:
+    """What other files of a run showed the online rules, whole (``sequence_evidence``, ``pooled``):
+    every score seen, sorted, and the labelled scores, sorted, with their persistence flags (1.0:
+    persistent).  A rule seeded with it (``online_rule(rule, seed)``) starts as if it had seen them
+    before the sequence's first frame (docs/model.md 3.19, "A run's files pooled")."""
+
+    seen: np.ndarray
+    labelled: np.ndarray
+    persistent: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.seen)
+
+
+SEED_SIZE = 1000
+"""A seed (the run's other files) counts as at most this many scores seen and this many labelled
+detections, every k-th in score order where it has more: the shape of the detector's scores, not
+their weight against a sequence's own."""
+
+
+def _thinned(values: np.ndarray, *aligned: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Every k-th of sorted values (and the aligned arrays), evenly, where there are more than SEED_SIZE."""
+    if len(values) <= SEED_SIZE:
+        return (values, *aligned)
+    keep = (np.arange(SEED_SIZE) * len(values)) // SEED_SIZE
+    return (values[keep], *(a[keep] for a in aligned))
+
+
+def pooled(evidence: Sequence[RunEvidence]) -> RunEvidence | None:
+    """Several files' evidence as one (None for none): the scores merged in order."""
+    if not evidence:
+        return None
+    seen = np.concatenate([e.seen for e in evidence])
+    labelled = np.concatenate([e.labelled for e in evidence])
+    persistent = np.concatenate([e.persistent for e in evidence])
+    order = np.lexsort((persistent, labelled))  # by score, equal scores by flag: the same in any file order
+    return RunEvidence(np.sort(seen, kind="stable"), labelled[order], persistent[order])
+
+
+def sequence_evidence(frames) -> RunEvidence:
+    """One sequence's evidence, whole: its frames (each with ``boxes``, ``scores``, ``types``) through
+    the evidence rule; the last frame's detections stay unlabelled (no frame after them)."""
+    state = PersistenceEvidence()
+    for f in frames:
+        state.confidences(f.boxes, f.scores, f.types)
+    return RunEvidence(state._rank._seen.values.copy(), state._labelled.values.copy(),
+                       state._labelled.flags.copy())
+
+
 class OnlineRank:
     """The rank rule's state: the last SCORE_WINDOW scores seen, sorted.  ``confidences(scores)``
     adds one frame's scores and returns their confidences.  ``prior``: that many scores taken to
     have been seen below every real one (0: the rank rule), so that the first scores of a sequence
-    rank high until it has shown lower ones."""
+    rank high until it has shown lower ones.  ``seed``: scores taken to have been seen before the
+    first frame (other files of the run, RunEvidence.seen)."""
 
-    def __init__(self, prior: int = 0) -> None:
-        self._seen = SortedWindow()
+    def __init__(self, prior: int = 0, seed: np.ndarray | None = None) -> None:
         self.prior = int(prior)
+        self._seed = seed
+        self.reset()
 
     def confidences(self, scores) -> np.ndarray:
         s = np.asarray(scores, dtype=float).reshape(-1)
@@ -126,13 +181,15 @@ class OnlineRank:
 
     def reset(self) -> None:
         self._seen = SortedWindow()
+        if self._seed is not None and len(self._seed):
+            self._seen.add(_thinned(self._seed)[0])
 
 
 class RankFrames:
     """The rank rule with the evidence rule's call: ``confidences(boxes, scores, types)``."""
 
-    def __init__(self) -> None:
-        self._rank = OnlineRank()
+    def __init__(self, seed: RunEvidence | None = None) -> None:
+        self._rank = OnlineRank(seed=None if seed is None else seed.seen)
 
     def confidences(self, boxes, scores, types=None) -> np.ndarray:
         return self._rank.confidences(scores)
@@ -141,9 +198,10 @@ class RankFrames:
         self._rank.reset()
 
 
-def online_rule(rule: str) -> "PersistenceEvidence | RankFrames | None":
-    """A fresh state of an online rule (``evidence``, ``rank``), or None for a fixed scale."""
-    return PersistenceEvidence() if rule == EVIDENCE else RankFrames() if rule == RANK else None
+def online_rule(rule: str, seed: RunEvidence | None = None) -> "PersistenceEvidence | RankFrames | None":
+    """A fresh state of an online rule (``evidence``, ``rank``), or None for a fixed scale; ``seed``:
+    what the run's other files showed it."""
+    return PersistenceEvidence(seed) if rule == EVIDENCE else RankFrames(seed) if rule == RANK else None
 
 
 def _increasing(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -172,14 +230,19 @@ class PersistenceEvidence:
     the labelled scores, sorted, fall into EVIDENCE_BINS equal-count bins; the share of persistent
     detections per bin, made non-decreasing in the score (isotonic) and divided by the highest
     bin's share, is the learned curve; a score's confidence is the curve at its bin, blended with
-    the prior (EVIDENCE_PRIOR: the rank rule, at least EVIDENCE_FLOOR), times 100, rounded half up."""
+    the prior (EVIDENCE_PRIOR: the rank rule, at least EVIDENCE_FLOOR), times 100, rounded half up.
+    ``seed``: the run's other files, seen and labelled before the first frame."""
 
-    def __init__(self) -> None:
+    def __init__(self, seed: RunEvidence | None = None) -> None:
+        self._seed = seed
         self.reset()
 
     def reset(self) -> None:
-        self._rank = OnlineRank()
+        seed = self._seed
+        self._rank = OnlineRank(seed=None if seed is None else seed.seen)
         self._labelled = SortedWindow()  # the last SCORE_WINDOW labelled scores, sorted; flag 1.0: persistent
+        if seed is not None and len(seed.labelled):
+            self._labelled.add(*_thinned(seed.labelled, seed.persistent))
         self._recent: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []  # the last two frames
 
     @staticmethod

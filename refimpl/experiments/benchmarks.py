@@ -394,7 +394,9 @@ def bench_throughput(data_root: str | os.PathLike, benchmarks: Sequence[str] = T
     for bench in benchmarks:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # KITTI files: dropped zero-area boxes are warned about
-            plan += [(bench, s.name, io.load_detections(s)) for s in benchmark_sequences(bench, data_root)]
+            seqs = io.calibrated_together([io.load_detections(s) for s in benchmark_sequences(bench, data_root)],
+                                          io.resolve_rule(io.DEFAULT_SCORE_RULE))  # as load_dataset reads them
+            plan += [(bench, seq.name, seq) for seq in seqs]
     bar = progress(len(plan) * len(trackers), "bench-throughput")
     runs: list[SequenceRun] = []
     started = time.perf_counter()

@@ -109,7 +109,8 @@ from .lines import (MAX_COORD, MAX_DET_AREA, MAX_DETECTIONS_PER_FRAME, MAX_FRAME
                     data_line_numbers, data_lines)
 from .seqinfo import read_seqinfo
 from .ground_truth import GroundTruth
-from .detections import DEFAULT_SCORE_RULE, SCORE_RULES, DetectionFrame, DetectionSequence
+from .detections import (DEFAULT_SCORE_RULE, SCORE_RULES, DetectionFrame, DetectionSequence, calibrated_together,
+                         resolve_rule)
 from .stream import STDIN_NAME, DetectionStream
 from .event_logs import event_json_line, event_line, write_event_log, write_event_log_json
 from .results import write_text_atomic
@@ -132,6 +133,7 @@ __all__ = [
     "COCO_CLASS_TYPES", "COCO_NAMES", "class_id_type", "class_type",
     "GroundTruth", "read_kitti_ground_truth", "read_mot_ground_truth",
     "DEFAULT_SCORE_RULE", "KITTI_FPS", "KITTI_IMAGE_SIZE", "SCORE_RULES", "DetectionFrame", "DetectionSequence", "read_kitti_detections",
+    "calibrated_together", "resolve_rule",
     "read_mot_detections",
     "STDIN_NAME", "DetectionStream", "stream_kitti_detections", "stream_mot_detections",
     "event_json_line", "event_line", "write_event_log", "write_event_log_json",

@@ -181,11 +181,20 @@ def tuning_split(name: str) -> str | None:
 
 
 def load_dataset(name: str, data_root: str, seed: int = 0):
-    """[(sequence name, DetectionSequence, GroundTruth)] of a dataset."""
+    """[(sequence name, DetectionSequence, GroundTruth)] of a dataset, its files' scores calibrated
+    together, as one ``refimpl track`` of them all reads them (``calibrated_together``)."""
     entry = dataset(name)
     if entry.simulated:
-        return simulated_benchmark_sequences(entry.files, data_root, seed=seed, name=name)
-    return [(s.name, io.load_detections(s), io.load_ground_truth(s)) for s in benchmark_sequences(name, data_root)]
+        return calibrated_together(simulated_benchmark_sequences(entry.files, data_root, seed=seed, name=name))
+    return calibrated_together([(s.name, io.load_detections(s), io.load_ground_truth(s))
+                                for s in benchmark_sequences(name, data_root)])
+
+
+def calibrated_together(loaded):
+    """A loaded dataset, every sequence's confidences read by the default score rule from its own
+    frames and the other sequences' (refimpl.io.detections.calibrated_together)."""
+    seqs = io.calibrated_together([d for _, d, _ in loaded], io.resolve_rule(io.DEFAULT_SCORE_RULE))
+    return [(n, d, g) for (n, _, g), d in zip(loaded, seqs)]
 
 
 def dataset_kind(name: str, data_root: str) -> tuple[str, str]:

@@ -10,7 +10,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..core.confidence import EVIDENCE, RANK, online_rule
+from ..core.confidence import EVIDENCE, RANK, RunEvidence, online_rule, pooled, sequence_evidence
 from .errors import InputFormatError, InputFormatWarning
 from .lines import MAX_DET_AREA, MIN_DET_SIZE, _first_bad, _round_half_up
 
@@ -123,14 +123,27 @@ def _check_rule(rule: str, allowed: Sequence[str]) -> None:
         raise ValueError(f"scores must be one of {', '.join(allowed)}, got {rule!r}")
 
 
-def calibrated(seq: DetectionSequence, rule: str) -> DetectionSequence:
+def calibrated(seq: DetectionSequence, rule: str, seed: RunEvidence | None = None) -> DetectionSequence:
     """An online rule (``evidence`` or ``rank``) applied to the sequence's frames in order: each
-    frame's confidences from the frames <= it, as a stream and the library compute them."""
-    state = online_rule(rule)
+    frame's confidences from the frames <= it, as a stream and the library compute them; ``seed``:
+    what the run's other files showed the rule (``calibrated_together``)."""
+    state = online_rule(rule, seed)
     if state is None:
         return seq
     frames = tuple(replace(f, confidences=state.confidences(f.boxes, f.scores, f.types)) for f in seq.frames)
     return replace(seq, frames=frames)
+
+
+def calibrated_together(seqs: Sequence[DetectionSequence], rule: str) -> list[DetectionSequence]:
+    """A run's files read by an online rule, each calibrated on its own frames so far and on the
+    other files whole (docs/model.md 3.19, "A run's files pooled"): one detector's scores mean the
+    same in every file of a run, so a file whose best detections are false (a sequence without a
+    pedestrian) no longer calls them the top of the evidence.  The same confidences in any order of
+    the files; one file (or a fixed scale) as read."""
+    if rule not in ONLINE_RULES or len(seqs) < 2:
+        return list(seqs)
+    each = [sequence_evidence(s.frames) for s in seqs]
+    return [calibrated(s, rule, pooled(each[:k] + each[k + 1:])) for k, s in enumerate(seqs)]
 
 
 def probability_scale(seq: DetectionSequence) -> DetectionSequence:

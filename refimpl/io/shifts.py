@@ -34,7 +34,7 @@ import numpy as np
 
 from ..core.geometry import iou_matrix
 from ..io import DetectionFrame, DetectionSequence, GroundTruth
-from ..io.detections import DEFAULT_SCORE_RULE, read_again, resolve_rule
+from ..io.detections import DEFAULT_SCORE_RULE, calibrated_together, read_again, resolve_rule
 
 Shifted = tuple[DetectionSequence, GroundTruth]
 
@@ -160,13 +160,13 @@ def parse_shifts(text: str) -> tuple[str, ...]:
 def shifted_dataset(dataset: Sequence[tuple[str, DetectionSequence, GroundTruth]], shift: str,
                     seed: int = 0) -> list[tuple[str, DetectionSequence, GroundTruth]]:
     """Every sequence of a loaded dataset under one shift, its detections read again by the default
-    score rule (as a file of the shifted rows would be)."""
+    score rule (as one run over files of the shifted rows would read them: calibrated together)."""
+    if shift == "none":
+        return list(dataset)
     rule = resolve_rule(DEFAULT_SCORE_RULE)
     out = []
     for index, (name, seq, gt) in enumerate(dataset):
-        if shift == "none":
-            out.append((name, seq, gt))
-            continue
         dets, truth = SHIFTS[shift].apply(seq, gt, np.random.default_rng([seed, index]))
         out.append((name, read_again(dets, rule), truth))
-    return out
+    together = calibrated_together([d for _, d, _ in out], rule)
+    return [(name, dets, truth) for (name, _, truth), dets in zip(out, together)]

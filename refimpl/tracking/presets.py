@@ -18,7 +18,7 @@ import json
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 from ..core.constants import default_constants, model_dir
 from .options import TrackerOptions
@@ -157,17 +157,22 @@ def startable_share(sequences, constants: Mapping[str, int]) -> float:
     return passed / total if total else float("nan")
 
 
-def score_warning(preset: Preset | None, seq, constants: Mapping[str, int]) -> str | None:
+def score_warning(preset: Preset | None, seq, constants: Mapping[str, int], run: Sequence = ()) -> str | None:
     """One line when the share of a sequence's detections that may start a track is far
-    (STARTABLE_FACTOR) from the preset's tuning set: its scores are likely on another scale."""
-    if preset is None or preset.startable is None or not seq.num_detections:
+    (STARTABLE_FACTOR) from the preset's tuning set: its scores are likely on another scale.  ``run``:
+    the files of a run calibrated together (docs/model.md 3.19), whose share is tested as one (a
+    file of weak detections among strong ones is what the pooled rule is for)."""
+    seqs = list(run) or [seq]
+    if preset is None or preset.startable is None or not sum(s.num_detections for s in seqs):
         return None
-    share = startable_share([seq], constants)
+    share = startable_share(seqs, constants)
     low, high = preset.startable / STARTABLE_FACTOR, min(1.0, preset.startable * STARTABLE_FACTOR)
     if low <= share <= high and not (share == 0.0 < preset.startable):
         return None
     need = dict(default_constants(), **dict(constants))["conf_thresh_new_track"]
-    return (f"{seq.name}: {100 * share:.1f} % of its detections pass conf_thresh_new_track {need}, against "
+    name = f"the run's {len(seqs)} files, calibrated together," if run else seq.name + ":"
+    whose = "their" if run else "its"
+    return (f"{name} {100 * share:.1f} % of {whose} detections pass conf_thresh_new_track {need}, against "
             f"{100 * preset.startable:.1f} % on {preset.tuned_on}, where preset {preset.name} was fitted: its scores "
             f"may be on another scale (--scores auto, the default, reads any scale by the evidence rule; "
             f"--scores says how they were read)")

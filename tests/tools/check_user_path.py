@@ -1,10 +1,13 @@
 """The user's path on every shared real sequence: single-input ``refimpl track`` with its defaults
 must run on all 53 (MOT15 11 with SORT's detections, KITTI Car 21, KITTI Pedestrian 21) and write
-exactly the bytes that ``track --out-dir`` and ``benchmark --results-dir`` write, and the library's
+exactly the bytes of ``track --pool-scores no --out-dir`` over the group's files, and the library's
 ``refimpl.Tracker`` with its defaults and ``history=True`` must give the same rows (``result().rows``;
 byte for byte for KITTI, to the files' 0.01 px for MOTChallenge, whose x, y, w, h the API takes as
 x1..y2), and every frame's ``update`` must return the same bytes with its defaults (no history,
-bounded memory) as with ``history=True``.
+bounded memory) as with ``history=True``.  A run over the group's files (``track --out-dir``, whose
+score rule calibrates each file on the others too, docs/model.md 3.19) must write exactly what
+``benchmark --results-dir`` writes, and the library given the other files (``calibrate_with=``)
+the same rows.
 
     python tests/tools/check_user_path.py [--data ../shared/data] [--work DIR]
 
@@ -43,10 +46,11 @@ def sequence_name(path: Path) -> str:
     return path.parent.parent.name if path.parent.name == "det" else path.stem
 
 
-def api_rows(path: Path, fmt: str, cls: str) -> tuple[bytes, bool]:
-    """The library with its defaults and history=True, fed the file's boxes and raw scores frame by
-    frame: its rows as a results file, and whether every update returned the bytes a tracker with
-    the defaults only (no history) returned."""
+def api_rows(path: Path, fmt: str, cls: str, others: list[Path] = ()) -> tuple[bytes, bool]:
+    """The library with its defaults and history=True (and the run's other files as
+    ``calibrate_with``), fed the file's boxes and raw scores frame by frame: its rows as a results
+    file, and whether every update returned the bytes a tracker with the defaults only (no history)
+    returned."""
     import numpy as np
 
     import refimpl
@@ -54,8 +58,9 @@ def api_rows(path: Path, fmt: str, cls: str) -> tuple[bytes, bool]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         seq = io.get_format(fmt).read_detections(path, object_class=cls)
-    tracker = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps, history=True)
-    user = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps)
+    tracker = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps, history=True,
+                              calibrate_with=others)
+    user = refimpl.Tracker(format=fmt, object_type=cls, img_size=seq.image_size, fps=seq.fps, calibrate_with=others)
     online = True
     for fr in seq.frames:
         b = fr.boxes
@@ -92,8 +97,10 @@ def main() -> int:
     for group, (flags, pattern, fmt, cls) in GROUPS.items():
         files = sorted(data.glob(pattern))
         many = refimpl("track", "--dets", *map(str, files), *flags, "--out-dir", str(work / group), "--quiet")
-        if many.returncode:
-            print(f"{group}: track --out-dir failed: {many.stderr.strip()}")
+        apart = refimpl("track", "--dets", *map(str, files), *flags, "--pool-scores", "no",
+                        "--out-dir", str(work / f"{group}-apart"), "--quiet")
+        if many.returncode or apart.returncode:
+            print(f"{group}: track --out-dir failed: {many.stderr.strip()} {apart.stderr.strip()}")
             bad += len(files)
             continue
         for path in files:
@@ -107,13 +114,18 @@ def main() -> int:
                 continue
             mine = single.read_bytes()
             api, online = api_rows(path, fmt, cls)
-            same = {"out-dir": mine == (work / group / f"{name}.txt").read_bytes(),
-                    "benchmark": mine == (work / "benchmark" / group / f"{name}.txt").read_bytes(),
-                    "api": mine == api or close(mine, api), "api-update": online}
-            rows = mine.count(b"\n")
+            run = (work / group / f"{name}.txt").read_bytes()
+            api_run, online_run = api_rows(path, fmt, cls, [f for f in files if f != path])
+            same = {"out-dir --pool-scores no": mine == (work / f"{group}-apart" / f"{name}.txt").read_bytes(),
+                    "api": mine == api or close(mine, api), "api-update": online,
+                    "benchmark": run == (work / "benchmark" / group / f"{name}.txt").read_bytes(),
+                    "api calibrate_with": run == api_run or close(run, api_run),
+                    "api-update calibrate_with": online_run}
             verdict = "equal" if all(same.values()) else "DIFFERS: " + ", ".join(k for k, v in same.items() if not v)
             bad += not all(same.values())
-            print(f"{group}/{name}: {rows} rows; track --out == --out-dir == benchmark == API, API update() "
+            alone, in_run = mine.count(b"\n"), run.count(b"\n")
+            print(f"{group}/{name}: {alone} rows alone, {in_run} in the run; track --out == "
+                  f"--out-dir --pool-scores no == API, --out-dir == benchmark == API calibrate_with, update() "
                   f"with == without history: {verdict}")
     print(f"{total} sequences, {total - bad} equal, {bad} failing ({time.perf_counter() - started:.0f} s; "
           f"files in {work})")
