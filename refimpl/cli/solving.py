@@ -88,6 +88,8 @@ def cmd_diff(args: argparse.Namespace) -> int:
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
     elif args.dets:
         seqs = [_load_sequence(args, path) for path in args.dets]
+        rule = io.resolve_rule(io.DEFAULT_SCORE_RULE, io.get_format(args.format).score_rule)
+        seqs = io.calibrated_together(seqs, rule)  # the files read as one run of track reads them
     else:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
     if asp_model is not None:
