@@ -104,6 +104,11 @@ class FrameCounts:
     """Frames that took longer than the budget (a proven answer is kept however late)."""
 
 
+THIN_SECONDS = 10
+"""A Tracker that has reported no row after this many seconds of frames with detections says so once
+(``warnings``), as ``refimpl track`` says a run wrote no track."""
+
+
 class Tracker:
     """Online tracking by abduction, one ``update`` per frame.
 
@@ -234,6 +239,7 @@ class Tracker:
         self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
         self._class_of: dict[int, int] = {}  # track number -> the class id of its latest detection
         self._size_warned = False
+        self._seen = [0, 0, 101, -1]  # detections, rows reported, smallest and largest confidence so far
 
     def _new_tracker(self, size):
         if self.history:
@@ -435,6 +441,23 @@ class Tracker:
         cls = np.array([self._class_of.get(int(n), -1) for n in rows[:, 4]], dtype=float)
         return np.column_stack([rows, cls]).reshape(-1, 6)
 
+    def _say_if_thin(self, conf: np.ndarray, reported: int) -> None:
+        """One warning, as ``refimpl track`` says "no track written", when THIN_SECONDS of video (at
+        the tracker's fps, else 10 fps) with detections have reported no row: the evidence is thin."""
+        seen = self._seen
+        seen[0] += len(conf)
+        seen[1] += reported
+        if len(conf):
+            seen[2], seen[3] = min(seen[2], int(conf.min())), max(seen[3], int(conf.max()))
+        if self._count != max(1, round(THIN_SECONDS * (self.fps or 10))) or seen[1] or not seen[0]:
+            return
+        need = dict(default_constants(), **dict(self.setup.constants))["conf_thresh_new_track"]
+        why = "" if self.setup.baseline else f" (a new track needs > {need}: conf_thresh_new_track)"
+        pooled = ", calibrated beside the calibrate_with files" if self._evidence is not None else ""
+        warnings.warn(f"{self.name}: {self._count} frames, {seen[0]} detections and no track reported yet: their "
+                      f"confidences are {seen[2]}..{seen[3]}{why}{pooled}; the evidence is thin (scores= says how "
+                      "scores are read)", UserWarning, stacklevel=4)
+
     def _step(self, dets, classes) -> tuple[np.ndarray, dict[int, str]]:
         """Track one frame: its reported rows by track id, and {row of dets: track id} of the
         detections assigned."""
@@ -462,6 +485,7 @@ class Tracker:
                 x, y, w, h = trk.observed[frame]
                 rows.append((x, y, x + w, y + h, float(track_number(trk.id))))
         out = np.array(rows, dtype=float).reshape(-1, 5)
+        self._say_if_thin(conf, len(out))
         if self.history:
             self._reported.update((frame, int(n)) for n in out[:, 4])
         elif ids is not None:  # the class of live tracks only

@@ -260,8 +260,10 @@ def test_a_run_calibrates_each_file_on_the_others_and_the_api_follows(shared_dat
     assert alone.count(b"\n") > run.count(b"\n")
     seq = io.get_format("kitti").read_detections(files[0], object_class="pedestrian")
     tracker = refimpl.Tracker(format="kitti", object_type="pedestrian", history=True, calibrate_with=files[1:])
-    for fr in seq.frames:
-        tracker.update(_xyxys(fr))
+    # 0003 in the run reports nothing: after 10 s (100 frames at KITTI's 10 fps) the library says so
+    with pytest.warns(UserWarning, match="100 frames, .* no track reported yet.*calibrate_with"):
+        for fr in seq.frames:
+            tracker.update(_xyxys(fr))
     online = tmp_path / "online.txt"
     io.write_mot_results(online, tracker.result().rows, first_frame=0)
     assert online.read_bytes() == run

@@ -97,3 +97,35 @@ def test_scores_far_from_the_presets_tuning_set_get_one_warning(shared_data, tmp
                      str(tmp_path / f"{name}.txt")]) == 0
         assert "another scale" not in capsys.readouterr().err
     assert (tmp_path / "y.txt").read_bytes() == (tmp_path / "z.txt").read_bytes()
+
+
+def test_the_library_warns_once_when_ten_seconds_report_no_track():
+    # as test_every_detection_under_the_start_threshold_names_the_range, through the library:
+    # scores="raw" reads TUD-Campus's probabilities (0.5..1.0) as confidences 0..100, every one
+    # rounding to 1, none above conf_thresh_new_track 40 (no preset: model/constants.lp), so no
+    # track starts; at fps 2, THIN_SECONDS 10 are 20 frames, and the warning comes once, at the
+    # 20th frame, naming the range.  With the default scores (the evidence rule) rows come before
+    # that, and nothing is said.
+    import warnings
+
+    import numpy as np
+
+    import refimpl
+    from refimpl.api import THIN_SECONDS
+    assert THIN_SECONDS * 2 == 20
+    seq = io.read_mot_detections(DEMO_DETS)
+    frames = [np.column_stack([f.boxes[:, 0], f.boxes[:, 1], f.boxes[:, 0] + f.boxes[:, 2],
+                               f.boxes[:, 1] + f.boxes[:, 3], f.scores]) for f in seq.frames]
+    for scores, expected in (("raw", 1), ("auto", 0)):
+        tracker = refimpl.Tracker(scores=scores, preset="none", fps=2)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            for k, dets in enumerate(frames):
+                tracker.update(dets)
+                if k == 18:
+                    assert not caught  # not before the 20th frame
+        thin = [str(w.message) for w in caught if "no track reported" in str(w.message)]
+        assert len(thin) == expected, thin
+        if expected:
+            assert "20 frames" in thin[0] and "confidences are 1..1" in thin[0]
+            assert "a new track needs > 40: conf_thresh_new_track" in thin[0]
