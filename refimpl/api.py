@@ -444,18 +444,21 @@ class Tracker:
     def _say_if_thin(self, conf: np.ndarray, reported: int) -> None:
         """One warning, as ``refimpl track`` says "no track written", when THIN_SECONDS of video (at
         the tracker's fps, else 10 fps) with detections have reported no row: the evidence is thin."""
+        at = max(1, round(THIN_SECONDS * (self.fps or 10)))
+        if self._count > at:
+            return  # said or not, once: nothing to count on the hot path after it
         seen = self._seen
         seen[0] += len(conf)
         seen[1] += reported
         if len(conf):
             seen[2], seen[3] = min(seen[2], int(conf.min())), max(seen[3], int(conf.max()))
-        if self._count != max(1, round(THIN_SECONDS * (self.fps or 10))) or seen[1] or not seen[0]:
+        if self._count != at or seen[1] or not seen[0]:
             return
         need = dict(default_constants(), **dict(self.setup.constants))["conf_thresh_new_track"]
         why = "" if self.setup.baseline else f" (a new track needs > {need}: conf_thresh_new_track)"
-        pooled = ", calibrated beside the calibrate_with files" if self._evidence is not None else ""
+        seeded = ", calibrated beside the calibrate_with files" if self._evidence is not None else ""
         warnings.warn(f"{self.name}: {self._count} frames, {seen[0]} detections and no track reported yet: their "
-                      f"confidences are {seen[2]}..{seen[3]}{why}{pooled}; the evidence is thin (scores= says how "
+                      f"confidences are {seen[2]}..{seen[3]}{why}{seeded}; the evidence is thin (scores= says how "
                       "scores are read)", UserWarning, stacklevel=4)
 
     def _step(self, dets, classes) -> tuple[np.ndarray, dict[int, str]]:

@@ -116,9 +116,6 @@ class RunEvidence:
     labelled: np.ndarray
     persistent: np.ndarray
 
-    def __len__(self) -> int:
-        return len(self.seen)
-
 
 SEED_SIZE = 1000
 """A seed (the run's other files) counts as at most this many scores seen and this many labelled

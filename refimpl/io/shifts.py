@@ -34,7 +34,8 @@ import numpy as np
 
 from ..core.geometry import iou_matrix
 from ..io import DetectionFrame, DetectionSequence, GroundTruth
-from ..io.detections import DEFAULT_SCORE_RULE, calibrated_together, read_again, resolve_rule
+from ..io.datasets import calibrated_together
+from ..io.detections import DEFAULT_SCORE_RULE, read_again, resolve_rule
 
 Shifted = tuple[DetectionSequence, GroundTruth]
 
@@ -168,5 +169,4 @@ def shifted_dataset(dataset: Sequence[tuple[str, DetectionSequence, GroundTruth]
     for index, (name, seq, gt) in enumerate(dataset):
         dets, truth = SHIFTS[shift].apply(seq, gt, np.random.default_rng([seed, index]))
         out.append((name, read_again(dets, rule), truth))
-    together = calibrated_together([d for _, d, _ in out], rule)
-    return [(name, dets, truth) for (name, _, truth), dets in zip(out, together)]
+    return calibrated_together(out)
