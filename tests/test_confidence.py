@@ -11,8 +11,8 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
-from refimpl.core.confidence import (SEED_SIZE, OnlineRank, PersistenceEvidence, RankFrames, RunEvidence,
-                                    sequence_evidence)
+from refimpl.core.confidence import (EVIDENCE_FLOOR, SEED_SIZE, OnlineRank, PersistenceEvidence, RankFrames,
+                                    RunEvidence, sequence_evidence)
 from refimpl.io import DetectionFrame
 
 RESCALES = {
@@ -45,6 +45,18 @@ def test_rank_rule_on_two_frames():
     assert r.confidences([]).tolist() == []
     # half up: 1 of 8 -> 12.5 -> 13 (the rule is exact integer arithmetic, no float rounding)
     assert rank_confidences([[1, 2, 3, 4, 5, 6, 7, 8]])[0].tolist() == [13, 25, 38, 50, 63, 75, 88, 100]
+
+
+def test_the_rank_rule_never_reads_below_the_evidence_floor():
+    # --scores rank reads RankFrames: the bare ranks of test_rank_rule_on_two_frames' eight scores,
+    # 13 25 38 50 63 75 88 100, each lifted to EVIDENCE_FLOOR 40 where below it (docs/model.md 3.19,
+    # "The rank rule's floor"); the order of the scores still decides alone (x 0.6 gives the same)
+    assert EVIDENCE_FLOOR == 40
+    frames = [DetectionFrame(1, np.zeros((8, 4)), np.arange(1.0, 9.0), np.zeros(8, dtype=np.int64), ("car",) * 8)]
+    for scale in (1.0, 0.6):
+        rule = RankFrames()
+        got = rule.confidences(frames[0].boxes, scale * frames[0].scores, frames[0].types)
+        assert got.tolist() == [40, 40, 40, 50, 63, 75, 88, 100]
 
 
 def test_a_rank_prior_counts_scores_below_every_real_one():

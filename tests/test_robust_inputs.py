@@ -68,8 +68,9 @@ def test_a_raw_score_file_keeps_one_rule_whatever_one_score_is(tmp_path):
     ranked = [int(fr.confidences[0]) for fr in read_mot_detections(f, scores_rule="rank").frames]
     # rank ranks them, the 0.5 too, one detection a frame: frame i's score among the first i, e.g.
     # frame 3: 0.5 lowest of 3 -> floor(100/3 + 1/2) = 33; frame 7: 55 sixth of 7 -> 86; frame 10:
-    # 20 sixth of 10 -> 60
-    assert ranked == [100, 100, 33, 100, 40, 50, 86, 100, 11, 60]
+    # 20 sixth of 10 -> 60; never below EVIDENCE_FLOOR 40: frame 3's 33 and frame 9's -0.4 (lowest
+    # of 9 -> 11) read 40
+    assert ranked == [100, 100, 40, 100, 40, 50, 86, 100, 40, 60]
 
 
 # -- names clingo reads differently -------------------------------------------------------

@@ -17,12 +17,14 @@ detector's best" whatever the detector.  Its prior, before the sequence has show
 rank rule below, never below EVIDENCE_FLOOR.
 
 The rank rule (``rank``) maps each score to its place among every score the sequence has shown
-so far, this frame included:
+so far, this frame included, never below EVIDENCE_FLOOR (as the evidence rule's prior):
 
-    confidence(s) = floor(100 * #{scores seen so far <= s} / #{scores seen so far} + 1/2)
+    confidence(s) = max(EVIDENCE_FLOOR,
+                        floor(100 * #{scores seen so far <= s} / #{scores seen so far} + 1/2))
 
 A confidence of 90 then means "at least 90 % of this detector's evidence so far is no stronger",
-whatever the detector.  The rule is online (frame t uses frames <= t only, so a file run and the
+whatever the detector; the floor lets the weakest detections of an object continue its track
+(assign and resume at 30) and start none (docs/model.md 3.19, "The rank rule's floor").  The rule is online (frame t uses frames <= t only, so a file run and the
 library's ``update`` see the same numbers) and depends on the order of scores alone: any strictly
 increasing rescale of a detector's scores gives the same confidences, hence the same tracks.
 
@@ -183,13 +185,14 @@ class OnlineRank:
 
 
 class RankFrames:
-    """The rank rule with the evidence rule's call: ``confidences(boxes, scores, types)``."""
+    """The rank rule with the evidence rule's call: ``confidences(boxes, scores, types)``: each
+    score's rank so far, never below EVIDENCE_FLOOR."""
 
     def __init__(self, seed: RunEvidence | None = None) -> None:
         self._rank = OnlineRank(seed=None if seed is None else seed.seen)
 
     def confidences(self, boxes, scores, types=None) -> np.ndarray:
-        return self._rank.confidences(scores)
+        return np.maximum(self._rank.confidences(scores), EVIDENCE_FLOOR)
 
     def reset(self) -> None:
         self._rank.reset()
