@@ -227,6 +227,19 @@ def test_a_presets_durations_mean_the_same_seconds_at_another_frame_rate():
     assert durations(preset="kitti/pedestrian", fps=5) == [5, 15, 2, 15]
 
 
+def test_the_motion_noise_means_the_same_per_second_at_another_frame_rate():
+    # velocity_noise is a variance per frame at the preset's frame rate, times (tuned fps / fps) ** 2
+    # (camera.NOISE_EXPONENT): mot/pedestrian's 1.0 at 25 fps is (25 / 12.5) ** 2 = 4 at 12.5 fps,
+    # (25 / 50) ** 2 = 0.25 at 50 fps, 1 at 25 fps and without a frame rate; kitti/car's 10 at 10 fps
+    # is 10 * (10 / 5) ** 2 = 40 at 5 fps.  A value the user gives is per frame as given.
+    def noise(**kw):
+        return refimpl.Tracker(**kw)._tracker.options.velocity_noise
+    assert [noise(fps=f) for f in (12.5, 50, 25)] == [4.0, 0.25, 1.0] and noise() == 1.0
+    assert noise(format="kitti", object_type="car", fps=5) == 40.0
+    assert noise(format="kitti", object_type="car") == 10.0
+    assert noise(fps=50, velocity_noise=3.0) == 3.0
+
+
 def test_the_pixel_constants_scale_with_the_image():
     # model/constants.lp gives size_threshold 100 px^2 and border_margin 10 px at 1920 x 1080
     # (camera.REFERENCE_IMAGE).  Half that image in each direction: a quarter of the area, 25 px^2,

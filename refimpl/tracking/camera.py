@@ -20,6 +20,15 @@ it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as ar
 options of FRAME_OPTIONS."""
 FRAME_OPTIONS = ("backfill_gap", "fill_hidden", "bridge_gap", "peak_wait")
 """The tracker options that are durations in frames, converted as DURATIONS are."""
+RATE_OPTIONS = ("velocity_noise",)
+"""The tracker options that are per frame but no duration: the process noise of the Kalman filter's
+velocities, converted by :func:`velocity_noise_at` unless the user gave it."""
+NOISE_EXPONENT = 2
+"""A velocity in pixels per frame is a speed in pixels per second times the frame interval, so
+the change the filter allows it from one frame to the next, stated as a change of speed, is that
+many pixels per frame times the interval: its variance (velocity_noise) scales with the square of
+the interval (docs/model.md 3.22, "Motion").  Chosen among 0 (frames as written), 1, 2, 3 by the
+worst case over the shifts on the tuning sets."""
 
 
 def frames_at(frames: int, fps: float, tuned_fps: float) -> int:
@@ -28,6 +37,12 @@ def frames_at(frames: int, fps: float, tuned_fps: float) -> int:
     if frames <= 0:
         return int(frames)
     return max(1, int(math.floor(frames * float(fps) / float(tuned_fps) + 0.5)))
+
+
+def velocity_noise_at(noise: float, fps: float, tuned_fps: float) -> float:
+    """The Kalman filter's velocity process noise (the tracker option velocity_noise, a variance
+    per frame tuned at ``tuned_fps``) at ``fps``: times (tuned_fps / fps) ** NOISE_EXPONENT."""
+    return float(noise) * (float(tuned_fps) / float(fps)) ** NOISE_EXPONENT
 
 
 def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,

@@ -28,7 +28,7 @@ from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
-from .camera import DURATIONS, FRAME_OPTIONS, frames_at, sequence_constants
+from .camera import DURATIONS, FRAME_OPTIONS, RATE_OPTIONS, frames_at, sequence_constants, velocity_noise_at
 from .tracker import AbductionTracker, DEFAULT_MIN_HITS, TrackingResult, check_frame_budget
 
 AUTO = "auto"
@@ -57,7 +57,8 @@ class Setup:
     """The frame rate the preset's durations were tuned at (refimpl.tracking.presets.Preset.fps): a
     sequence of another frame rate gets them converted (refimpl.tracking.camera.frames_at)."""
     in_frames: tuple[str, ...] = ()
-    """The durations the caller gave (constants of DURATIONS, options of FRAME_OPTIONS): frames as given."""
+    """The durations the caller gave (constants of DURATIONS, options of FRAME_OPTIONS), and the
+    per-frame rates (RATE_OPTIONS): frames as given."""
     frame_budget: float | None = None
     """Milliseconds a frame may take (refimpl.tracking.tracker.AbductionTracker), None: no budget.
     setup_for gives a real-time backend DEFAULT_FRAME_BUDGET_MS unless told otherwise."""
@@ -104,7 +105,8 @@ def setup_for(fmt: str, object_class: str | None, backend: str = DEFAULT_BACKEND
         frame_budget = DEFAULT_FRAME_BUDGET_MS if backend in REAL_TIME else None
     given = set(constants or {}) | set(options or {})
     return Setup(backend, tuple(merged.items()), opts, time_limit, chosen.name if chosen else NONE,
-                 chosen.fps if chosen else None, tuple(sorted(given & {*DURATIONS, *FRAME_OPTIONS})),
+                 chosen.fps if chosen else None,
+                 tuple(sorted(given & {*DURATIONS, *FRAME_OPTIONS, *RATE_OPTIONS})),
                  check_frame_budget(frame_budget))
 
 
@@ -122,6 +124,8 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
     if fps and setup.tuned_fps:
         options = replace(options, **{name: frames_at(getattr(options, name), fps, setup.tuned_fps)
                                       for name in FRAME_OPTIONS if name not in setup.in_frames})
+        options = replace(options, **{name: velocity_noise_at(getattr(options, name), fps, setup.tuned_fps)
+                                      for name in RATE_OPTIONS if name not in setup.in_frames})
     return AbductionTracker(solver or get_solver(setup.backend),
                             sequence_constants(dict(setup.constants), image_size, fps, setup.tuned_fps,
                                                setup.in_frames),
