@@ -24,9 +24,10 @@ so far, this frame included, never below EVIDENCE_FLOOR (as the evidence rule's 
 
 A confidence of 90 then means "at least 90 % of this detector's evidence so far is no stronger",
 whatever the detector; the floor lets the weakest detections of an object continue its track
-(assign and resume at 30) and start none (docs/model.md 3.19, "The rank rule's floor").  The rule is online (frame t uses frames <= t only, so a file run and the
-library's ``update`` see the same numbers) and depends on the order of scores alone: any strictly
-increasing rescale of a detector's scores gives the same confidences, hence the same tracks.
+(assign and resume at 30) and start none (docs/model.md 3.19, "The rank rule's floor").  The rule
+is online (frame t uses frames <= t only, so a file run and the library's ``update`` see the same
+numbers) and depends on the order of scores alone: any strictly increasing rescale of a detector's
+scores gives the same confidences, hence the same tracks.
 
 ``probability`` (scores in 0..1, times 100) and ``raw`` (scores already 0..100) stay as explicit
 rules (``--scores``); the file readers apply them (refimpl.io).
