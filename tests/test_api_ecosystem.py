@@ -242,13 +242,40 @@ def test_the_motion_noise_means_the_same_per_second_at_another_frame_rate():
 
 def test_the_pixel_constants_scale_with_the_image():
     # model/constants.lp gives size_threshold 100 px^2 and border_margin 10 px at 1920 x 1080
-    # (camera.REFERENCE_IMAGE).  Half that image in each direction: a quarter of the area, 25 px^2,
-    # and half the margin, 5 px.  KITTI's 1242 x 375: 100 * 465750 / 2073600 = 22.46 -> 22 and
-    # 10 * sqrt(0.2246) = 4.74 -> 5.  A constant the user gives stays in pixels.
+    # (camera.REFERENCE_IMAGE), and the model reasons in working pixels: the image's, doubled or
+    # halved until the width is in (960, 1920] (camera.working_scale).  1920 x 1080 is its own
+    # working image; 960 x 540 and 3840 x 2160 are it at twice and half the scale: the same
+    # (100, 10) in working pixels.  KITTI's 1242 x 375 (scale 1): 100 * 465750 / 2073600 = 22.46 ->
+    # 22 and 10 * sqrt(0.2246) = 4.74 -> 5.  TUD's 640 x 480 works at 1280 x 960: 100 * 1228800 /
+    # 2073600 = 59.26 -> 59 and 10 * sqrt(0.5926) = 7.70 -> 8.  A constant the user gives is in the
+    # image's pixels: 100 px^2 at 960 x 540 is 400 working px^2.
     def pixels(**kw):
         t = refimpl.Tracker(**kw)._tracker
-        return t.constant_map["size_threshold"], t.constant_map["border_margin"]
-    assert pixels(img_size=(1920, 1080)) == (100, 10)
-    assert pixels(img_size=(960, 540)) == (25, 5)
-    assert pixels(format="kitti", object_type="car") == (22, 5)
-    assert pixels(img_size=(960, 540), constants={"size_threshold": 100}) == (100, 5)
+        return t.constant_map["size_threshold"], t.constant_map["border_margin"], t.constant_map["img_width"]
+    assert pixels(img_size=(1920, 1080)) == (100, 10, 1920)
+    assert pixels(img_size=(960, 540)) == (100, 10, 1920)
+    assert pixels(img_size=(3840, 2160)) == (100, 10, 1920)
+    assert pixels(format="kitti", object_type="car") == (22, 5, 1242)
+    assert pixels(img_size=(640, 480)) == (59, 8, 1280)
+    assert pixels(img_size=(960, 540), constants={"size_threshold": 100}) == (400, 10, 1920)
+
+
+def test_half_the_resolution_tracks_alike(shared_data):
+    # A camera of half the resolution sees every box halved.  KITTI Car 0004 at 1242 x 374 (an even
+    # height, so the half image is exactly half: 621 x 187) works at scale 1, the half image at
+    # scale 2 (camera.working_scale): the facts' working boxes are the same numbers (x 1 and x 2 of
+    # the halved ones, both exact in floating point), and so is every decision; the Kalman filter's
+    # arithmetic is exact under halving too.  The rows come out halved, the identities the same.
+    # (Before working pixels the half image's border margin was 2 px for the full one's 5, and its
+    # boxes were rounded to whole half pixels: the runs parted at frame 36, a track at the border.)
+    path = shared_data.joinpath(*KITTI_CAR, "0004.txt")
+    full = refimpl.Tracker(format="kitti", object_type="car", img_size=(1242, 374))
+    half = refimpl.Tracker(format="kitti", object_type="car", img_size=(621, 187))
+    written = 0
+    for dets in _kitti_frames(path, 314):
+        dets = dets[(dets[:, 2] > dets[:, 0]) & (dets[:, 3] > dets[:, 1])]
+        a = full.update(dets)
+        b = half.update(np.column_stack([dets[:, :4] * 0.5, dets[:, 4:]]))
+        assert np.array_equal(b[:, :4] * 2, a[:, :4]) and np.array_equal(b[:, 4:], a[:, 4:])
+        written += len(a)
+    assert written > 800  # 822 rows in 314 frames: the runs are compared on real tracking

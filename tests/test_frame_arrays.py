@@ -119,13 +119,14 @@ def test_integer_boxes_by_hand_and_outside_the_exact_range():
         integer_boxes(np.array([[math.nan, 0.0, 1.0, 1.0]]))
 
 
-def _bounded_with_np_clip(box: np.ndarray, w: int, h: int) -> np.ndarray:
-    """The tracker's clipping as it was written before (np.clip on numpy scalars)."""
+def _bounded_with_np_clip(box: np.ndarray, w: float, h: float, cap: float = MAX_BOX_AREA) -> np.ndarray:
+    """The tracker's clipping as it was written before (np.clip on numpy scalars); ``cap``: the area cap
+    in the image's pixels (MAX_BOX_AREA is in working pixels: divided by the working scale squared)."""
     x1, y1 = np.clip(box[0], -w, 2 * w), np.clip(box[1], -h, 2 * h)
     x2, y2 = np.clip(box[0] + box[2], -w, 2 * w), np.clip(box[1] + box[3], -h, 2 * h)
     bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
-    if bw * bh > MAX_BOX_AREA:
-        shrink = float(np.sqrt(MAX_BOX_AREA / (bw * bh)))
+    if bw * bh > cap:
+        shrink = float(np.sqrt(cap / (bw * bh)))
         cx, cy = x1 + bw / 2, y1 + bh / 2
         bw, bh = bw * shrink, bh * shrink
         x1, y1 = cx - bw / 2, cy - bh / 2
@@ -134,16 +135,20 @@ def _bounded_with_np_clip(box: np.ndarray, w: int, h: int) -> np.ndarray:
 
 def test_bounded_equals_np_clip_bit_for_bit(tracked):
     _, tracker, _, clipped = tracked
-    w, h = tracker.constant_map["img_width"], tracker.constant_map["img_height"]
+    # the image size in the constants is in working pixels (camera.working_scale: 2 for TUD-Campus's
+    # 640 x 480, 1 for KITTI's 1242 x 375); the clipping is in the image's
+    scale = tracker.pixel_scale
+    w, h = tracker.constant_map["img_width"] / scale, tracker.constant_map["img_height"] / scale
+    cap = MAX_BOX_AREA / (scale * scale)
     assert len(clipped) > 100
     for box, out in clipped:
-        assert out.tobytes() == _bounded_with_np_clip(box, w, h).tobytes()
+        assert out.tobytes() == _bounded_with_np_clip(box, w, h, cap).tobytes()
     # boxes that the clipping and the area cap change: beyond every side, huge, thinner than 1 px
     extreme = [np.array(b, dtype=float) for b in (
         [-5 * w, -5 * h, 20 * w, 20 * h], [3 * w, 0.3, 10.0, 10.0], [0.25, 0.75, 0.1, 0.2],
         [-w - 0.5, 2 * h - 0.25, 1e9, 1e9], [10.1, 20.2, 30000.3, 9000.7])]
     for box in extreme:
-        assert tracker._bounded(box).tobytes() == _bounded_with_np_clip(box, w, h).tobytes()
+        assert tracker._bounded(box).tobytes() == _bounded_with_np_clip(box, w, h, cap).tobytes()
 
 
 def test_bounded_caps_the_area_as_np_clip_did():

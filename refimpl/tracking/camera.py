@@ -51,6 +51,8 @@ def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[in
     """The constants a sequence is tracked with: the given ones, then what the sequence says of
     itself where they do not (image size: the field-of-view border, and the pixel constants scaled
     to the image, :func:`image_relative`; frame rate: the safety bound on halts, HIDDEN_MAX_SECONDS).
+    Every pixel constant (PIXEL_CONSTANTS, given in the image's pixels) is returned in the model's
+    working pixels (:func:`sequence_scale`).
     With ``tuned_fps`` (a preset's frame rate) and the sequence's ``fps``, every duration of
     DURATIONS not named in ``in_frames`` (given by the user, in frames) is converted by
     :func:`frames_at`."""
@@ -63,12 +65,47 @@ def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[in
     if image_size is not None:
         merged.setdefault("img_width", int(image_size[0]))
         merged.setdefault("img_height", int(image_size[1]))
+    scale = sequence_scale(constants, image_size)
+    if scale != 1.0:  # pixels given (the image's size, a pixel constant) in working pixels
+        for name, power in PIXEL_CONSTANTS.items():
+            if merged.get(name, 0) > 0:
+                merged[name] = int(round(merged[name] * scale ** power))
     if merged.get("img_width", 0) > 0 and merged.get("img_height", 0) > 0:  # also given as constants
         for name, value in image_relative((merged["img_width"], merged["img_height"])).items():
             merged.setdefault(name, value)
     if fps:
         merged.setdefault("lost_after_hidden_max", max(1, int(round(HIDDEN_MAX_SECONDS * fps))))
     return merged
+
+
+PIXEL_CONSTANTS = {"img_width": 1, "img_height": 1, "border_margin": 1, "size_threshold": 2}
+"""The model constants in pixels (a length) or pixels squared (an area): the power of
+:func:`working_scale` that turns the value given in the image's pixels into working pixels."""
+
+WORKING_WIDTH = 1920
+"""The model reasons in working pixels: the image's, doubled or halved until its width is more than
+half of this and at most this (:func:`working_scale`, docs/model.md 3.22)."""
+
+
+def working_scale(width: int) -> float:
+    """The factor from an image's pixels to the model's working pixels: a power of two (so scaling is
+    exact in floating point) that brings ``width`` into (WORKING_WIDTH / 2, WORKING_WIDTH]; 1 for an
+    unknown width (0).  A camera of half the resolution gets twice the factor: the same working boxes."""
+    if width <= 0:
+        return 1.0
+    scale = 1.0
+    while width * scale <= WORKING_WIDTH / 2:
+        scale *= 2.0
+    while width * scale > WORKING_WIDTH:
+        scale /= 2.0
+    return scale
+
+
+def sequence_scale(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None) -> float:
+    """:func:`working_scale` of a sequence's image width: the constant img_width if given, else its
+    image size's (1 where neither is known)."""
+    width = (constants or {}).get("img_width") or (image_size[0] if image_size is not None else 0)
+    return working_scale(int(width))
 
 
 REFERENCE_IMAGE = (1920, 1080)

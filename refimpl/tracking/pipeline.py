@@ -28,7 +28,8 @@ from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
-from .camera import DURATIONS, FRAME_OPTIONS, RATE_OPTIONS, frames_at, sequence_constants, velocity_noise_at
+from .camera import (DURATIONS, FRAME_OPTIONS, RATE_OPTIONS, frames_at, sequence_constants, sequence_scale,
+                     velocity_noise_at)
 from .tracker import AbductionTracker, DEFAULT_MIN_HITS, TrackingResult, check_frame_budget
 
 AUTO = "auto"
@@ -132,7 +133,7 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
                             DEFAULT_MIN_HITS if min_hits is None else min_hits, setup.time_limit,
                             compact_history,
                             sink=sink, keep_records=keep_records, frame_budget=setup.frame_budget,
-                            options=options)
+                            options=options, pixel_scale=sequence_scale(dict(setup.constants), image_size))
 
 
 def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: bool = True,

@@ -62,7 +62,8 @@ _STARTING = frozenset(e.name for e in explaining("start"))
 _UNHIDING = frozenset(e.name for e in explaining("resume") if e.unhides)
 _HIDING = frozenset(e.name for e in explaining("halt") if e.hides)
 MAX_BOX_AREA = 20_000_000
-"""px^2: 100 * area stays below clingo's 2^31 integer limit."""
+"""px^2 (working pixels, refimpl.tracking.camera.working_scale): 100 * area stays below clingo's 2^31
+integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
 
@@ -158,7 +159,8 @@ class AbductionTracker:
     def __init__(self, solver: Solver, constants: Mapping[str, int] | None = None,
                  min_hits: int = DEFAULT_MIN_HITS, time_limit: float | None = None,
                  compact_history: bool = True, sink: ResultSink | None = None, keep_records: bool = True,
-                 frame_budget: float | None = None, options: TrackerOptions = TrackerOptions()):
+                 frame_budget: float | None = None, options: TrackerOptions = TrackerOptions(),
+                 pixel_scale: float = 1.0):
         """``options``: the tracker options (refimpl.tracking.options.TrackerOptions, which parses
         and checks them; the module docstring says what the writing ones write; docs/tracking.md
         measures them).
@@ -177,6 +179,9 @@ class AbductionTracker:
         late), so a frame the fast path answers gets the same answer with any budget.  Counted:
         ``budget_hits`` (frames the budget stopped), ``over_budget`` (frames that took longer)."""
         self.solver = solver
+        self.pixel_scale = float(pixel_scale)
+        """From the image's pixels to the model's working pixels (refimpl.tracking.camera.working_scale):
+        the facts' boxes and the image-size constants are in working pixels."""
         self.options = options
         """The tracker options (refimpl.tracking.options), read where they decide."""
         self.constants = tuple((constants or {}).items())
@@ -225,9 +230,11 @@ class AbductionTracker:
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
         conf = [int(c) for c in np.asarray(confidences).reshape(-1).tolist()]
-        rounded = self._integer_boxes = integer_box_array(boxes, predicted)  # both in one pass
+        scale = self.pixel_scale
+        working, working_predicted = (boxes, predicted) if scale == 1.0 else (boxes * scale, predicted * scale)
+        rounded = self._integer_boxes = integer_box_array(working, working_predicted)  # both in one pass
         if rounded is None:  # a value integer_box must convert (or refuse) on its own
-            det_boxes, track_boxes = integer_boxes(boxes), integer_boxes(predicted)
+            det_boxes, track_boxes = integer_boxes(working), integer_boxes(working_predicted)
         else:
             every = list(map(tuple, rounded.tolist()))
             det_boxes, track_boxes = every[:len(boxes)], every[len(boxes):]
@@ -237,10 +244,10 @@ class AbductionTracker:
         if len(tracks) and len(boxes):
             # the last key of a track's observed frames is its last observed frame: they are inserted as
             # the frames come, in increasing order, and _forget keeps them sorted
-            last_seen = [(k, t.observed[next(reversed(t.observed))]) for k, t in enumerate(tracks)
+            last_seen = [(k, t.observed[next(reversed(t.observed))] * scale) for k, t in enumerate(tracks)
                          if t.state == "halted" and t.observed] if self.options.uncertain_speed else []
-            ml = matching_likelihood(predicted, boxes, [t.state for t in tracks],
-                                     [(k, t.at_rest) for k, t in enumerate(tracks) if t.at_rest is not None],
+            ml = matching_likelihood(working_predicted, working, [t.state for t in tracks],
+                                     [(k, t.at_rest * scale) for k, t in enumerate(tracks) if t.at_rest is not None],
                                      last_seen, self.options.scene_shift)
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
             track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
@@ -272,13 +279,14 @@ class AbductionTracker:
 
     def _bounded_values(self, bx: float, by: float, bw0: float, bh0: float) -> tuple[float, float, float, float]:
         """_bounded on the box's four Python floats, as a tuple."""
-        w = float(self.constant_map.get("img_width", 0) or 1500)
-        h = float(self.constant_map.get("img_height", 0) or 1500)
+        w = float(self.constant_map.get("img_width", 0) or 1500) / self.pixel_scale
+        h = float(self.constant_map.get("img_height", 0) or 1500) / self.pixel_scale
         x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
         x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
         bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
-        if bw * bh > MAX_BOX_AREA:
-            shrink = math.sqrt(MAX_BOX_AREA / (bw * bh))
+        cap = MAX_BOX_AREA if self.pixel_scale == 1.0 else MAX_BOX_AREA / (self.pixel_scale * self.pixel_scale)
+        if bw * bh > cap:  # (the cap is on the working box of the facts)
+            shrink = math.sqrt(cap / (bw * bh))
             cx, cy = x1 + bw / 2, y1 + bh / 2
             bw, bh = bw * shrink, bh * shrink
             x1, y1 = cx - bw / 2, cy - bh / 2
