@@ -11,6 +11,7 @@ import pytest
 from refimpl.cli import benchmarks as cli_benchmarks, main
 from refimpl.experiments import peers
 from refimpl.experiments.peers import PEERS_BEGIN, PEERS_END
+from refimpl.tracking.options import TrackerOptions
 from refimpl.experiments.peers_report import TUNED_BEGIN, TUNED_END, procedure_clauses, tuned_on_report
 from refimpl.experiments.shift_table import SHIFTS_BEGIN, SHIFTS_END
 from refimpl.io import DetectionFrame, DetectionSequence, GroundTruth
@@ -134,9 +135,13 @@ def test_the_registry_holds_the_tuning_rule_and_the_presets_were_tuned_on_tuning
 def test_the_procedure_is_split_at_top_level_semicolons_and_a_non_tuning_set_is_flagged():
     assert procedure_clauses("a (b; c); d;e") == ("a (b; c)", "d", "e")
     shared = "score rule evidence; thresholds 50/30/30 (by the worst case; shifts)"
-    presets = {"kitti/car": Preset("kitti", "car", {}, "kitti-car-val", f"{shared}; grid of 4 points", fps=10.0),
+    presets = {"kitti/car": Preset("kitti", "car", {"lost_after_missing": 20, "iou_thresh": 30000}, "kitti-car-val",
+                                   f"{shared}; grid of 4 points", TrackerOptions(backfill_gap=5), fps=10.0),
                "mot/pedestrian": Preset("mot", "pedestrian", {}, "mot15+mot17-sim", shared)}
     text = tuned_on_report(presets, "refimpl bench-peers")
     assert "| kitti/car | `kitti-car-val` (**reported**, not a tuning set) | 10 | grid of 4 points |" in text
     assert "| mot/pedestrian | `mot15`, `mot17-sim` | - | the shared steps below |" in text
     assert f"Every preset: {shared}." in text
+    # what each holds: its constants sorted by name, the options that differ from TrackerOptions()'s
+    assert "| kitti/car | iou_thresh 30000, lost_after_missing 20 | backfill_gap 5 |" in text
+    assert "| mot/pedestrian | - | - |" in text

@@ -72,10 +72,16 @@ def _tuned_on(preset: Preset, catalogue: Mapping[str, Dataset]) -> str:
     return ", ".join(out) or "-"
 
 
+def _value(v: object) -> str:
+    """A tracker option's value as the table says it: yes / no for a switch, else as written."""
+    return ("yes" if v else "no") if isinstance(v, bool) else str(v)
+
+
 def tuned_on_report(presets: Mapping[str, Preset], command: str,
                     catalogue: Mapping[str, Dataset] = CATALOGUE) -> str:
     """The generated section: a table of the presets (tuned on, fps, procedure beyond the clauses every
-    preset shares, said once below it), then a table of every dataset's role and tables."""
+    preset shares, said once below it), a table of what each holds (its constants, the tracker options
+    it changes), then a table of every dataset's role and tables."""
     chosen = list(presets.values())
     shared = _shared_clauses(chosen)
     out = [f"Made by `{command}`, from model/presets.json and the dataset registry (refimpl/io/datasets.py).\n",
@@ -86,6 +92,13 @@ def tuned_on_report(presets: Mapping[str, Preset], command: str,
         out.append(f"| {p.name} | {_tuned_on(p, catalogue)} | {fps} | {own} |")
     if shared:
         out.append(f"\nEvery preset: {'; '.join(shared)}.")
+    out += ["\nWhat each preset holds: its model constants (the rest as model/constants.lp says) and the tracker "
+            "options it changes (the rest as docs/tracking.md says); durations in frames at its fps.\n",
+            "| preset | model constants | tracker options |", "|---|---|---|"]
+    for p in chosen:
+        constants = ", ".join(f"{k} {v}" for k, v in sorted(p.constants.items())) or "-"
+        options = ", ".join(f"{k} {_value(v)}" for k, v in sorted(p.tracker.changed().items())) or "-"
+        out.append(f"| {p.name} | {constants} | {options} |")
     out += ["\n| dataset | role | in the tables | title |", "|---|---|---|---|"]
     for role in ROLES:
         for d in (d for d in catalogue.values() if d.role == role):
