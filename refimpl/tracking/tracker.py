@@ -244,11 +244,14 @@ class AbductionTracker:
         if len(tracks) and len(boxes):
             # the last key of a track's observed frames is its last observed frame: they are inserted as
             # the frames come, in increasing order, and _forget keeps them sorted
-            last_seen = [(k, t.observed[next(reversed(t.observed))] * scale) for k, t in enumerate(tracks)
+            last_seen = [(k, t.observed[next(reversed(t.observed))]) for k, t in enumerate(tracks)
                          if t.state == "halted" and t.observed] if self.options.uncertain_speed else []
-            ml = matching_likelihood(working_predicted, working, [t.state for t in tracks],
-                                     [(k, t.at_rest * scale) for k, t in enumerate(tracks) if t.at_rest is not None],
-                                     last_seen, self.options.scene_shift)
+            at_rest = [(k, t.at_rest) for k, t in enumerate(tracks) if t.at_rest is not None]
+            if scale != 1.0:  # the likelihood in working pixels too (its scene shift rounds to 0.1 px)
+                last_seen = [(k, b * scale) for k, b in last_seen]
+                at_rest = [(k, b * scale) for k, b in at_rest]
+            ml = matching_likelihood(working_predicted, working, [t.state for t in tracks], at_rest, last_seen,
+                                     self.options.scene_shift)
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
             track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
             iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
