@@ -186,6 +186,10 @@ class AbductionTracker:
         """The tracker options (refimpl.tracking.options), read where they decide."""
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
+        self._clip_size = (float(self.constant_map.get("img_width", 0) or 1500) / self.pixel_scale,
+                           float(self.constant_map.get("img_height", 0) or 1500) / self.pixel_scale)
+        """The image's (width, height) in its own pixels, 1500 where unknown: predictions are clipped to
+        it extended by one size on every side (_bounded)."""
         self.min_hits = min_hits
         self.time_limit = time_limit
         self.compact_history = compact_history
@@ -282,8 +286,7 @@ class AbductionTracker:
 
     def _bounded_values(self, bx: float, by: float, bw0: float, bh0: float) -> tuple[float, float, float, float]:
         """_bounded on the box's four Python floats, as a tuple."""
-        w = float(self.constant_map.get("img_width", 0) or 1500) / self.pixel_scale
-        h = float(self.constant_map.get("img_height", 0) or 1500) / self.pixel_scale
+        w, h = self._clip_size
         x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
         x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
         bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
