@@ -11,7 +11,7 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
-from refimpl.core.confidence import (EVIDENCE_FLOOR, SEED_SIZE, OnlineRank, PersistenceEvidence, RankFrames,
+from refimpl.core.confidence import (EVIDENCE_FLOOR, RANK_LOW, SEED_SIZE, OnlineRank, PersistenceEvidence, RankFrames,
                                     RunEvidence, sequence_evidence)
 from refimpl.io import DetectionFrame
 
@@ -23,8 +23,8 @@ RESCALES = {
 
 
 
-def rank_confidences(frames_scores) -> list[np.ndarray]:
-    """The rank rule over a whole sequence, frame by frame in order, as a reader applies it."""
+def bare_ranks(frames_scores) -> list[np.ndarray]:
+    """The bare rank (times 100) over a whole sequence, frame by frame in order, as the evidence prior reads it."""
     ranker = OnlineRank()
     return [ranker.confidences(s) for s in frames_scores]
 
@@ -35,7 +35,7 @@ def evidence_confidences(frames) -> list[np.ndarray]:
     return [rule.confidences(f.boxes, f.scores, f.types) for f in frames]
 
 
-def test_rank_rule_on_two_frames():
+def test_bare_rank_on_two_frames():
     r = OnlineRank()
     # frame 1 sees 0.3, 0.1, 0.2: n = 3; 0.3 has 3 scores <= it -> 100, 0.1 has 1 -> floor(33.3 + .5)
     # = 33, 0.2 has 2 -> floor(66.7 + .5) = 67
@@ -44,17 +44,19 @@ def test_rank_rule_on_two_frames():
     assert r.confidences([0.2, 0.25]).tolist() == [60, 80]
     assert r.confidences([]).tolist() == []
     # half up: 1 of 8 -> 12.5 -> 13 (the rule is exact integer arithmetic, no float rounding)
-    assert rank_confidences([[1, 2, 3, 4, 5, 6, 7, 8]])[0].tolist() == [13, 25, 38, 50, 63, 75, 88, 100]
+    assert bare_ranks([[1, 2, 3, 4, 5, 6, 7, 8]])[0].tolist() == [13, 25, 38, 50, 63, 75, 88, 100]
 
 
-def test_the_rank_rule_never_reads_below_the_evidence_floor():
-    # --scores rank reads RankFrames: the bare ranks of test_rank_rule_on_two_frames' eight scores,
-    # 13 25 38 50 63 75 88 100, each lifted to EVIDENCE_FLOOR 40 where below it (docs/model.md 3.19,
-    # "The rank rule's floor"); the order of the scores still decides alone (x 0.6 gives the same)
-    assert EVIDENCE_FLOOR == 40
+def test_the_rank_rule_maps_ranks_linearly_onto_twenty_to_a_hundred():
+    # --scores rank reads RankFrames: eight scores in one frame rank k / 8 for k = 1..8, mapped onto
+    # RANK_LOW 20 .. 100 (docs/model.md 3.19, "The rank rule's map"): 20 + 80 k / 8 = 20 + 10 k,
+    # 30 40 ... 100, exact; the order of the scores still decides alone (x 0.6 gives the same)
+    assert RANK_LOW == 20
     for scale in (1.0, 0.6):
         got = RankFrames().confidences(np.zeros((8, 4)), scale * np.arange(1.0, 9.0), ("car",) * 8)
-        assert got.tolist() == [40, 40, 40, 50, 63, 75, 88, 100]
+        assert got.tolist() == [30, 40, 50, 60, 70, 80, 90, 100]
+    # three scores: 20 + 80 k / 3 = 46.67, 73.33, 100 -> rounded half up 47, 73, 100
+    assert RankFrames().confidences(None, [0.1, 0.5, 0.9]).tolist() == [47, 73, 100]
 
 
 def test_a_rank_prior_counts_scores_below_every_real_one():
@@ -80,7 +82,7 @@ def test_any_strictly_increasing_rescale_gives_the_same_confidences(name):
     rng = np.random.default_rng(7)
     frames = [rng.normal(size=rng.integers(0, 12)) for _ in range(40)]
     f = RESCALES[name]
-    assert all(np.array_equal(a, b) for a, b in zip(rank_confidences(frames), rank_confidences([f(s) for s in frames])))
+    assert all(np.array_equal(a, b) for a, b in zip(bare_ranks(frames), bare_ranks([f(s) for s in frames])))
 
 
 def _rescaled_kitti(src, dst, f) -> None:
@@ -118,8 +120,8 @@ def test_evidence_rule_learns_which_scores_persist():
 
 
 def test_evidence_rules_prior_never_falls_below_the_floor():
-    # Nothing labelled yet, so the prior alone: the rank rule gives 0.3, 0.1, 0.2 100, 33, 67
-    # (test_rank_rule_on_two_frames); EVIDENCE_FLOOR 40 lifts the 33: a detection the sequence has not
+    # Nothing labelled yet, so the prior alone: the bare rank gives 0.3, 0.1, 0.2 100, 33, 67
+    # (test_bare_rank_on_two_frames); EVIDENCE_FLOOR 40 lifts the 33: a detection the sequence has not
     # yet shown to flicker may continue a track (assign, resume at 30), not start one (> 50)
     assert PersistenceEvidence().confidences(np.zeros((3, 4)) + [0, 0, 10, 10], [0.3, 0.1, 0.2]).tolist() == [100, 40, 67]
     # Blended: frame 11 of the steady / jumping pair (n = 20 labelled, the curve 0 for the low scores,
@@ -261,8 +263,8 @@ def test_other_files_of_the_run_tell_a_file_that_its_best_detection_is_weak():
     assert (len(other.seen), len(other.labelled), int(other.persistent.sum())) == (24, 20, 10)
     assert PersistenceEvidence().confidences(*_frame_args(_steady(1, 0.2)[0])).tolist() == [100]
     assert PersistenceEvidence(other).confidences(*_frame_args(_steady(1, 0.2)[0])).tolist() == [37]
-    # the rank rule seeded alike: 52
-    assert RankFrames(other).confidences(None, [0.2]).tolist() == [52]
+    # the rank rule seeded alike: 13 of 25 -> 20 + 80 * 13 / 25 = 61.6 -> 62 (RANK_LOW 20)
+    assert RankFrames(other).confidences(None, [0.2]).tolist() == [62]
 
 
 def _frame_args(f: DetectionFrame):

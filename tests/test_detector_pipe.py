@@ -244,13 +244,13 @@ def test_the_end_of_the_input_needs_no_final_newline(tmp_path, monkeypatch, caps
 
 
 def test_with_the_rank_rule_later_scores_need_no_scale(monkeypatch, capsys):
-    # what auto refuses above is read under --scores rank: each confidence is the rank of its score
-    # among all seen so far, this frame's included, floor(100 * k / n + 1/2):
-    # frame 1 {0.9}: 0.9 -> 1/1 = 100; frame 2 {0.5, 0.9}: 0.5 -> 1/2 = 50;
-    # frame 3 {0.5, 0.7, 0.9, 7.5}: 0.7 -> 2/4 = 50, 7.5 -> 4/4 = 100
+    # what auto refuses above is read under --scores rank: each confidence is from the rank of its score
+    # among all seen so far, this frame's included, k / n, mapped onto 20..100 (RANK_LOW):
+    # floor(20 + 80 * k / n + 1/2): frame 1 {0.9}: 0.9 -> 1/1 -> 100; frame 2 {0.5, 0.9}: 0.5 ->
+    # 1/2 -> 60; frame 3 {0.5, 0.7, 0.9, 7.5}: 0.7 -> 2/4 -> 60, 7.5 -> 4/4 -> 100
     data = _rows(1) + _rows(2, score=0.5) + _rows(3, score=0.7) + _rows(3, score=7.5)
     frames = list(io.stream_mot_detections(stdio.StringIO(data), scores_rule="rank").frames)
-    assert [f.confidences.tolist() for f in frames] == [[100], [50], [50, 100]]
+    assert [f.confidences.tolist() for f in frames] == [[100], [60], [60, 100]]
     code, _, err = _run_pipe(monkeypatch, capsys, data, ["--scores", "rank", "--backend", "baseline", "--out", "-",
                                                          "--quiet"])
     assert code == 0 and "<stdin>: 3 frames, " in err

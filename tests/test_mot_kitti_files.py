@@ -265,14 +265,15 @@ def test_scores_of_any_scale_are_read_by_default_without_a_warning(tmp_path, rec
     p = write(tmp_path / "det.txt", "1,-1,0,0,10,10,42.5,-1\n1,-1,0,0,10,10,-0.8\n1,-1,0,0,10,10,139\n"
               "1,-1,0,0,10,10,0.5,-1,-1\n2,-1,0,0,10,10,40\n")
     # three of five scores outside [0,1]: the default rule (evidence) reads any scale.  Before 20
-    # detections are labelled its confidences are its prior, the rank rule never below 40
+    # detections are labelled its confidences are its prior, the bare rank never below 40
     # (EVIDENCE_FLOOR): frame 1 (n = 4, sorted -0.8 0.5 42.5 139): 42.5 has 3 <= it -> 75, -0.8 1 ->
     # 25 -> 40, 139 4 -> 100, 0.5 2 -> 50; frame 2 (n = 5): 40 has 3 <= it -> 60
     seq = io.read_mot_detections(p)
     assert [f.confidences.tolist() for f in seq.frames] == [[75, 40, 100, 50], [60]]
-    # the rank rule alone is that prior: the same floor (25 -> 40)
-    assert io.read_mot_detections(p, scores_rule="rank").frames[0].confidences.tolist() == [75, 40, 100, 50]
-    assert io.read_mot_detections(p, scores_rule="rank").frames[1].confidences.tolist() == [60]
+    # the rank rule maps the same ranks k / 4 onto 20..100 (RANK_LOW): 20 + 80 k / 4 = 80, 40, 100, 60
+    assert io.read_mot_detections(p, scores_rule="rank").frames[0].confidences.tolist() == [80, 40, 100, 60]
+    # frame 2: 40 third of 5 -> 20 + 80 * 3 / 5 = 68
+    assert io.read_mot_detections(p, scores_rule="rank").frames[1].confidences.tolist() == [68]
     assert not [w for w in recwarn if issubclass(w.category, io.InputFormatWarning)]
 
 
@@ -282,8 +283,9 @@ def test_every_score_rule_reads_every_format(tmp_path):
     mot = write(tmp_path / "det.txt", "1,-1,10,20,100,50,0.25\n1,-1,10,20,100,50,0.5\n")
     # the same two scores give the same confidences in either layout, by every rule: probability
     # 25, 50; sigmoid(0.25) = 0.5622 -> 56, sigmoid(0.5) = 0.6225 -> 62; raw 0.25 -> 0, 0.5 -> 1
-    # (half up); rank and evidence (its rank prior): 1 of 2 <= 0.25 -> 50, 2 of 2 -> 100
-    expected = {"probability": [25, 50], "sigmoid": [56, 62], "raw": [0, 1], "rank": [50, 100],
+    # (half up); evidence (its prior, the bare rank): 1 of 2 <= 0.25 -> 50, 2 of 2 -> 100; rank maps
+    # those ranks onto 20..100 (RANK_LOW): 20 + 80 / 2 = 60, 100
+    expected = {"probability": [25, 50], "sigmoid": [56, 62], "raw": [0, 1], "rank": [60, 100],
                 "evidence": [50, 100], "auto": [50, 100]}
     assert set(expected) == set(io.SCORE_RULES)
     for rule, conf in expected.items():

@@ -66,11 +66,11 @@ def test_a_raw_score_file_keeps_one_rule_whatever_one_score_is(tmp_path):
     # --scores raw: clip(round(s), 0, 100) with round half up
     assert conf == [12, 41, 1, 99, 3, 7, 55, 100, 0, 20]
     ranked = [int(fr.confidences[0]) for fr in read_mot_detections(f, scores_rule="rank").frames]
-    # rank ranks them, the 0.5 too, one detection a frame: frame i's score among the first i, e.g.
-    # frame 3: 0.5 lowest of 3 -> floor(100/3 + 1/2) = 33; frame 7: 55 sixth of 7 -> 86; frame 10:
-    # 20 sixth of 10 -> 60; never below EVIDENCE_FLOOR 40: frame 3's 33 and frame 9's -0.4 (lowest
-    # of 9 -> 11) read 40
-    assert ranked == [100, 100, 40, 100, 40, 50, 86, 100, 40, 60]
+    # rank ranks them, the 0.5 too, one detection a frame: frame i's score is k-th of the first i
+    # (k scores <= it), read as 20 + 80 k / i rounded half up (RANK_LOW 20), e.g. frame 3: 0.5
+    # lowest of 3 -> 46.67 -> 47; frame 5: 3.2 second of 5 -> 52; frame 7: 55 sixth of 7 -> 88.57
+    # -> 89; frame 9: -0.4 lowest of 9 -> 28.89 -> 29; frame 10: 20 sixth of 10 -> 68
+    assert ranked == [100, 100, 47, 100, 52, 60, 89, 100, 29, 68]
 
 
 # -- names clingo reads differently -------------------------------------------------------

@@ -132,7 +132,7 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
                         "format: auto (the default, on every format) is evidence: calibrated, without labels, on how "
                         "persistent the detections of each score are in the sequence so far (any detector, any "
                         "scale: only the scores' order matters; docs/model.md 3.19); rank (their place among the "
-                        "scores seen so far, never below 40); or read as numbers: probability (0..1), sigmoid "
+                        "scores seen so far, mapped onto 20..100); or read as numbers: probability (0..1), sigmoid "
                         "(logits, such as KITTI's PointRCNN scores), raw (0..100)")
     t.add_argument("--pool-scores", choices=("yes", "no"), default="yes",
                    help="with several --dets and an online rule (evidence, rank): yes (the default) calibrates "

@@ -13,21 +13,21 @@ how persistent the detections of that score have been so far, relative to the mo
 ones (:class:`PersistenceEvidence`): it depends on the order of the scores alone, so any strictly
 increasing rescale of a detector's scores (x 0.6, a power, logits for probabilities) gives the
 same confidences and the same tracks, and a threshold of 50 means "half as persistent as this
-detector's best" whatever the detector.  Its prior, before the sequence has shown enough, is the
-rank rule below, never below EVIDENCE_FLOOR.
+detector's best" whatever the detector.  Its prior, before the sequence has shown enough, is a
+score's bare rank among the scores seen so far (times 100, :class:`OnlineRank`), never below
+EVIDENCE_FLOOR.
 
-The rank rule (``rank``) maps each score to its place among every score the sequence has shown
-so far, this frame included, never below EVIDENCE_FLOOR (as the evidence rule's prior):
+The rank rule (``rank``) maps each score's place among every score the sequence has shown so far,
+this frame included, linearly onto RANK_LOW..100:
 
-    confidence(s) = max(EVIDENCE_FLOOR,
-                        floor(100 * #{scores seen so far <= s} / #{scores seen so far} + 1/2))
+    confidence(s) = floor(RANK_LOW + (100 - RANK_LOW) * #{scores seen so far <= s} / #{scores seen so far} + 1/2)
 
-A confidence of 90 then means "at least 90 % of this detector's evidence so far is no stronger",
-whatever the detector; the floor lets the weakest detections of an object continue its track
-(assign and resume at 30) and start none (docs/model.md 3.19, "The rank rule's floor").  The rule
-is online (frame t uses frames <= t only, so a file run and the library's ``update`` see the same
-numbers) and depends on the order of scores alone: any strictly increasing rescale of a detector's
-scores gives the same confidences, hence the same tracks.
+so the weakest detection a detector has written so far is about 20 and its strongest 100, whatever
+the detector: the presets start a track above 50 (the top five eighths of the scores) and let all but
+the lowest eighth continue one (assign and resume at 30; docs/model.md 3.19, "The rank rule's
+map").  The rule is online (frame t uses frames <= t only, so a file run and the library's
+``update`` see the same numbers) and depends on the order of scores alone: any strictly increasing
+rescale of a detector's scores gives the same confidences, hence the same tracks.
 
 ``probability`` (scores in 0..1, times 100) and ``raw`` (scores already 0..100) stay as explicit
 rules (``--scores``); the file readers apply them (refimpl.io).
@@ -59,12 +59,17 @@ detections: a sequence's first detections rank high until it has shown lower sco
 detector's second-best object is not "below the median" of four scores).  Chosen with
 write_peak on mot15 (docs/tracking.md, "Written once the detector was sure of it")."""
 EVIDENCE_FLOOR = 40
-"""The prior is the rank rule's confidence, never below this: before the sequence has shown
+"""The prior is a score's bare rank (OnlineRank, times 100), never below this: before the sequence has shown
 evidence, no detection is taken for less than 40 % as persistent as the detector's best, which
 every preset lets continue a track (assign and resume at 30) and not start one (a new track needs
 more than 50).  Rank alone called the lowest 30 % of a sparse, clean sequence's first detections
 (KITTI pedestrians) unfit even to continue a track.  Chosen among 0 (rank alone), 40, 50, 55, 60 by the
 worst case over the shifts on the tuning sets (docs/model.md 3.19)."""
+RANK_LOW = 20
+"""The rank rule (``--scores rank``) maps the ranks 0..1 linearly onto 20..100 (module doc).  Chosen
+on the tuning sets (kitti-car-train, kitti-ped-train, mot15, each against its format's own scale)
+by the worst gap, among maps low + (100 - low) * rank ** p (docs/model.md 3.19, "The rank rule's
+map")."""
 
 
 SCORE_WINDOW = 2 ** 17
@@ -156,9 +161,10 @@ def sequence_evidence(frames) -> RunEvidence:
 
 
 class OnlineRank:
-    """The rank rule's state: the last SCORE_WINDOW scores seen, sorted.  ``confidences(scores)``
-    adds one frame's scores and returns their confidences.  ``prior``: that many scores taken to
-    have been seen below every real one (0: the rank rule), so that the first scores of a sequence
+    """A score's bare rank among the last SCORE_WINDOW scores seen (kept sorted), the rank rule's
+    and the evidence prior's state.  ``confidences(scores)`` adds one frame's scores and returns
+    their ranks times 100.  ``prior``: that many scores taken to
+    have been seen below every real one (0: none), so that the first scores of a sequence
     rank high until it has shown lower ones.  ``seed``: scores taken to have been seen before the
     first frame (other files of the run, RunEvidence.seen)."""
 
@@ -168,16 +174,21 @@ class OnlineRank:
         self.reset()
 
     def confidences(self, scores) -> np.ndarray:
+        at_most, n = self.counts(scores)
+        return (100 * at_most * 2 + n) // (2 * n)  # floor(100 * k / n + 1/2), exact
+
+    def counts(self, scores) -> tuple[np.ndarray, int]:
+        """Adds one frame's scores; returns, for each, how many scores seen so far are <= it (itself
+        and the prior included) and how many have been seen (k and n of the rank k / n)."""
         s = np.asarray(scores, dtype=float).reshape(-1)
         if not len(s):
-            return np.zeros(0, dtype=np.int64)
+            return np.zeros(0, dtype=np.int64), 1
         if not np.isfinite(s).all():
             raise ValueError("a detection score is NaN or infinite")
         self._seen.add(np.sort(s, kind="stable"))
         seen = self._seen.values
         at_most = np.searchsorted(seen, s, side="right") + self.prior  # scores seen so far <= s, itself included
-        n = len(seen) + self.prior
-        return (100 * at_most * 2 + n) // (2 * n)  # floor(100 * k / n + 1/2), exact
+        return at_most.astype(np.int64), len(seen) + self.prior
 
     def reset(self) -> None:
         self._seen = SortedWindow()
@@ -187,13 +198,15 @@ class OnlineRank:
 
 class RankFrames:
     """The rank rule with the evidence rule's call: ``confidences(boxes, scores, types)``: each
-    score's rank so far, never below EVIDENCE_FLOOR."""
+    score's rank k / n so far mapped linearly onto RANK_LOW..100, rounded half up."""
 
     def __init__(self, seed: RunEvidence | None = None) -> None:
         self._rank = OnlineRank(seed=None if seed is None else seed.seen)
 
     def confidences(self, boxes, scores, types=None) -> np.ndarray:
-        return np.maximum(self._rank.confidences(scores), EVIDENCE_FLOOR)
+        k, n = self._rank.counts(scores)
+        # floor(RANK_LOW + (100 - RANK_LOW) * k / n + 1/2), exact in integers
+        return (2 * (RANK_LOW * n + (100 - RANK_LOW) * k) + n) // (2 * n)
 
     def reset(self) -> None:
         self._rank.reset()
@@ -231,7 +244,7 @@ class PersistenceEvidence:
     the labelled scores, sorted, fall into EVIDENCE_BINS equal-count bins; the share of persistent
     detections per bin, made non-decreasing in the score (isotonic) and divided by the highest
     bin's share, is the learned curve; a score's confidence is the curve at its bin, blended with
-    the prior (EVIDENCE_PRIOR: the rank rule, at least EVIDENCE_FLOOR), times 100, rounded half up.
+    the prior (EVIDENCE_PRIOR: the bare rank, at least EVIDENCE_FLOOR), times 100, rounded half up.
     ``seed``: the run's other files, seen and labelled before the first frame."""
 
     def __init__(self, seed: RunEvidence | None = None) -> None:
@@ -285,7 +298,7 @@ class PersistenceEvidence:
         s = np.asarray(scores, dtype=float).reshape(-1)
         b = np.asarray(boxes, dtype=float).reshape(-1, 4)
         kinds = tuple(types) if types is not None else ("",) * len(s)
-        prior = np.maximum(self._rank.confidences(s), EVIDENCE_FLOOR)  # (the rank rule checks the scores are finite)
+        prior = np.maximum(self._rank.confidences(s), EVIDENCE_FLOOR)  # (OnlineRank checks the scores are finite)
         self._label(b, kinds)
         self._recent.append((b, s, kinds))
         if not len(s):

@@ -103,7 +103,7 @@ SCORE_RULES = ("auto", EVIDENCE, RANK, "probability", "sigmoid", "raw")
 """How a file's scores become confidences, the same rules for every format (refimpl.core.confidence;
 docs/model.md 3.19): ``auto`` (the default) is ``evidence``, the scores calibrated on how persistent
 the detections of each score are in the sequence itself (any detector, any scale: only the order of
-the scores matters); ``rank`` (a score's place among those seen so far, never below 40); and the fixed scales
+the scores matters); ``rank`` (a score's place among those seen so far, mapped onto 20..100); and the fixed scales
 ``probability`` (scores in 0..1, times 100), ``sigmoid`` (logits, such as KITTI's PointRCNN
 scores, through a sigmoid, times 100) and ``raw`` (0..100 as they are, clipped)."""
 DEFAULT_SCORE_RULE = "auto"
