@@ -395,6 +395,48 @@ def test_fill_hidden_needs_the_resumed_track_to_be_confirmed_again():
     assert _rows_of(result, 2) == list(range(1, 9))
 
 
+def _chained_occlusion_sequence() -> DetectionSequence:
+    """_occlusion_sequence's car, seen at 28 alone as it comes out, hidden again in 29-30 (its box at
+    28, x 640..720, still 60/80 behind the bus), then seen from 31 (x 700) to 40."""
+    frames = []
+    for f in range(1, 41):
+        boxes, types = [[300.0, 200.0, 400.0, 300.0]], ["car"]
+        if f <= 8 or f == 28 or f >= 31:
+            boxes.append([100.0 + 20 * (f - 1), 300.0, 80.0, 60.0])
+            types.append("car")
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.full(n, 0.9), np.full(n, 90), tuple(types)))
+    return DetectionSequence("chained", tuple(frames), 1, (1000, 600), 25.0)
+
+
+def test_fill_hidden_fills_a_chain_of_episodes_at_the_one_reconfirmation():
+    # episodes 8 -> 28 and 28 -> 31 (hides_behind at 9 and 29, unhides_from_behind at 28 and 31);
+    # at 28 the track is not confirmed again yet (streak 1), so the second episode joins the first
+    # and both wait for the re-confirmation at 33 (streak 31, 32, 33 = min_hits 3).  fill_hidden 30:
+    # rows are final 33 frames late, so at 33 nothing of either is final: every frame 1..40 written.
+    # fill_hidden 19: 22 frames late: frames <= 33 - 1 - 22 = 10 are final, the first episode's rows
+    # (9..27) among them, so only the second is filled: 28 (observed between the two), 29-30
+    # interpolated, 31 on.  (Before chains, the second resume was no episode at all: 1-8, 33-40.)
+    seq = _chained_occlusion_sequence()
+    full = run_sequence(seq, setup_with("cpsat", fill_hidden=30))
+    assert [str(e) for e in full.events if "trk_2" in str(e)] == [
+        "occurs_at(enters_fov(trk_2),1)", "occurs_at(hides_behind(trk_2,trk_1),9)",
+        "occurs_at(unhides_from_behind(trk_2,trk_1),28)", "occurs_at(hides_behind(trk_2,trk_1),29)",
+        "occurs_at(unhides_from_behind(trk_2,trk_1),31)"]
+    assert _rows_of(full, 2) == list(range(1, 41))
+    late = run_sequence(seq, setup_with("cpsat", fill_hidden=19))
+    assert _rows_of(late, 2) == list(range(1, 9)) + list(range(28, 41))
+    car = {int(f): b for f, i, *b in full.rows.tolist() if i == 2}
+    # frame 30 lies 2/3 of the way from frame 28 to frame 31
+    np.testing.assert_allclose(car[30][0], car[28][0] + 2 / 3 * (car[31][0] - car[28][0]))
+    for keep_records in (False, True):  # the streamed file is the result's, for either
+        for fill in (30, 19):
+            out = stdio.StringIO()
+            run_sequence(seq, setup_with("cpsat", fill_hidden=fill), sink=ResultWriter(out, first_frame=1),
+                         keep_records=keep_records)
+            assert out.getvalue() == format_mot_results((full if fill == 30 else late).rows, 1)
+
+
 @pytest.mark.parametrize("keep_records", [False, True])
 def test_filled_episodes_stream_to_the_same_file(keep_records):
     # rows of a filled episode are final fill_hidden + min_hits frames late; the sink waits that long

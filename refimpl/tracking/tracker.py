@@ -23,7 +23,8 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
   track (halted with hides_behind right after its last observed frame, resumed with
   unhides_from_behind) of at most fill_hidden frames is filled by the same interpolation once the
   resumed track is confirmed again (min_hits updates): the paper's interpolated position of a
-  hidden object, written;
+  hidden object, written; a track hidden again before that chains the episodes, and the one
+  re-confirmation fills every one whose rows are not final yet;
 - with the tracker option ``backfill`` (refimpl.tracking.options), a track that becomes confirmed also
   writes the earlier frames of the streak that confirmed it (up to min_hits frames back: a new
   track's first frame and its first min_hits - 1 updates; SORT never writes them): a frame's rows
@@ -103,7 +104,7 @@ class _Track:
     predicted: np.ndarray | None = None
     streak: int = 0  # consecutive observed frames, SORT's hit_streak (0 at birth)
     bridged: bool = False  # resumed after a short gap while confirmed: stays confirmed
-    episode: tuple[int, int] | None = None  # an occlusion episode to fill once re-confirmed (fill_hidden)
+    episodes: list[tuple[int, int]] = field(default_factory=list)  # occlusion episodes to fill once re-confirmed (fill_hidden)
     confirmed: set[int] = field(default_factory=set)  # observed frames that are written
     at_rest: np.ndarray | None = None  # started with the scene's motion: its first box, until observed again
     hits: int = 0  # detections taken (write_evidence)
@@ -357,8 +358,8 @@ class AbductionTracker:
         keep = self._backfill_span + 1 if self.options.backfill or self.options.fill_hidden else 1  # the streak's boxes
         for trk in self.tracks.values():
             recent = sorted(trk.observed)[-keep:]
-            if trk.episode is not None:  # the box before a pending occlusion episode
-                recent = sorted({*recent, trk.episode[0]})
+            if trk.episodes:  # the boxes around the pending occlusion episodes
+                recent = sorted({*recent, *chain.from_iterable(trk.episodes)})
             if len(trk.observed) > len(recent):
                 trk.observed = {f: trk.observed[f] for f in recent}
             # which of the kept frames are already written: a later confirmation (backfill, an
@@ -402,9 +403,10 @@ class AbductionTracker:
             gap = frame - last - 1
             trk.bridged = (gap <= self.options.bridge_gap and int(confidences[j]) >= self.options.bridge_conf
                            and last in trk.confirmed)
-            hidden = (not trk.bridged and last in trk.confirmed and gap <= self.options.fill_hidden
-                      and trk_id in unhidden and self._hid_after(trk, last))
-            trk.episode = (last, frame) if hidden else None
+            # an occlusion episode of a confirmed track, or one more of a track re-confirming after one
+            hidden = (not trk.bridged and (last in trk.confirmed or bool(trk.episodes))
+                      and gap <= self.options.fill_hidden and trk_id in unhidden and self._hid_after(trk, last))
+            trk.episodes = [*trk.episodes, (last, frame)] if hidden else []
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
@@ -517,13 +519,17 @@ class AbductionTracker:
         first = frame
         if self.options.backfill and frame - 1 not in trk.confirmed:  # the streak's frames, a new track's first included
             first = self._backfilled(trk, frame)
-        if trk.episode is not None and trk.streak >= self.min_hits:
-            last, resumed = trk.episode
-            trk.gaps.append(trk.episode)
-            if self.sink is not None:
-                self._pend_gap(trk, last, resumed)
-            first = min(first, resumed)
-            trk.episode = None
+        if trk.episodes and trk.streak >= self.min_hits:
+            # every pending episode not final yet (rows <= frame - 1 - delay are handed over) nor
+            # bridged by the backfill above (first <= last), and what was observed from its start on
+            walked = first
+            for last, resumed in trk.episodes:
+                if frame - self.delay <= last < walked:
+                    trk.gaps.append((last, resumed))
+                    if self.sink is not None:
+                        self._pend_gap(trk, last, resumed)
+                    first = min(first, last)
+            trk.episodes = []
         for f in range(first, frame + 1):
             if f in trk.observed and f not in trk.confirmed:
                 trk.confirmed.add(f)
