@@ -437,6 +437,31 @@ def test_fill_hidden_fills_a_chain_of_episodes_at_the_one_reconfirmation():
             assert out.getvalue() == format_mot_results((full if fill == 30 else late).rows, 1)
 
 
+def test_a_chain_of_three_episodes_streams_to_the_same_file():
+    # a car at 20 px/frame behind a bus 700 px wide (x 300..1000): seen 1-8, 28-29, 32-33, 36-44,
+    # so three episodes, 8 -> 28, 29 -> 32, 33 -> 36, each hides_behind right after the last frame
+    # seen and unhides_from_behind at the resume; never two frames seen in a row between them
+    # (min_hits 3), so the track is confirmed again only at 38 and fill_hidden 30 (rows final 33
+    # frames late: 38 - 1 - 33 = 4 < 8) fills all three: every frame 1..44.  The streamed file, in
+    # which the tracker forgets what no later frame reads, is the result's
+    seen = {*range(1, 9), 28, 29, 32, 33, *range(36, 45)}
+    frames = []
+    for f in range(1, 45):
+        boxes = [[300.0, 200.0, 700.0, 300.0]] + ([[100.0 + 20 * (f - 1), 300.0, 80.0, 60.0]] if f in seen else [])
+        n = len(boxes)
+        frames.append(DetectionFrame(f, np.array(boxes), np.full(n, 0.9), np.full(n, 90), ("car",) * n))
+    seq = DetectionSequence("chain3", tuple(frames), 1, (2000, 600), 25.0)
+    result = run_sequence(seq, setup_with("cpsat", fill_hidden=30))
+    assert [str(e) for e in result.events if "trk_2" in str(e) and "hides" in str(e)] == [
+        f"occurs_at({name}(trk_2,trk_1),{f})" for f, name in
+        ((9, "hides_behind"), (28, "unhides_from_behind"), (30, "hides_behind"), (32, "unhides_from_behind"),
+         (34, "hides_behind"), (36, "unhides_from_behind"))]
+    assert _rows_of(result, 2) == list(range(1, 45))
+    out = stdio.StringIO()
+    run_sequence(seq, setup_with("cpsat", fill_hidden=30), sink=ResultWriter(out, first_frame=1), keep_records=False)
+    assert out.getvalue() == format_mot_results(result.rows, 1)
+
+
 @pytest.mark.parametrize("keep_records", [False, True])
 def test_filled_episodes_stream_to_the_same_file(keep_records):
     # rows of a filled episode are final fill_hidden + min_hits frames late; the sink waits that long

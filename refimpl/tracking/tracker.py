@@ -358,8 +358,8 @@ class AbductionTracker:
         keep = self._backfill_span + 1 if self.options.backfill or self.options.fill_hidden else 1  # the streak's boxes
         for trk in self.tracks.values():
             recent = sorted(trk.observed)[-keep:]
-            if trk.episodes:  # the boxes around the pending occlusion episodes
-                recent = sorted({*recent, *chain.from_iterable(trk.episodes)})
+            if trk.episodes:  # every box from the first pending occlusion episode on
+                recent = sorted({*recent, *(f for f in trk.observed if f >= trk.episodes[0][0])})
             if len(trk.observed) > len(recent):
                 trk.observed = {f: trk.observed[f] for f in recent}
             # which of the kept frames are already written: a later confirmation (backfill, an
@@ -406,7 +406,7 @@ class AbductionTracker:
             # an occlusion episode of a confirmed track, or one more of a track re-confirming after one
             hidden = (not trk.bridged and (last in trk.confirmed or bool(trk.episodes))
                       and gap <= self.options.fill_hidden and trk_id in unhidden and self._hid_after(trk, last))
-            trk.episodes = [*trk.episodes, (last, frame)] if hidden else []
+            trk.episodes = [*(e for e in trk.episodes if e[0] >= frame - self.delay), (last, frame)] if hidden else []
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
