@@ -136,11 +136,12 @@ def test_a_gap_longer_than_bridge_gap_is_not_bridged():
 
 def test_predictions_stay_inside_the_asp_integer_range():
     from refimpl.solvers import get_solver
-    from refimpl.tracking.tracker import MAX_BOX_AREA, AbductionTracker
+    from refimpl.tracking.bounds import MAX_BOX_AREA
+    from refimpl.tracking.tracker import AbductionTracker
     tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 4000, "img_height": 3000})
     # a box far outside and enormous: clipped to [-4000, 8000] x [-3000, 6000], then its area
     # 12000 * 9000 = 1.08e8 > 2e7 is scaled down around its centre
-    x, y, w, h = tracker._bounded(np.array([-1e6, -1e6, 1e7, 1e7]))
+    x, y, w, h = tracker.bounds.boxes(np.array([[-1e6, -1e6, 1e7, 1e7]]))[0]
     assert w * h <= MAX_BOX_AREA * (1 + 1e-9) and 100 * MAX_BOX_AREA < 2**31
     assert (x + w / 2, y + h / 2) == pytest.approx((2000.0, 1500.0))
 

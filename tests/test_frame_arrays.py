@@ -1,8 +1,8 @@
 """The per-frame loop's array helpers give exactly what the per-object code they replaced gave
 (issue 27, item 2), on every frame of real sequences: the fast path's tie-break numbers
 (LazyTiebreak) against tiebreak_weights, the top matrix's rows against np.flatnonzero per row,
-integer_boxes against integer_box, and the tracker's clipping of predictions (_bounded, on Python
-floats) against the np.clip formulation it had before."""
+integer_boxes against integer_box, and the tracker's clipping of predictions (refimpl.tracking.bounds,
+on arrays and on Python floats) against the np.clip formulation it had before."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from refimpl.solvers.fast_path import _inter_and_top, _rows
 from refimpl.core.constants import resolve_constants
 from refimpl.core.hypothesis import parse_action
 from refimpl.io.datasets import benchmark_sequences
-from refimpl.tracking.tracker import MAX_BOX_AREA
+from refimpl.tracking.bounds import MAX_BOX_AREA, PredictionBounds
 
 # (benchmark, sequence, format, class): a KITTI Car sequence with the Car preset and a MOT15 one
 # with occlusions (hides_behind / unhides_from_behind in its history) and the default preset
@@ -32,14 +32,14 @@ def _track(shared_data, bench, name, fmt, cls):
     seq = io.load_detections(next(b for b in benchmark_sequences(bench, shared_data) if b.name == name))
     tracker = new_tracker(setup_for(fmt, cls, "cpsat"), seq.image_size, getattr(seq, "fps", None))
     clipped: list[tuple[np.ndarray, np.ndarray]] = []
-    bounded = tracker._bounded_values
 
-    def recording(*box):  # an attribute of this one tracker instance, nothing global
-        out = bounded(*box)
-        clipped.append((np.array(box), np.array(out)))
-        return out
+    class Recording(PredictionBounds):  # this one tracker's bounds, recording: nothing global
+        def boxes(self, boxes):
+            out = super().boxes(boxes)
+            clipped.extend(zip(boxes.copy(), out.copy()))
+            return out
 
-    tracker._bounded_values = recording
+    tracker.bounds = Recording(tracker.bounds.width, tracker.bounds.height, tracker.bounds.cap)
     problems = []
     for fr in seq.frames:
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, lambda p, h: problems.append(p))
@@ -148,7 +148,9 @@ def test_bounded_equals_np_clip_bit_for_bit(tracked):
         [-5 * w, -5 * h, 20 * w, 20 * h], [3 * w, 0.3, 10.0, 10.0], [0.25, 0.75, 0.1, 0.2],
         [-w - 0.5, 2 * h - 0.25, 1e9, 1e9], [10.1, 20.2, 30000.3, 9000.7])]
     for box in extreme:
-        assert tracker._bounded(box).tobytes() == _bounded_with_np_clip(box, w, h, cap).tobytes()
+        expected = _bounded_with_np_clip(box, w, h, cap).tobytes()
+        assert tracker.bounds.boxes(box[None])[0].tobytes() == expected
+        assert np.array(tracker.bounds.box(*box.tolist())).tobytes() == expected
 
 
 def test_bounded_caps_the_area_as_np_clip_did():
@@ -159,7 +161,7 @@ def test_bounded_caps_the_area_as_np_clip_did():
     from refimpl.tracking.tracker import AbductionTracker
     tracker = AbductionTracker(get_solver("cpsat"), {"img_width": 10000, "img_height": 10000})
     box = np.array([-20000.0, -15000.0, 60000.0, 50000.0])
-    out = tracker._bounded(box)
+    out = tracker.bounds.boxes(box[None])[0]
     assert out.tobytes() == _bounded_with_np_clip(box, 10000, 10000).tobytes()
     side = 30000 / math.sqrt(45)
     assert out == pytest.approx([5000 - side / 2, 5000 - side / 2, side, side], rel=1e-12)

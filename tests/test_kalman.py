@@ -355,6 +355,29 @@ def test_a_batch_predict_is_one_predict_per_filter_bit_for_bit(hold):
     assert got[7] is None and sum(g is None for g in got) == 1
 
 
+@pytest.mark.parametrize("hold", [False, True])
+def test_the_batch_prediction_as_an_array_is_each_predict_bit_for_bit(hold):
+    # the tracker's frame problem takes a frame's predictions as one array (predict_box_array): each
+    # valid row the bits of that filter's own predict(), the invalid one (a negative area: no
+    # w = sqrt(s * r)) masked out, the filters advanced as predict() advances them
+    rng = np.random.default_rng(11)
+    batch, single = _box_filters(rng, 9), _box_filters(np.random.default_rng(11), 9)
+    for f in batch[::3] + single[::3]:
+        f.time_since_update = 2
+    batch[4].kf.x[6, 0] = single[4].kf.x[6, 0] = -batch[4].kf.x[2, 0] * 2
+    batch[7].kf.x[2, 0] = single[7].kf.x[2, 0] = -5.0
+    boxes, ok = BoxKalman.predict_box_array(batch, hold)
+    assert boxes.shape == (9, 4) and ok.tolist() == [k != 7 for k in range(9)]
+    for k, (a, b) in enumerate(zip(batch, single)):
+        try:
+            want = b.predict(hold)
+        except InvalidPrediction:
+            want = None
+        _same(a.kf, b.kf, f"filter {k}")
+        assert (a.age, a.hit_streak, a.time_since_update) == (b.age, b.hit_streak, b.time_since_update)
+        assert want is None or _bits(boxes[k]) == _bits(want)
+
+
 def test_a_batch_with_one_invalid_box_changes_no_filter():
     # the third box has w = 0 (no area, no aspect ratio): ValueError before any filter is corrected
     rng = np.random.default_rng(11)

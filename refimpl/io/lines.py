@@ -30,7 +30,7 @@ MAX_COORD = 1_000_000.0
 MIN_DET_SIZE = 0.01
 """Detection boxes must be at least this wide and high (results files keep two decimals)."""
 MAX_DET_AREA = 20_000_000
-"""px^2: a larger detection box would take 100 * area beyond clingo's 32-bit integers (tracker.MAX_BOX_AREA)."""
+"""px^2: a larger detection box would take 100 * area beyond clingo's 32-bit integers (refimpl.tracking.bounds.MAX_BOX_AREA)."""
 
 
 def _data_lines(fh, path: Path | str):

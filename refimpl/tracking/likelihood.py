@@ -26,6 +26,8 @@ prediction itself).  Chosen on the tuning sets' worst case over the shifts (mode
 slower ones lost HOTA under bursty misses on kitti-car-train (63.2 -> 62.3 with 1, 0.75, 0.5, in a
 first version that scaled the size too)."""
 
+_FACTORS = np.array(GAP_SPEEDS)[:, None, None]  # one factor per slice of _speed_boxes
+
 MATCHED_IOU = 0.5
 """A track overlapping a detection by at least this is matched as predicted (the overlap at which
 the MOTChallenge and KITTI scorers take two boxes for one object; the model's iou_thresh_occupied)."""
@@ -57,7 +59,8 @@ def scene_shift(active: np.ndarray, boxes: np.ndarray, likelihood: np.ndarray) -
     if len(active) < SHIFT_SUPPORT or len(boxes) == 0:
         return None
     matched = likelihood.max(axis=1) >= _MATCHED
-    if matched.mean() >= MATCHED_SHARE or len(active) - matched.sum() < SHIFT_SUPPORT:
+    hits = int(matched.sum())
+    if hits / len(matched) >= MATCHED_SHARE or len(active) - hits < SHIFT_SUPPORT:  # (hits / n: mean()'s division)
         return None  # (a shift matches at most the unmatched tracks besides the matched ones)
     centres = active[:, :2] + active[:, 2:] / 2
     disp = (boxes[:, :2] + boxes[:, 2:] / 2)[None] - centres[:, None]  # (n, m, 2)
@@ -80,7 +83,7 @@ def scene_shift(active: np.ndarray, boxes: np.ndarray, likelihood: np.ndarray) -
     union = size[..., 0] * size[..., 1] + other[..., 0] * other[..., 1] - inter
     support = ((inter >= MATCHED_IOU * union) & usable).any(axis=2).sum(axis=1)
     best = np.lexsort((np.hypot(candidates[:, 0], candidates[:, 1]), -support))[0]
-    if support[best] < int(matched.sum()) + SHIFT_SUPPORT:  # >= SHIFT_SUPPORT, and that many more
+    if support[best] < hits + SHIFT_SUPPORT:  # >= SHIFT_SUPPORT, and that many more
         return None
     return candidates[best]
 
@@ -104,7 +107,12 @@ def matching_likelihood(predicted: np.ndarray, boxes: np.ndarray, states: list[s
     (index, last observed box) of the halted tracks, given with uncertain_speed; ``shifted``:
     the option scene_shift.  (The tracker options are read by the caller: options.py reads this
     module's constants for its help texts.)"""
-    ml = scale_iou(iou_matrix(predicted, boxes))
+    n = len(predicted)
+    if last_seen:  # the halted tracks' moved boxes in the same iou_matrix call (elementwise: the same values)
+        every = iou_matrix(np.concatenate((predicted, _speed_boxes(last_seen, predicted))), boxes)
+        ml, moved = scale_iou(every[:n]), every[n:]
+    else:
+        ml, moved = scale_iou(iou_matrix(predicted, boxes)), None
     if shifted:
         active = [k for k, state in enumerate(states) if state == "active"]
         shift = scene_shift(predicted[active], boxes, ml[active]) if active else None
@@ -112,8 +120,8 @@ def matching_likelihood(predicted: np.ndarray, boxes: np.ndarray, states: list[s
             shifted_likelihood(predicted, boxes, ml, shift)
     if at_rest:
         either_motion(at_rest, boxes, ml)
-    if last_seen:
-        uncertain_speed(last_seen, predicted, boxes, ml)
+    if moved is not None:
+        uncertain_speed(last_seen, moved, ml)
     return ml
 
 
@@ -128,20 +136,29 @@ def either_motion(at_rest: list[tuple[int, np.ndarray]], boxes: np.ndarray, ml: 
     ml[rest] = np.maximum(ml[rest], scale_iou(iou_matrix(still, boxes)))
 
 
-def uncertain_speed(last_seen: list[tuple[int, np.ndarray]], predicted: np.ndarray, boxes: np.ndarray,
-                    ml: np.ndarray) -> None:
-    """The tracker option uncertain_speed, refimpl decision (docs/model.md 3.27): an object not
-    seen for a while has moved at a speed known only roughly.  A halted track's matching
-    likelihood (ML_t, in place) is the best overlap of a detection with its predicted box and
-    with that box's centre moved GAP_SPEEDS times as far from the centre of its last observed
-    box as the filter predicts (the predicted size kept)."""
+def _speed_boxes(last_seen: list[tuple[int, np.ndarray]], predicted: np.ndarray) -> np.ndarray:
+    """The boxes uncertain_speed matches besides the predictions, (len(GAP_SPEEDS) * h, 4), factor
+    by factor, each every halted track of ``last_seen`` (index, last observed box): the predicted
+    box's centre moved GAP_SPEEDS times as far from the centre of the last observed box as the
+    filter predicts, the predicted size kept."""
     halted = [k for k, _ in last_seen]
     last = np.array([box for _, box in last_seen], dtype=float).reshape(-1, 4)
     pred = predicted[halted]
     start, size = last[:, :2] + last[:, 2:] / 2, pred[:, 2:]
     moved = pred[:, :2] + size / 2 - start
-    factors = np.array(GAP_SPEEDS)[:, None, None]
-    corners = (start + factors * moved - size / 2).reshape(-1, 2)  # factor by factor, each every track
-    moved_boxes = np.hstack([corners, np.tile(size, (len(GAP_SPEEDS), 1))])
-    best = iou_matrix(moved_boxes, boxes).reshape(len(GAP_SPEEDS), len(halted), -1).max(axis=0)
+    out = np.empty((len(GAP_SPEEDS), len(halted), 4))
+    out[..., :2] = start + _FACTORS * moved - size / 2
+    out[..., 2:] = size
+    return out.reshape(-1, 4)
+
+
+def uncertain_speed(last_seen: list[tuple[int, np.ndarray]], moved_iou: np.ndarray, ml: np.ndarray) -> None:
+    """The tracker option uncertain_speed, refimpl decision (docs/model.md 3.27): an object not
+    seen for a while has moved at a speed known only roughly.  A halted track's matching
+    likelihood (ML_t, in place) is the best overlap of a detection with its predicted box and
+    with that box's centre moved GAP_SPEEDS times as far from the centre of its last observed
+    box as the filter predicts (the predicted size kept).  ``moved_iou``: the IoU of the boxes of
+    _speed_boxes with the frame's detections."""
+    halted = [k for k, _ in last_seen]
+    best = moved_iou.reshape(len(GAP_SPEEDS), len(halted), -1).max(axis=0)
     ml[halted] = np.maximum(ml[halted], scale_iou(best))  # scale_iou is monotone: the max commutes

@@ -141,6 +141,22 @@ def _box_values(v: list[float]) -> tuple[float, float, float, float] | None:
     return box if _valid_box(box) else None
 
 
+def boxes_of_states(states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """_box_values of every row of ``states`` (n, DIM_X): the (n, 4) boxes and the mask of the
+    rows _box_values makes a box of (every component finite, s * r > 0, the box finite with
+    w, h > 0); the other rows hold no box."""
+    finite = np.isfinite(states).all(axis=1)
+    u, c, s, r = states[:, 0], states[:, 1], states[:, 2], states[:, 3]
+    with np.errstate(all="ignore"):
+        sr = s * r
+        ok = finite & (sr > 0)
+        w = np.sqrt(np.where(ok, sr, 1.0))
+        h = s / w
+        boxes = np.column_stack((u - w / 2.0, c - h / 2.0, w, h))
+    ok &= np.isfinite(boxes).all(axis=1) & (w > 0) & (h > 0)
+    return boxes, ok
+
+
 def transition_matrix() -> np.ndarray:
     """F: constant velocity, one frame per step (u += du, v += dv, s += ds; r constant)."""
     F = np.eye(DIM_X)
@@ -291,6 +307,19 @@ class BoxKalman:
             f._after_predict()
             out.append(_box_values(v))
         return out
+
+    @staticmethod
+    def predict_box_array(filters: "list[BoxKalman]", hold: bool = False) -> "tuple[np.ndarray, np.ndarray]":
+        """predict_box_values as one (n, 4) array and a mask of the rows that are boxes (where
+        predict_box_values gives None the row is not one): the same IEEE operations, elementwise
+        (numpy's float64 sqrt, products and quotients round as Python's do)."""
+        for f in filters:
+            f._before_predict(hold)
+        X = predict_many([f.kf for f in filters])
+        states = (np.array([f.kf.x[:, 0] for f in filters]) if X is None else X[:, :, 0]).reshape(-1, DIM_X)
+        for f in filters:
+            f._after_predict()
+        return boxes_of_states(states)
 
     def _before_predict(self, hold: bool) -> None:
         x = self.kf.x

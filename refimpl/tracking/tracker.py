@@ -50,6 +50,7 @@ from ..core.geometry import integer_box_array, integer_boxes
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
+from .bounds import PredictionBounds
 from .likelihood import matching_likelihood
 from .options import TrackerOptions, WrittenBox
 from .written_box import WrittenBoxLearner
@@ -62,9 +63,6 @@ _RESUMING = frozenset(e.name for e in explaining("resume"))
 _STARTING = frozenset(e.name for e in explaining("start"))
 _UNHIDING = frozenset(e.name for e in explaining("resume") if e.unhides)
 _HIDING = frozenset(e.name for e in explaining("halt") if e.hides)
-MAX_BOX_AREA = 20_000_000
-"""px^2 (working pixels, refimpl.tracking.camera.working_scale): 100 * area stays below clingo's 2^31
-integer limit."""
 
 FrameObserver = Callable[[FrameProblem, Hypothesis], None]
 
@@ -187,10 +185,10 @@ class AbductionTracker:
         """The tracker options (refimpl.tracking.options), read where they decide."""
         self.constants = tuple((constants or {}).items())
         self.constant_map = dict(self.constants)
-        self._clip_size = (float(self.constant_map.get("img_width", 0) or 1500) / self.pixel_scale,
-                           float(self.constant_map.get("img_height", 0) or 1500) / self.pixel_scale)
-        """The image's (width, height) in its own pixels, 1500 where unknown: predictions are clipped to
-        it extended by one size on every side (_bounded)."""
+        self.bounds = PredictionBounds.of(self.constant_map.get("img_width", 0),
+                                          self.constant_map.get("img_height", 0), self.pixel_scale)
+        """Where a prediction may lie (refimpl.tracking.bounds): the image, 1500 px a side where
+        unknown, extended by one size on every side."""
         self.min_hits = min_hits
         self.time_limit = time_limit
         self.compact_history = compact_history
@@ -227,10 +225,10 @@ class AbductionTracker:
                       types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
-        boxes_now = BoxKalman.predict_box_values([t.kalman for t in tracks], self.options.hold_hidden)  # one batch
-        bounded = self._bounded_values
-        predicted = np.array([bounded(*(self._restarted(t).tolist() if b is None else b))
-                              for t, b in zip(tracks, boxes_now)], dtype=float).reshape(-1, 4)
+        boxes_now, ok = BoxKalman.predict_box_array([t.kalman for t in tracks], self.options.hold_hidden)  # one batch
+        for k in np.flatnonzero(~ok).tolist():
+            boxes_now[k] = self._restarted(tracks[k])
+        predicted = self.bounds.boxes(boxes_now)
         for k, t in enumerate(tracks):
             t.predicted = predicted[k]
         det_ids = [_det_id(i) for i in range(len(boxes))]
@@ -275,29 +273,6 @@ class AbductionTracker:
             make = FrameProblem
         return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self.constants,
                     history=history)
-
-    def _bounded(self, box: np.ndarray) -> np.ndarray:
-        """A prediction clipped to the image extended by one image size on every side, its area
-        capped at MAX_BOX_AREA: a long-halted track's area velocity cannot blow it past the ASP
-        model's 32-bit integer arithmetic (the relations compute 100 * area).
-
-        On Python floats: min(max(v, lo), hi) is np.clip of a finite value (a prediction is finite,
-        BoxKalman.predict checks it), and +, -, *, / and sqrt round as numpy's float64 ones do."""
-        return np.array(self._bounded_values(*box.tolist()))
-
-    def _bounded_values(self, bx: float, by: float, bw0: float, bh0: float) -> tuple[float, float, float, float]:
-        """_bounded on the box's four Python floats, as a tuple."""
-        w, h = self._clip_size
-        x1, y1 = min(max(bx, -w), 2 * w), min(max(by, -h), 2 * h)
-        x2, y2 = min(max(bx + bw0, -w), 2 * w), min(max(by + bh0, -h), 2 * h)
-        bw, bh = max(x2 - x1, 1.0), max(y2 - y1, 1.0)
-        cap = MAX_BOX_AREA if self.pixel_scale == 1.0 else MAX_BOX_AREA / (self.pixel_scale * self.pixel_scale)
-        if bw * bh > cap:  # (the cap is on the working box of the facts)
-            shrink = math.sqrt(cap / (bw * bh))
-            cx, cy = x1 + bw / 2, y1 + bh / 2
-            bw, bh = bw * shrink, bh * shrink
-            x1, y1 = cx - bw / 2, cy - bh / 2
-        return (x1, y1, bw, bh)
 
     @staticmethod
     def _restarted(trk: _Track) -> np.ndarray:
