@@ -152,6 +152,9 @@ def test_bad_input_is_a_clear_error(dets, classes, message):
     # the tracker is made rather than at its first frame
     ({"constants": {"likelihood_conf": 150}}, "likelihood_conf=150 must be within 0..100"),
     ({"constants": {"leave_visible": -1}}, "leave_visible=-1 must be within 0..100"),
+    # a halted track's weight (<= 100000) times likelihood_halving must stay within 32 bits
+    ({"constants": {"likelihood_halving": 10001}}, "likelihood_halving=10001 must be within 0..10000"),
+    ({"constants": {"likelihood_halving": -1}}, "likelihood_halving=-1 must be within 0..10000"),
     ({"img_size": (640,)}, "(width, height)"),
     ({"img_size": (640, 0)}, "positive integers"),
     ({"min_hits": -1}, "non-negative integer"),

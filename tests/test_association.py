@@ -356,6 +356,28 @@ def test_a_detection_that_continues_an_active_track_is_not_taken_by_a_track_halt
         assert "assign(trk_1,det_1)" in h.actions
 
 
+# --- stale_likelihood (refimpl decision, docs/model.md 3.31) -------------------------------------
+
+@pytest.mark.parametrize("halving,halted_at,resumed,level10", [
+    (0, 4, True, -90001),     # not weighed (the paper): resume 90000 + 1 against assign 60000 + 1
+    (10, 9, True, -81819),    # 1 frame since the halt: 90000 x 10 // 11 = 81818 > 60000
+    (10, 6, True, -64286),    # 4 frames: 90000 x 10 // 14 = 64285 > 60000
+    (10, 4, False, -60001),   # 6 frames: 90000 x 10 // 16 = 56250 < 60000: the active track keeps det_0
+])
+def test_a_resume_weighs_less_the_longer_its_track_went_unseen(backend, halving, halted_at, resumed, level10):
+    # trk_1 active overlaps det_0 by 0.6, trk_2 halted (missing_detections at halted_at) by 0.9;
+    # resume_claimed is off (iou_thresh_claim 100000), so only level 10 decides: each answer has one
+    # pair action (count 1), and its matching likelihood is the IoU, a halted track's times
+    # H / (H + 10 - halted_at) with H = likelihood_halving
+    p = frame([det(0)], [trk(1), trk(2, "halted")], [("trk_1", "det_0", 60000), ("trk_2", "det_0", 90000)],
+              [hist("missing_detections(trk_2)", halted_at)],
+              constants=[("likelihood_halving", halving), ("iou_thresh_claim", 100000)])
+    h = solve(backend, p)
+    assert ("resume(trk_2,det_0)" in h.actions) is resumed
+    assert ("assign(trk_1,det_0)" in h.actions) is not resumed
+    assert dict(h.cost)[10] == level10
+
+
 # --- start_constraints ---------------------------------------------------------------------------
 
 @pytest.mark.parametrize("conf,started", [(40, False), (41, True)])

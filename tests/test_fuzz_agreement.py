@@ -124,6 +124,26 @@ def test_percentage_constants_must_be_within_0_to_100(capsys, name, value, refus
     assert (f"{name}={value} must be within 0..100" in err) == refused
 
 
+def test_a_resume_after_the_largest_gap_weighs_nothing_and_every_backend_agrees(solvers):
+    # [stale_likelihood] (docs/model.md 3.31) at its limits: likelihood_halving 10000 (its largest:
+    # 10^5 x 10^4 = 10^9 < 2^31) and a halt 2^31 - 1 frames ago, the largest accepted time difference.
+    # clingo takes the gap as 10^9 (H + gap must fit 32 bits): 100000 x 10000 // (10000 + 10^9) = 0,
+    # as Python's 100000 x 10000 // (10000 + 2^31 - 1) = 0.  The resume still counts 1 at level 10,
+    # and ignoring the detection would cost 10 at level 3: resume(a,d), level 10 = -(0 + 1).
+    lo = -2 ** 30 + 1
+    text = (f"#const curr_time={2 ** 30}.\n#const likelihood_halving=10000.\n#const lost_after_hidden_max={2 ** 30}.\n"
+            "#const lost_after_missing=1073741824.\n"
+            "trk(a, car).\ntrk_state(a, halted).\nbox2d(a, 5, 5, 10, 10).\n"
+            "det(d, car, 100).\nbox2d(d, 5, 5, 10, 10).\niou(a, d, 100000).\n"
+            f"occurs_at(enters_fov(a),{lo}).\noccurs_at(missing_detections(a),{lo}).\n")
+    p = parse_facts(text)
+    check_ranges(p)
+    outcome, _ = agreement.judge_frame(p, solvers)
+    assert outcome == "agree"
+    h = solvers[0].solve(p)
+    assert "resume(a,d)" in h.actions and dict(h.cost)[10] == -1
+
+
 def test_at_the_exact_limits_every_backend_still_agrees(solvers):
     # the largest accepted time difference: 2^30 - (-2^30 + 1) = 2^31 - 1.  The track halted at
     # -2^30 + 1 by missing_detections (cost 2), so at curr_time it may be lost (curr_time - T =

@@ -50,7 +50,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .spec import ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, FrameProblem, ProblemFormatError
+from .spec import ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, MAX_LIKELIHOOD_HALVING, FrameProblem, ProblemFormatError
 from .constants import resolve_constants
 
 BOX_LIMIT = 2 ** 28
@@ -74,6 +74,10 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
         raise ProblemFormatError(f"likelihood_conf={value} must be within 0..100 (how much a detection's confidence "
                                  "weighs in the matching likelihood; outside it a pair's weight at level 10 could be "
                                  "negative or leave clingo's 32-bit integers)", source)
+    if name == "likelihood_halving" and not 0 <= value <= MAX_LIKELIHOOD_HALVING:
+        raise ProblemFormatError(f"likelihood_halving={value} must be within 0..{MAX_LIKELIHOOD_HALVING} (frames: a "
+                                 "halted track's matching likelihood times it / (it + frames since the halt); "
+                                 "beyond it the weight would leave clingo's 32-bit integers)", source)
     if name == "hide_overlap" and value < 0:
         raise ProblemFormatError(f"hide_overlap={value} must be >= 0 (a percentage of the track's box; below 0 "
                                  "every pair of tracks would count as overlapping)", source)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Iterable, Mapping
+from typing import Callable, Iterable, Mapping
 from functools import lru_cache
 
 from .errors import UserFacingError
@@ -43,6 +43,21 @@ def pair_likelihood(iou: int, conf: int, likelihood_conf: int) -> int:
     in integers as clingo computes it (every operand >= 0, so its truncating division is floor).
     likelihood_conf 0: the IoU alone (the paper); 100: IoU x conf / 100."""
     return iou * (CONF_WEIGHT_SCALE - likelihood_conf * (100 - conf)) // CONF_WEIGHT_SCALE
+
+
+MAX_LIKELIHOOD_HALVING = 10_000
+"""The largest likelihood_halving: a pair's weight (<= IOU_SCALE) times it fits clingo's 32 bits."""
+
+
+def halved_likelihood(ml: int, halted_for: int | None, likelihood_halving: int) -> int:
+    """A halted track's pair weight at level 10 (model/optimisation.lp [stale_likelihood], refimpl
+    decision, docs/model.md 3.31): its matching likelihood ``ml`` times H / (H + the frames since its
+    halt), H = likelihood_halving, in integers as clingo computes it (floor: every operand >= 0).
+    Unchanged where H is 0 or the track has no halt in its history (``halted_for`` None).  The
+    encoding takes a gap above 10^9 as 10^9 (32 bits): the same quotient, 0, as ml x H <= 10^9."""
+    if not likelihood_halving or halted_for is None:
+        return ml
+    return ml * likelihood_halving // (likelihood_halving + halted_for)
 
 
 TRACK_STATES = ("active", "halted")
@@ -240,12 +255,22 @@ class FrameProblem:
     def iou_map(self) -> dict[tuple[str, str], int]:
         return {(t, d): v for t, d, v in self.iou}
 
-    def likelihood_map(self, likelihood_conf: int) -> dict[tuple[str, str], int]:
-        """(trk, det) -> the pair's matching likelihood at level 10 (pair_likelihood), for every iou/3 fact."""
+    def likelihood_map(self, likelihood_conf: int, likelihood_halving: int = 0,
+                       halted_at: Callable[[str], int | None] | None = None) -> dict[tuple[str, str], int]:
+        """(trk, det) -> the pair's matching likelihood at level 10 (pair_likelihood), for every iou/3
+        fact; with likelihood_halving a halted track's halved by its time since the halt
+        (halved_likelihood; ``halted_at``: the event state's, trk -> the time of its latest halt)."""
         if not likelihood_conf:
-            return self.iou_map
-        conf = {d.id: d.conf for d in self.detections}
-        return {(t, d): pair_likelihood(v, conf[d], likelihood_conf) for t, d, v in self.iou}
+            ml = self.iou_map
+        else:
+            conf = {d.id: d.conf for d in self.detections}
+            ml = {(t, d): pair_likelihood(v, conf[d], likelihood_conf) for t, d, v in self.iou}
+        if likelihood_halving and halted_at is not None:
+            since = {t.id: (None if (h := halted_at(t.id)) is None else self.time - h)
+                     for t in self.tracks if t.state == "halted"}
+            ml = {(t, d): v if t not in since else halved_likelihood(v, since[t], likelihood_halving)
+                  for (t, d), v in ml.items()}
+        return ml
 
     def detection(self, det_id: str) -> Detection:
         for d in self.detections:

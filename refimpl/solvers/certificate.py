@@ -106,7 +106,9 @@ def pair_weights(problem: FrameProblem) -> dict[tuple[str, str], int]:
     assignment_constraints for an active track, resume_constraints for a halted one whose resume
     has a possible explanation, model/certificate.lp [cert_pairs]): its level-10 weight (ML: the
     matching likelihood, model/optimisation.lp [matching_likelihood])."""
-    ml = problem.likelihood_map(resolve_constants(problem)["likelihood_conf"])
+    c = resolve_constants(problem)
+    ml = problem.likelihood_map(c["likelihood_conf"], c["likelihood_halving"],  # [stale_likelihood]
+                                EventState.from_problem(problem).halted_at if c["likelihood_halving"] else None)
     pairs = candidate_pairs(problem)
     halted = {t for t, _ in pairs} & {t.id for t in problem.tracks if t.state == "halted"}
     explained = _resume_explainable(problem, halted) if halted else set()

@@ -159,7 +159,8 @@ def check_answer(problem: FrameProblem, hyp: Hypothesis) -> CheckReport:
     explanations, event_names = _check_events(rules, problem, hyp.events, bad)
     _check_explanations(rules, actions, explanations, bad)
     valid_events = [a for a in hyp.events if _well_formed_event(a)]
-    return CheckReport(tuple(bad), recompute_cost(problem, hyp.actions, event_names, valid_events, rules.c))
+    return CheckReport(tuple(bad), recompute_cost(problem, hyp.actions, event_names, valid_events, rules.c,
+                                                    state=rules.state))
 
 
 def _check_actions(rules: FrameRules, atoms, bad: list[Violation]) -> list[tuple[str, tuple[str, ...]]]:
@@ -266,14 +267,22 @@ def _well_formed_event(atom: str) -> bool:
     return _EVENT_ARITY.get(event.name) == len(event.args)
 
 
-def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c, weights=None) -> Cost:
+def recompute_cost(problem: FrameProblem, actions, event_names, event_atoms, c, weights=None,
+                   state: EventState | None = None) -> Cost:
     """The cost vector of an answer, every level of PRIORITIES (docs/model-spec.md section 5); every
     level is a sum over the answer's atoms, so it is also the cost of part of an answer.  ``weights``:
-    the frame's tie-break weights (refimpl.solvers.common.tiebreak_weights), when the caller has them."""
+    the frame's tie-break weights (refimpl.solvers.common.tiebreak_weights), ``state``: its event
+    state (EventState.from_problem), when the caller has them."""
     # [matching_likelihood]: the IoU weighed by the detection's confidence, computed here from the
     # rule's text (model/optimisation.lp), not from the solvers' refimpl.core.spec.pair_likelihood
     conf, k = {d.id: d.conf for d in problem.detections}, c["likelihood_conf"]
     ml = {(t, d): v * (10000 - k * (100 - conf[d])) // 10000 for t, d, v in problem.iou}
+    halving = c["likelihood_halving"]
+    if halving:  # [stale_likelihood]: a halted track's, times H / (H + curr_time - T), T its halted_at
+        state = EventState.from_problem(problem) if state is None else state
+        since = {t.id: c["curr_time"] - h for t in problem.tracks
+                 if t.state == "halted" and (h := state.halted_at(t.id)) is not None}
+        ml = {(t, d): v * halving // (halving + since[t]) if t in since else v for (t, d), v in ml.items()}
     level = dict.fromkeys(PRIORITIES, 0)
     for atom in actions:
         term = parse_term(atom)

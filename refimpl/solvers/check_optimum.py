@@ -179,7 +179,7 @@ def _cost(rules: FrameRules, weights, atoms) -> tuple[int, ...]:
     acts = [a for a in atoms if not a.startswith("occurs_at(")]
     evs = [a for a in atoms if a.startswith("occurs_at(")]
     names = [event_term(e).split("(", 1)[0] for e in evs]
-    return tuple(v for _, v in recompute_cost(rules.problem, acts, names, evs, rules.c, weights))
+    return tuple(v for _, v in recompute_cost(rules.problem, acts, names, evs, rules.c, weights, rules.state))
 
 
 def _options(rules: FrameRules, weights, action: str, args: tuple[str, ...]):
@@ -246,7 +246,7 @@ def _replaced(problem: FrameProblem, hyp: Hypothesis, mine, answer, rules: Frame
     acts = tuple(a for a in keep if not a.startswith("occurs_at("))
     evs = tuple(a for a in keep if a.startswith("occurs_at("))
     names = [event_term(e).split("(", 1)[0] for e in evs]
-    cost: Cost = recompute_cost(problem, acts, names, evs, rules.c, weights)
+    cost: Cost = recompute_cost(problem, acts, names, evs, rules.c, weights, rules.state)
     better = Hypothesis(hyp.time, acts, evs, cost, optimal=False, backend="check_optimum")
     report = check_answer(problem, better)
     if not report.ok:

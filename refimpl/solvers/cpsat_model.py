@@ -194,7 +194,8 @@ class _Builder:
                  model: cp_model.CpModel, am: AbductionModel):
         self.problem, self.state, self.constants, self.model, self.am = problem, state, constants, model, am
         self.iou = problem.iou_map
-        self.ml = problem.likelihood_map(constants["likelihood_conf"])  # [matching_likelihood]
+        self.ml = problem.likelihood_map(constants["likelihood_conf"], constants["likelihood_halving"],
+                                         state.halted_at)  # [matching_likelihood], [stale_likelihood]
         inter = intersection_matrix([t.box for t in problem.tracks])
         self.tb = tiebreak_weights(problem, inter, state)
         self.w = self.tb.pair  # 2^q per pair; events: tb.event (common.py)

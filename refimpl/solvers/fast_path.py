@@ -16,7 +16,7 @@ import numpy as np
 from ..knowledge.events import EventState
 from ..knowledge.event_table import EVENT_TABLE, EventType, explaining, reexplained
 from ..core.hypothesis import EVENT_LEVEL, PRIORITIES, TIEBREAK_LEVEL
-from ..core.spec import FrameProblem, pair_likelihood
+from ..core.spec import FrameProblem, halved_likelihood, pair_likelihood
 from .common import DisjointSets, LazyTiebreak, disjoint_pairs as _disjoint
 from .admissibility import Claimed, assignment_constraints, occupied, resume_constraints, start_constraints
 from .cpsat_model import _cost, _explanations, _has_explanation
@@ -446,7 +446,7 @@ class _FrameOptions:
         self.edges: list[tuple[int, int, tuple[int, ...]]] = []  # (track, detection, cost above the event level)
         self.edge_opt: list[_Option | None] = []
         self.ml: list[int] = []  # each edge's matching likelihood ([matching_likelihood])
-        k = self.constants["likelihood_conf"]
+        k, halving = self.constants["likelihood_conf"], self.constants["likelihood_halving"]
         for i, j in self.pairs:  # candidate pairs, in iou/3 order
             t, d = self.tracks[i], self.dets[j]
             active = t.state == "active"
@@ -454,6 +454,9 @@ class _FrameOptions:
                 continue
             tid, did = t.id, d.id
             ml = pair_likelihood(self.iou[(tid, did)], d.conf, k)
+            if halving and not active:  # [stale_likelihood]
+                halted = self.state.halted_at(tid)
+                ml = halved_likelihood(ml, None if halted is None else self.constants["curr_time"] - halted, halving)
             self.ml.append(ml)
             if active:
                 o = _Option(f"assign({tid},{did})", None, _cost("assign", ml, tiebreak=self.w[(tid, did)]))

@@ -14,7 +14,7 @@ HIDDEN_MAX_SECONDS = 10.0
 """The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
 frame rate (docs/model.md 3.14); without a frame rate the model's default in frames applies."""
 
-DURATIONS = ("lost_after_missing", "lost_after_hidden", "noise_max_age", "claim_after")
+DURATIONS = ("lost_after_missing", "lost_after_hidden", "noise_max_age", "claim_after", "likelihood_halving")
 """The model constants that are durations in frames: a preset's are converted from the frame rate
 it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as are the tracker
 options of FRAME_OPTIONS."""

@@ -59,8 +59,9 @@ from refimpl.core.hypothesis import Hypothesis
 from refimpl.core.ranges import BOX_LIMIT, TIME_LIMIT, check_constant, check_ranges
 from refimpl.solvers import BACKENDS, NoAdmissibleHypothesis, get_solver
 from refimpl.solvers.clingo_backend import check_representable
-from refimpl.core.spec import (ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, Detection, FrameProblem, HistoryEvent,
-                               ProblemFormatError, Term, TrackPrediction, write_facts)
+from refimpl.core.spec import (ASP_INT_MAX, ASP_INT_MIN, IOU_SCALE, MAX_LIKELIHOOD_HALVING, Detection,
+                               FrameProblem, HistoryEvent, ProblemFormatError, Term, TrackPrediction,
+                               write_facts)
 from refimpl.core.facts import parse_facts
 
 TARGETS = ("frame", "sequence")
@@ -105,6 +106,8 @@ def _constants(rng: random.Random) -> dict[str, int]:
             pool += [100, 99, rng.randint(0, 100)]
         if name == "likelihood_conf":  # 0..100 (refimpl.core.ranges); the presets' 100
             pool += [100, 50, rng.randint(0, 100)]
+        if name == "likelihood_halving":  # 0..MAX_LIKELIHOOD_HALVING (refimpl.core.ranges); kitti/car's 10
+            pool += [10, 25, MAX_LIKELIHOOD_HALVING, rng.randint(1, 100)]
         rng.shuffle(pool)
         for value in pool:
             try:
