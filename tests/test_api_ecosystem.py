@@ -280,4 +280,4 @@ def test_half_the_resolution_tracks_alike(shared_data):
         b = half.update(np.column_stack([dets[:, :4] * 0.5, dets[:, 4:]]))
         assert np.array_equal(b[:, :4] * 2, a[:, :4]) and np.array_equal(b[:, 4:], a[:, 4:])
         written += len(a)
-    assert written > 800  # 822 rows in 314 frames: the runs are compared on real tracking
+    assert written > 750  # 794 rows in 314 frames: the runs are compared on real tracking
