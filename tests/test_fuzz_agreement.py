@@ -136,12 +136,18 @@ def test_a_resume_after_the_largest_gap_weighs_nothing_and_every_backend_agrees(
             "trk(a, car).\ntrk_state(a, halted).\nbox2d(a, 5, 5, 10, 10).\n"
             "det(d, car, 100).\nbox2d(d, 5, 5, 10, 10).\niou(a, d, 100000).\n"
             f"occurs_at(enters_fov(a),{lo}).\noccurs_at(missing_detections(a),{lo}).\n")
+    h = _agreed_answer(solvers, text)
+    assert "resume(a,d)" in h.actions and dict(h.cost)[10] == -1
+
+
+def _agreed_answer(solvers, text: str):
+    """The first backend's answer to the fact file ``text``, after checking that it is in range and
+    that every backend agrees on it."""
     p = parse_facts(text)
     check_ranges(p)
     outcome, _ = agreement.judge_frame(p, solvers)
     assert outcome == "agree"
-    h = solvers[0].solve(p)
-    assert "resume(a,d)" in h.actions and dict(h.cost)[10] == -1
+    return solvers[0].solve(p)
 
 
 def test_at_the_exact_limits_every_backend_still_agrees(solvers):
@@ -154,9 +160,5 @@ def test_at_the_exact_limits_every_backend_still_agrees(solvers):
     text = (f"#const curr_time={2 ** 30}.\n#const img_width={2 ** 30}.\n#const border_margin={lo}.\n"
             "trk(a, car).\ntrk_state(a, halted).\nbox2d(a, 5, 5, 10, 10).\n"
             f"occurs_at(enters_fov(a),{lo}).\noccurs_at(missing_detections(a),{lo}).\n")
-    p = parse_facts(text)
-    check_ranges(p)
-    outcome, _ = agreement.judge_frame(p, solvers)
-    assert outcome == "agree"
-    h = solvers[0].solve(p)
+    h = _agreed_answer(solvers, text)
     assert "end(a)" in h.actions and f"occurs_at(lost(a),{2 ** 30})" in h.events

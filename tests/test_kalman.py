@@ -337,22 +337,37 @@ def test_filters_without_a_shared_model_are_updated_one_by_one():
 
 @pytest.mark.parametrize("hold", [False, True])
 def test_a_batch_predict_is_one_predict_per_filter_bit_for_bit(hold):
-    rng = np.random.default_rng(11)
-    batch, single = _box_filters(rng, 9), _box_filters(np.random.default_rng(11), 9)
-    for f in batch[::3] + single[::3]:  # a third went a frame without an update: hold mode applies
-        f.time_since_update = 2
-    batch[4].kf.x[6, 0] = single[4].kf.x[6, 0] = -batch[4].kf.x[2, 0] * 2  # s + ds <= 0: ds is zeroed
-    batch[7].kf.x[2, 0] = single[7].kf.x[2, 0] = -5.0  # a negative area: an invalid prediction
+    batch, single = _twin_batches()
     got = BoxKalman.predict_many(batch, hold)
-    for k, (a, b) in enumerate(zip(batch, single)):
-        try:
-            want = b.predict(hold)
-        except InvalidPrediction:
-            want = None
-        _same(a.kf, b.kf, f"filter {k}")
-        assert (a.age, a.hit_streak, a.time_since_update) == (b.age, b.hit_streak, b.time_since_update)
+    for k, want in enumerate(_each_predicted(batch, single, hold)):
         assert (got[k] is None) == (want is None) and (want is None or _bits(got[k]) == _bits(want))
     assert got[7] is None and sum(g is None for g in got) == 1
+
+
+def _twin_batches() -> tuple[list[BoxKalman], list[BoxKalman]]:
+    """Two equal batches of nine filters: a third went a frame without an update (hold mode
+    applies), filter 4 has s + ds <= 0 (ds is zeroed), filter 7 a negative area (an invalid
+    prediction)."""
+    batch, single = _box_filters(np.random.default_rng(11), 9), _box_filters(np.random.default_rng(11), 9)
+    for f in batch[::3] + single[::3]:
+        f.time_since_update = 2
+    batch[4].kf.x[6, 0] = single[4].kf.x[6, 0] = -batch[4].kf.x[2, 0] * 2
+    batch[7].kf.x[2, 0] = single[7].kf.x[2, 0] = -5.0
+    return batch, single
+
+
+def _each_predicted(batch: list[BoxKalman], single: list[BoxKalman], hold: bool) -> list:
+    """Each filter of ``single`` predicted on its own (None where it raises InvalidPrediction), after
+    checking that the batch left every filter (state, counters) as its own predict() leaves it."""
+    out = []
+    for k, (a, b) in enumerate(zip(batch, single)):
+        try:
+            out.append(b.predict(hold))
+        except InvalidPrediction:
+            out.append(None)
+        _same(a.kf, b.kf, f"filter {k}")
+        assert (a.age, a.hit_streak, a.time_since_update) == (b.age, b.hit_streak, b.time_since_update)
+    return out
 
 
 @pytest.mark.parametrize("hold", [False, True])
@@ -360,22 +375,11 @@ def test_the_batch_prediction_as_an_array_is_each_predict_bit_for_bit(hold):
     # the tracker's frame problem takes a frame's predictions as one array (predict_box_array): each
     # valid row the bits of that filter's own predict(), the invalid one (a negative area: no
     # w = sqrt(s * r)) masked out, the filters advanced as predict() advances them
-    rng = np.random.default_rng(11)
-    batch, single = _box_filters(rng, 9), _box_filters(np.random.default_rng(11), 9)
-    for f in batch[::3] + single[::3]:
-        f.time_since_update = 2
-    batch[4].kf.x[6, 0] = single[4].kf.x[6, 0] = -batch[4].kf.x[2, 0] * 2
-    batch[7].kf.x[2, 0] = single[7].kf.x[2, 0] = -5.0
+    batch, single = _twin_batches()
     boxes, ok = BoxKalman.predict_box_array(batch, hold)
     assert boxes.shape == (9, 4) and ok.tolist() == [k != 7 for k in range(9)]
-    for k, (a, b) in enumerate(zip(batch, single)):
-        try:
-            want = b.predict(hold)
-        except InvalidPrediction:
-            want = None
-        _same(a.kf, b.kf, f"filter {k}")
-        assert (a.age, a.hit_streak, a.time_since_update) == (b.age, b.hit_streak, b.time_since_update)
-        assert want is None or _bits(boxes[k]) == _bits(want)
+    for k, want in enumerate(_each_predicted(batch, single, hold)):
+        assert (want is None) == (not ok[k]) and (want is None or _bits(boxes[k]) == _bits(want))
 
 
 def test_a_batch_with_one_invalid_box_changes_no_filter():
