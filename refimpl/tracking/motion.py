@@ -291,28 +291,14 @@ class BoxKalman:
         """``f.predict(hold)`` for every filter, the filters advanced as one batch
         (refimpl.tracking.kalman.predict_many: the same bits): each one's predicted box, or None
         where ``predict`` would raise InvalidPrediction (that filter is advanced all the same)."""
-        return [None if b is None else np.array(b) for b in BoxKalman.predict_box_values(filters, hold)]
-
-    @staticmethod
-    def predict_box_values(filters: "list[BoxKalman]", hold: bool = False) -> "list[tuple[float, ...] | None]":
-        """predict_many, each box as a tuple of four Python floats (the tracker's frame problem
-        takes them on without an array per box)."""
-        for f in filters:
-            f._before_predict(hold)
-        X = predict_many([f.kf for f in filters])
-        # every state's floats in one conversion where the batch left them stacked
-        states = [f.kf.x[:, 0].tolist() for f in filters] if X is None else X[:, :, 0].tolist()
-        out = []
-        for f, v in zip(filters, states):
-            f._after_predict()
-            out.append(_box_values(v))
-        return out
+        boxes, ok = BoxKalman.predict_box_array(filters, hold)
+        return [box if good else None for box, good in zip(boxes, ok.tolist())]
 
     @staticmethod
     def predict_box_array(filters: "list[BoxKalman]", hold: bool = False) -> "tuple[np.ndarray, np.ndarray]":
-        """predict_box_values as one (n, 4) array and a mask of the rows that are boxes (where
-        predict_box_values gives None the row is not one): the same IEEE operations, elementwise
-        (numpy's float64 sqrt, products and quotients round as Python's do)."""
+        """predict_many as one (n, 4) array and a mask of the rows that are boxes (where predict
+        would raise InvalidPrediction the row is not one): per box the IEEE operations of
+        _box_values, elementwise (numpy's float64 sqrt, products and quotients round as Python's do)."""
         for f in filters:
             f._before_predict(hold)
         X = predict_many([f.kf for f in filters])
