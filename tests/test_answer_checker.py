@@ -99,6 +99,29 @@ def test_a_resume_with_a_claimed_detection_is_reported():
     assert _rules(problem(8), answer) == set()
 
 
+def test_a_glimpse_resumed_or_keeping_a_start_out_is_reported():
+    # [glimpse] (docs/model.md 3.32), glimpse_frames 1: trk_2 entered at 8 and was missed at 9
+    # (9 - 8 = 1 <= 1): it may not resume det_0, and det_0's start is not occupied by it (IoU 0.9 >
+    # iou_thresh_occupied 0.5 would forbid the start of a track's detection).  With trk_2 entered at
+    # 7 (9 - 7 = 2) the resume is admissible and the start occupied.
+    from refimpl.core.spec import Detection, FrameProblem, HistoryEvent, Term, TrackPrediction
+    box = (300, 300, 50, 50)
+
+    def problem(started_at):
+        return FrameProblem(time=10, detections=(Detection("det_0", "car", 90, box),),
+                            tracks=(TrackPrediction("trk_2", "car", "halted", box),),
+                            iou=(("trk_2", "det_0", 90000),), constants=(("glimpse_frames", 1),),
+                            history=(HistoryEvent(Term("enters_fov", (Term("trk_2"),)), started_at),
+                                     HistoryEvent(Term("missing_detections", (Term("trk_2"),)), 9)))
+
+    resume = _hyp(("resume(trk_2,det_0)",), ("occurs_at(recover(trk_2),10)",))
+    start = _hyp(("ignore_trk(trk_2)", "start(det_0)"), ("occurs_at(enters_fov(det_0),10)",))
+    assert _rules(problem(8), resume) == {"glimpse"}
+    assert _rules(problem(8), start) == set()
+    assert _rules(problem(7), resume) == set()
+    assert _rules(problem(7), start) == {"start_occupied"}
+
+
 @pytest.mark.parametrize("event", [
     "occurs_at(unhides_from_behind(trk_13,trk_99),235)",  # unknown track
     "occurs_at(unhides_from_behind(trk_13),235)",  # wrong arity

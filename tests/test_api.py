@@ -155,6 +155,8 @@ def test_bad_input_is_a_clear_error(dets, classes, message):
     # a halted track's weight (<= 100000) times likelihood_halving must stay within 32 bits
     ({"constants": {"likelihood_halving": 10001}}, "likelihood_halving=10001 must be within 0..10000"),
     ({"constants": {"likelihood_halving": -1}}, "likelihood_halving=-1 must be within 0..10000"),
+    # a count of frames of observation (docs/model.md 3.32); below 0 it would mean nothing
+    ({"constants": {"glimpse_frames": -1}}, "glimpse_frames=-1 must be >= 0"),
     ({"img_size": (640,)}, "(width, height)"),
     ({"img_size": (640, 0)}, "positive integers"),
     ({"min_hits": -1}, "non-negative integer"),

@@ -378,6 +378,29 @@ def test_a_resume_weighs_less_the_longer_its_track_went_unseen(backend, halving,
     assert dict(h.cost)[10] == level10
 
 
+# --- glimpse (refimpl decision, docs/model.md 3.32) ----------------------------------------------
+
+@pytest.mark.parametrize("glimpse_frames,started_at,resumed", [
+    (1, 8, False),   # halted at 9, 9 - 8 = 1 <= 1: seen in one frame, a glimpse
+    (1, 7, True),    # 9 - 7 = 2 > 1: seen in two frames, resumed as before
+    (2, 7, False),   # 2 <= 2: a glimpse at the larger bound
+    (0, 8, True),    # 0: no glimpse, the paper's resume
+])
+def test_a_track_seen_in_one_frame_is_not_resumed_and_leaves_its_place_to_a_start(
+        backend, glimpse_frames, started_at, resumed):
+    # trk_2 entered at started_at, was missed at 9 and det_0 (conf 90) overlaps its prediction by
+    # 0.9.  Where it may resume, the resume is taken (level 10: 90000 + 1 against 0).  Where it is a
+    # glimpse it may neither resume nor, by [start_occupied] (0.9 > iou_thresh_occupied 0.5), keep
+    # det_0 from starting: det_0 starts (enters_fov, level 2) rather than being ignored (10 at level 3).
+    p = frame([det(0)], [trk(2, "halted")], [("trk_2", "det_0", 90000)],
+              [hist("enters_fov(trk_2)", started_at), hist("missing_detections(trk_2)", 9)],
+              constants=[("glimpse_frames", glimpse_frames)])
+    h = solve(backend, p)
+    assert ("resume(trk_2,det_0)" in h.actions) is resumed
+    assert ("start(det_0)" in h.actions) is not resumed
+    assert dict(h.cost)[10] == (-90001 if resumed else 0)
+
+
 # --- start_constraints ---------------------------------------------------------------------------
 
 @pytest.mark.parametrize("conf,started", [(40, False), (41, True)])

@@ -78,6 +78,9 @@ def check_constant(name: str, value: int, source: str = "--const") -> None:
         raise ProblemFormatError(f"likelihood_halving={value} must be within 0..{MAX_LIKELIHOOD_HALVING} (frames: a "
                                  "halted track's matching likelihood times it / (it + frames since the halt); "
                                  "beyond it the weight would leave clingo's 32-bit integers)", source)
+    if name == "glimpse_frames" and value < 0:
+        raise ProblemFormatError(f"glimpse_frames={value} must be >= 0 (frames of observation: a halted track missed "
+                                 "within that many frames of its start is a glimpse; 0: none)", source)
     if name == "hide_overlap" and value < 0:
         raise ProblemFormatError(f"hide_overlap={value} must be >= 0 (a percentage of the track's box; below 0 "
                                  "every pair of tracks would count as overlapping)", source)

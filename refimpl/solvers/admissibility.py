@@ -1,6 +1,6 @@
 """The admissibility of actions (docs/model-spec.md section 1): match_type and the integrity
 constraints assignment_constraints, resume_constraints and start_constraints of Appendix A
-(with refimpl's start_occupied, docs/model.md 3.21, and resume_claimed, 3.29).
+(with refimpl's start_occupied, docs/model.md 3.21, resume_claimed, 3.29, and glimpse, 3.32).
 
 Backend-neutral: the CP-SAT model, the fast path, the candidate pairs of the decomposition and
 the tie-break (refimpl.solvers.common) all read these rules from here, one place.
@@ -59,7 +59,23 @@ def resume_constraints(problem: FrameProblem, constants: Mapping[str, int], iou:
             by_id = {t.id: t for t in problem.tracks}
         if not anticipated_unhide(state, constants, trk, by_id):
             return False
+    if constants["glimpse_frames"] > 0:
+        if state is None:
+            state = EventState.from_problem(problem)
+        if glimpse(state, constants, trk):
+            return False
     return not resume_claimed(problem, constants, iou, trk, det, state, claims)
+
+
+def glimpse(state: EventState, constants: Mapping[str, int], trk: TrackPrediction) -> bool:
+    """refimpl rule (docs/model.md 3.32, association.lp [glimpse]): a halted track whose latest halt
+    (halted_at) came at most glimpse_frames frames after its start (started_at) was seen too
+    briefly to say an object is there: it is not resumed and occupies no detection."""
+    g = constants["glimpse_frames"]
+    if g <= 0 or trk.state != "halted":
+        return False
+    start, halt = state.started_at(trk.id), state.halted_at(trk.id)
+    return start is not None and halt is not None and halt - start <= g
 
 
 class Claimed:
@@ -112,20 +128,27 @@ def resume_claimed(problem: FrameProblem, constants: Mapping[str, int], iou: Map
     return det.id in (Claimed(problem, constants, iou) if claims is None else claims)
 
 
-def occupying_pairs(problem: FrameProblem, constants: Mapping[str, int]) -> list[tuple[str, str]]:
+def occupying_pairs(problem: FrameProblem, constants: Mapping[str, int],
+                    state: EventState | None = None) -> list[tuple[str, str]]:
     """refimpl rule (docs/model.md 3.21, association.lp [start_occupied]): the (trk, det) pairs of a
     matching type with IoU > iou_thresh_occupied; such a detection is that track seen again, or
-    seen twice, and cannot start a new track."""
+    seen twice, and cannot start a new track.  A :func:`glimpse` occupies nothing (3.32); ``state``:
+    the frame's event state (built from the problem where a glimpse may be)."""
     limit = constants["iou_thresh_occupied"]
-    types = {t.id: t.type for t in problem.tracks}
+    glimpses: frozenset[str] = frozenset()
+    if constants["glimpse_frames"] > 0 and any(t.state == "halted" for t in problem.tracks):
+        if state is None:
+            state = EventState.from_problem(problem)
+        glimpses = frozenset(t.id for t in problem.tracks if glimpse(state, constants, t))
+    types = {t.id: t.type for t in problem.tracks if t.id not in glimpses}
     det_types = {d.id: d.type for d in problem.detections}
     return [(t, d) for t, d, v in problem.iou
             if v > limit and t in types and d in det_types and match_type(problem, types[t], det_types[d])]
 
 
-def occupied(problem: FrameProblem, constants: Mapping[str, int]) -> frozenset[str]:
+def occupied(problem: FrameProblem, constants: Mapping[str, int], state: EventState | None = None) -> frozenset[str]:
     """The ids of the detections that lie where a track of their type is (:func:`occupying_pairs`)."""
-    return frozenset(d for _, d in occupying_pairs(problem, constants))
+    return frozenset(d for _, d in occupying_pairs(problem, constants, state))
 
 
 def start_constraints(constants: Mapping[str, int], det: Detection, taken: frozenset[str]) -> bool:

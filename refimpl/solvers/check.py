@@ -128,6 +128,9 @@ class FrameRules:
             if halted is not None and self.problem.time - halted >= c["claim_after"] and d.id in self.claimed:
                 return Violation("resume_claimed", f"{atom}: {d.id} continues {self.claimed[d.id]}, and {t.id} "
                                  f"was halted at {halted}")
+            if self.glimpse(t.id):
+                return Violation("glimpse", f"{atom}: {t.id} was halted at {halted}, within "
+                                 f"glimpse_frames {c['glimpse_frames']} of its start")
         elif name == "start":
             d = dets[args[0]]
             if not (d.conf > c["conf_thresh_new_track"] and d.box[2] * d.box[3] > c["size_threshold"]):
@@ -136,13 +139,23 @@ class FrameRules:
             # than iou_thresh_occupied
             for t in tracks.values():
                 v = iou.get((t.id, d.id))
-                if v is not None and v > c["iou_thresh_occupied"] and self.match_type(t.type, d.type):
+                if (v is not None and v > c["iou_thresh_occupied"] and self.match_type(t.type, d.type)
+                        and not self.glimpse(t.id)):
                     return Violation("start_occupied", f"{atom}: {t.id} is where {d.id} is (IoU {v})")
         elif name in ("end", "ignore_trk") and tracks[args[0]].state != "halted":
             return Violation(f"{name}_constraints", f"{atom} needs a halted track")
         elif name == "halt" and tracks[args[0]].state != "active":
             return Violation("halt_constraints", f"{atom} needs an active track")
         return None
+
+    def glimpse(self, trk: str) -> bool:
+        """association.lp [glimpse] (docs/model.md 3.32): a halted track whose latest halt came at
+        most glimpse_frames frames after its latest start; it neither resumes nor occupies."""
+        g = self.c["glimpse_frames"]
+        if g <= 0 or self.tracks[trk].state != "halted":
+            return False
+        start, halt = self.state.started_at(trk), self.state.halted_at(trk)
+        return start is not None and halt is not None and halt - start <= g
 
     def ignore_needs_explanation(self, trk: str) -> bool:
         """explain_ignore: an ignored track that is clipped needs one explanation iff one is possible."""

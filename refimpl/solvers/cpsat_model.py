@@ -278,7 +278,7 @@ class _Builder:
             self.explain(res, [self.event(spec, args) for spec, args in expl])
 
     def detections(self) -> None:
-        taken = occupied(self.problem, self.constants)  # [start_occupied]
+        taken = occupied(self.problem, self.constants, self.state)  # [start_occupied]
         for d in self.problem.detections:
             # start(D) <=> exactly one of its possible explanations (enters_fov)   (explain_start)
             starts = [spec for spec in explaining("start") if spec.poss(self.state, self.constants, d.id, tracks=None)]

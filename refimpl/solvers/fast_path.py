@@ -345,7 +345,7 @@ class _FrameOptions:
         self.cost = {name: constants[e.cost_constant] for name, e in EVENT_TABLE.items()}
         self.top_rows = _rows(top)
         self._track_solos()
-        self._detection_solos(occupied(problem, constants))  # [start_occupied]
+        self._detection_solos(occupied(problem, constants, state))  # [start_occupied]
         self._edges()
 
     def priced(self, found: list[tuple[EventType, tuple[str, ...]]]) -> list[tuple[tuple[int, int], str]]:

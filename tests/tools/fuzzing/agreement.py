@@ -94,6 +94,8 @@ def _constants(rng: random.Random) -> dict[str, int]:
     """Some #const overrides at edge values the range check accepts one by one."""
     defaults = default_constants()
     out: dict[str, int] = {}
+    if rng.random() < 0.2:  # the glimpse rule (docs/model.md 3.32) on; _history makes glimpses
+        out["glimpse_frames"] = rng.choice((1, 1, 2))
     if rng.random() < 0.35:
         return out
     for name in rng.sample(list(defaults), rng.randint(1, 5)):
@@ -108,6 +110,8 @@ def _constants(rng: random.Random) -> dict[str, int]:
             pool += [100, 50, rng.randint(0, 100)]
         if name == "likelihood_halving":  # 0..MAX_LIKELIHOOD_HALVING (refimpl.core.ranges); kitti/car's 10
             pool += [10, 25, MAX_LIKELIHOOD_HALVING, rng.randint(1, 100)]
+        if name == "glimpse_frames":  # >= 0 (refimpl.core.ranges); kitti/pedestrian's 1
+            pool += [1, 1, 2, 3, rng.randint(1, 10)]
         rng.shuffle(pool)
         for value in pool:
             try:
@@ -175,6 +179,13 @@ def _history(rng: random.Random, track_ids: list[str], det_ids: list[str], now: 
         mine = [h.time for h in out if h.event.args[0].name == a]
         if a in active and mine and rng.random() < 0.6:
             out.append(HistoryEvent(Term(_RECOVER, (Term(a),)), rng.choice((max(mine), now - 1))))
+    for a in track_ids:  # some halted tracks lived briefly, as the tracker logs it: entered, missed k frames
+        # later (a glimpse where k <= glimpse_frames, docs/model.md 3.32)
+        if a not in active and rng.random() < 0.5:
+            k, halt = rng.choice((1, 1, 2, 3)), rng.choice((now - 1, now - rng.randint(1, 10)))
+            if abs(halt - k) <= TIME_LIMIT:
+                out += [HistoryEvent(Term("enters_fov", (Term(a),)), halt - k),
+                        HistoryEvent(Term("missing_detections", (Term(a),)), halt)]
     rng.shuffle(out)
     return out
 
