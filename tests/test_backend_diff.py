@@ -11,13 +11,14 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 from pathlib import Path
 
 from refimpl.io.datasets import benchmark_sequences
 from refimpl import io
 from refimpl.cli import main
-from refimpl.runs.diff import diff_sequence
+from refimpl.runs.diff import DiffJob, diff_job, diff_sequence
 from refimpl.solvers import get_solver
 
 REPO = Path(__file__).resolve().parent.parent
@@ -124,6 +125,38 @@ def _demo40():
     paths = io.demo_sequence_paths()
     seq = io.read_mot_detections(paths.dets_path, seqinfo=paths.seqinfo_path, scores_rule="probability")
     return dataclasses.replace(seq, frames=seq.frames[:40])
+
+
+def _glimpse_sequence():
+    # one pedestrian seen at frame 1, missed at 2, seen again at 3 and 4, at the same box (conf 90)
+    def frame(t, boxes):
+        b = np.array(boxes, dtype=float).reshape(-1, 4)
+        return io.DetectionFrame(t, b, np.full(len(b), 0.9), np.full(len(b), 90, dtype=np.int64),
+                                 ("pedestrian",) * len(b))
+    box = (400, 200, 50, 100)
+    return io.DetectionSequence("glimpse", (frame(1, [box]), frame(2, []), frame(3, [box]), frame(4, [box])),
+                                1, (1000, 600), 10.0)
+
+
+def test_diff_const_reaches_every_backend_and_a_rule_missing_from_one_is_found(tmp_path, capsys):
+    # With --const glimpse_frames=1 the track started at 1 and missed at 2 (2 - 1 <= 1) is a glimpse
+    # (docs/model.md 3.32): at 3 the model starts det_0 anew where it would have resumed the track.
+    # An encoding without [glimpse] still resumes it: one disagreement, at frame 3, and only with
+    # the constant given (without it the rule is off in both).  The model's own backends agree on
+    # every frame either way.
+    pytest.importorskip("clingo")
+    from refimpl.solvers.asp_model import load_asp_model
+    folder = _copy_model(tmp_path / "noglimpse", lambda name, text: text.replace(
+        "glimpse(Trk) :- trk(Trk, _),", "glimpse(Trk) :- trk(Trk, _), Trk != Trk,"))
+    model = load_asp_model(folder)
+    seq = _glimpse_sequence()
+    assert diff_sequence(seq, asp_model=model).disagreements == 0
+    report = diff_job(DiffJob(seq, ("cpsat-full", "clingo"), asp_model=model, constants=(("glimpse_frames", 1),)))
+    assert report.disagreement_frames == [3] and not report.ok
+    assert diff_sequence(seq, ("cpsat", "cpsat-full", "clingo"), constants={"glimpse_frames": 1}).ok
+    # the command line: a value out of range is one line and exit 2, before any frame is tracked
+    assert main(["diff", "--dets", "x", "--const", "glimpse_frames=-1"]) == 2
+    assert "glimpse_frames=-1 must be >= 0" in capsys.readouterr().err
 
 
 def test_an_unchanged_copy_of_the_model_gives_no_disagreement(tmp_path):

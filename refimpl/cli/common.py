@@ -9,7 +9,9 @@ import math
 from contextlib import contextmanager
 
 from .. import io
+from ..core.constants import default_constants
 from ..core.errors import UserFacingError
+from ..core.ranges import check_constant
 from ..runs.scaleout import Plan
 from ..io.datasets import DATASETS as BENCHMARKS  # noqa: F401  (the one dataset catalogue)
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND, TRACKERS  # noqa: F401  (the registry)
@@ -22,6 +24,21 @@ CLASSES = {"car": "car", "pedestrian": "pedestrian", "cyclist": "cyclist"}
 
 class UserError(UserFacingError):
     """A mistake in the command line or its inputs: reported in one line, exit code 2."""
+
+
+def checked_constants(args: argparse.Namespace) -> dict[str, int]:
+    """--const overrides (``track``, ``diff``), checked against the model's constants before any
+    frame is tracked: one line for an unknown name or a value out of its range."""
+    consts = dict(args.const or [])
+    known = default_constants()
+    unknown = sorted(set(consts) - set(known))
+    if unknown:
+        raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
+    if getattr(args, "img_size", None) is not None and {"img_width", "img_height"} & set(consts):
+        raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
+    for name, value in consts.items():
+        check_constant(name, value, f"--const {name}={value}")
+    return consts
 
 
 @contextmanager

@@ -274,6 +274,9 @@ def _add_diff(sub: "argparse._SubParsersAction") -> None:
     x.add_argument("--time-limit", type=_time_limit, default=20.0, metavar="SECONDS",
                    help="per-frame limit of every backend (default 20); a frame not proven optimal in time "
                         "is reported as such")
+    x.add_argument("--const", type=_parse_const, action="append", metavar="NAME=VALUE",
+                   help="override a model constant (repeatable; on top of model/constants.lp, no preset: "
+                        "give a preset's constants here to diff the rules it turns on)")
     x.add_argument("--asp-model", metavar="DIR",
                    help="the clingo backend runs your own encoding, every DIR/*.lp, instead of model/ "
                         "(docs/model.md, 'Your own encoding'); without refimpl's tie-break it is compared on "

@@ -19,7 +19,7 @@ from ..solvers import BACKENDS, CLINGO, get_solver
 from ..solvers.asp_model import AspModelError, load_asp_model
 from ..solvers.check import check_answer
 from ..solvers.check_optimum import FrameOptimum
-from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan
+from .common import EXIT_FAILURE, EXIT_OK, UserError, _load_sequence, _plan, checked_constants
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
@@ -83,6 +83,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
         except AspModelError as exc:
             raise UserError(str(exc)) from None
         differences = asp_model.differences()  # printed once the inputs are known to be good
+    constants = tuple(checked_constants(args).items())  # one line for an unknown name or a value out of range
     plan = _plan(args)
     if args.benchmark:
         seqs = [seq for _, seq, _ in load_dataset(args.benchmark, args.data)]
@@ -94,7 +95,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
         raise UserError("give --dets PATH (one or more sequences) or --benchmark NAME (every sequence of a benchmark)")
     if asp_model is not None:
         print(differences, flush=True)
-    reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit, asp_model) for seq in seqs], plan,
+    reports = run_tasks(diff_job, [DiffJob(seq, backends, args.time_limit, asp_model, constants) for seq in seqs], plan,
                         label=f"diff {','.join(backends)}", quiet=args.quiet, describe=lambda j: j.seq.name,
                         steps=lambda j: len(j.seq.frames), frames_rule=False)  # a bar frame by frame, as track's
     total = DiffReport(reports[0].backends, levels=reports[0].levels) if reports else DiffReport(backends)

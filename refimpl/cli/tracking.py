@@ -14,7 +14,6 @@ from .. import io
 from ..core.constants import default_constants
 from ..core.display import visible
 from ..core.loader import load
-from ..core.ranges import check_constant
 from ..runs.progress import Progress
 from ..runs.scaleout import run_tasks
 from ..runs.tasks import SCENE_FROM_RESULT, SCENE_TO_JSON, AnswerCheck, TrackJob, results_file_name, track_job
@@ -24,7 +23,8 @@ from ..solvers import BACKENDS, BASELINE, get_solver
 from ..tracking.options import option_flags
 from ..tracking.pipeline import AUTO, run_sequence
 from ..tracking.presets import preset_named, score_warning
-from .common import CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup, frozen_heap
+from .common import (CheckFailed, EXIT_OK, UserError, _load_sequence, _option_flags_given, _plan, _setup,
+                     checked_constants, frozen_heap)
 
 
 def _track_outputs(args: argparse.Namespace) -> list[Path | str]:
@@ -58,20 +58,6 @@ def _track_inputs(args: argparse.Namespace) -> dict[str, str | None]:
     return inputs
 
 
-def _track_constants(args: argparse.Namespace) -> dict[str, int]:
-    """--const overrides, checked against the model's constants before any frame is tracked."""
-    consts = dict(args.const or [])
-    known = default_constants()
-    unknown = sorted(set(consts) - set(known))
-    if unknown:
-        raise UserError(f"unknown constant(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})")
-    if args.img_size is not None and {"img_width", "img_height"} & set(consts):
-        raise UserError("give the image size once: --img-size W,H or --const img_width=/img_height=")
-    for name, value in consts.items():
-        check_constant(name, value, f"--const {name}={value}")
-    return consts
-
-
 def cmd_track(args: argparse.Namespace) -> int:
     out_fmt, in_fmt = io.get_format(args.out_format), io.get_format(args.format)
     if out_fmt.needs_class and out_fmt is not in_fmt:
@@ -91,7 +77,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     outputs.update({"--events": args.events, "--events-json": args.events_json, "--scene": args.scene})
     check_outputs(outputs, _track_inputs(args))  # before any work: never an input, never each other
     plan = _plan(args)
-    setup = _setup(args, args.format, args.cls, _track_constants(args) if args.backend != BASELINE else None)
+    setup = _setup(args, args.format, args.cls, checked_constants(args) if args.backend != BASELINE else None)
     seqs = [_load_sequence(args, path) for path in args.dets]  # every input read before any tracking
     if args.pool_scores == "yes":  # one detector's scores mean the same in every file (docs/model.md 3.19)
         seqs = io.calibrated_together(seqs, io.resolve_rule(args.scores, in_fmt.score_rule))
@@ -268,7 +254,7 @@ def _track_pipe(args: argparse.Namespace) -> int:
         raise UserError(f"--format {fmt.name} needs --class Car|Pedestrian|Cyclist")
     outputs = {"--out": args.out, "--events": args.events, "--events-json": args.events_json}
     check_outputs(outputs, {"--seqinfo": args.seqinfo})
-    setup = _setup(args, args.format, args.cls, _track_constants(args) if args.backend != BASELINE else None)
+    setup = _setup(args, args.format, args.cls, checked_constants(args) if args.backend != BASELINE else None)
     if sys.stdin is None:
         raise UserError("--dets -: standard input is closed")
     text = stdio.TextIOWrapper(sys.stdin.buffer, encoding="utf-8-sig", newline=None)  # lines as they arrive

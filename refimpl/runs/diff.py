@@ -307,9 +307,11 @@ class DiffJob:
     """Per-frame limit of every backend (refimpl.runs.diff)."""
     asp_model: AspModel | None = None
     """A user's encoding for the clingo backend (refimpl.solvers.asp_model.AspModel), or None."""
+    constants: tuple[tuple[str, int], ...] = ()
+    """Model constants on top of model/constants.lp (``refimpl diff --const``)."""
 
 
 def diff_job(job: DiffJob, on_frame: Callable[[], None] | None = None):
     """diff_sequence of one sequence (a DiffReport); ``on_frame()`` once per frame (progress)."""
-    return diff_sequence(job.seq, job.backends, time_limit=job.time_limit, asp_model=job.asp_model,
-                         on_frame=on_frame)
+    return diff_sequence(job.seq, job.backends, constants=dict(job.constants), time_limit=job.time_limit,
+                         asp_model=job.asp_model, on_frame=on_frame)
