@@ -20,9 +20,6 @@ it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as ar
 options of FRAME_OPTIONS."""
 FRAME_OPTIONS = ("backfill_gap", "fill_hidden", "bridge_gap", "peak_wait")
 """The tracker options that are durations in frames, converted as DURATIONS are."""
-RATE_OPTIONS = ("velocity_noise",)
-"""The tracker options that are per frame but no duration: the process noise of the Kalman filter's
-velocities, converted by :func:`velocity_noise_at` unless the user gave it."""
 NOISE_EXPONENT = 2
 """A velocity in pixels per frame is a speed in pixels per second times the frame interval, so
 the change the filter allows it from one frame to the next, stated as a change of speed, is that
@@ -43,6 +40,22 @@ def velocity_noise_at(noise: float, fps: float, tuned_fps: float) -> float:
     """The Kalman filter's velocity process noise (the tracker option velocity_noise, a variance
     per frame tuned at ``tuned_fps``) at ``fps``: times (tuned_fps / fps) ** NOISE_EXPONENT."""
     return float(noise) * (float(tuned_fps) / float(fps)) ** NOISE_EXPONENT
+
+
+def factor_at(factor: float, fps: float, tuned_fps: float) -> float:
+    """A change by at most ``factor`` per frame at ``tuned_fps`` (the tracker option size_change),
+    per frame at ``fps``: the same change per second, factor ** (tuned_fps / fps) (0 stays 0: the
+    option switched off)."""
+    if factor <= 0:
+        return float(factor)
+    return float(factor) ** (float(tuned_fps) / float(fps))
+
+
+RATE_OPTIONS = {"velocity_noise": velocity_noise_at, "size_change": factor_at}
+"""The tracker options that are per frame but no duration, each with its conversion from the
+preset's frame rate to the sequence's, applied unless the user gave the option: the process noise
+of the Kalman filter's velocities (:func:`velocity_noise_at`) and the bound on an unobserved
+track's change of size (:func:`factor_at`)."""
 
 
 def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,

@@ -208,7 +208,8 @@ class BoxKalman:
       time_since_update   predictions since the last update (0 right after an update or at creation)
     """
 
-    def __init__(self, box_xywh, velocity_noise: float = 1.0, velocity=None, area_noise: float = 1.0):
+    def __init__(self, box_xywh, velocity_noise: float = 1.0, velocity=None, area_noise: float = 1.0,
+                 size_change: float = 0.0):
         """velocity_noise: the factor on SORT's process noise of the velocities (process_noise):
         larger lets the velocity follow faster changes, e.g. a car at 10 fps (refimpl decision, a
         tracker option; 1 is SORT).  velocity: the centre's initial (du, dv) in pixels per frame
@@ -218,12 +219,19 @@ class BoxKalman:
         against a measurement noise of 10 makes the filter trust its area velocity ten times more
         than a detected area, so a box whose size changes fast (a car passing close by at 10 fps)
         is followed with a lag, and the area velocity overshoots; a large factor (1e4) lets the
-        filtered area follow the detections (refimpl decision, a tracker option; docs/tracking.md)."""
+        filtered area follow the detections (refimpl decision, a tracker option; docs/tracking.md).
+        size_change: 0 (SORT's filter), or a factor > 1: across a frame after one without an update
+        the predicted area grows or shrinks by at most that factor (the area velocity ds clipped
+        to [s / size_change - s, s * size_change - s]); a hidden object keeps roughly its size
+        (refimpl decision, the tracker option size_change; docs/tracking.md "Motion while hidden")."""
         for name, value in (("velocity_noise", velocity_noise), ("area_noise", area_noise)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive finite number, got {value!r}")
+        if not (size_change == 0 or (np.isfinite(size_change) and size_change > 1)):
+            raise ValueError(f"size_change must be 0 or a finite factor > 1, got {size_change!r}")
         self.velocity_noise = float(velocity_noise)
         self.area_noise = float(area_noise)
+        self.size_change = float(size_change)
         x = np.zeros((DIM_X, 1))
         x[:DIM_Z, 0] = xywh_to_z(box_xywh)
         if velocity is not None:
@@ -309,6 +317,9 @@ class BoxKalman:
 
     def _before_predict(self, hold: bool) -> None:
         x = self.kf.x
+        if self.size_change and self.time_since_update > 0 and x[2, 0] > 0:
+            s, bound = float(x[2, 0]), self.size_change
+            x[6, 0] = min(max(float(x[6, 0]), s / bound - s), s * bound - s)
         if hold and self.time_since_update > 0:
             x[6, 0] = 0.0
             if x[2, 0] > 0:

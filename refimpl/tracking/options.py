@@ -79,6 +79,21 @@ def _switch(name: str) -> Callable[[object], bool]:
     return parse
 
 
+def _factor(name: str) -> Callable[[object], float]:
+    def parse(value: object) -> float:
+        v = value
+        if isinstance(v, str):
+            try:
+                v = float(v)
+            except ValueError:
+                pass
+        if (isinstance(v, bool) or not isinstance(v, (int, float))
+                or not (float(v) == 0 or 1 < float(v) <= NOISE_FACTOR_MAX)):
+            raise ValueError(f"{name} must be 0 (off) or a factor above 1 up to {NOISE_FACTOR_MAX:g}, got {value!r}")
+        return float(v)
+    return parse
+
+
 def _frames(name: str) -> Callable[[object], int]:
     def parse(value: object) -> int:
         v = value
@@ -140,6 +155,10 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
     TrackerOption("area_noise", _positive("area_noise"), None,
                   "the factor on the process noise of the Kalman filter's box area (1: SORT's filter; large: "
                   "the filtered size follows the detections)"),
+    TrackerOption("size_change", _factor("size_change"), None,
+                  "across a frame after one without an update, a track's predicted area grows or shrinks by "
+                  "at most this factor (per frame at the preset's frame rate, the same change per second at "
+                  "any other): a hidden object keeps roughly its size (0: unbounded, SORT's filter)"),
     TrackerOption("backfill", _switch("backfill"), ("yes", "no"),
                   "when a track is confirmed (min_hits consecutive updates), also write the earlier frames "
                   "of that streak, a new track's first frame included (results final min_hits frames late)"),
@@ -200,6 +219,7 @@ class TrackerOptions:
     written_box: WrittenBox = DEFAULT_WRITTEN_BOX
     velocity_noise: float = 1.0
     area_noise: float = 1.0
+    size_change: float = 0.0
     backfill: bool = False
     backfill_gap: int = 0
     fill_hidden: int = 0

@@ -28,8 +28,7 @@ from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
-from .camera import (DURATIONS, FRAME_OPTIONS, RATE_OPTIONS, frames_at, sequence_constants, sequence_scale,
-                     velocity_noise_at)
+from .camera import DURATIONS, FRAME_OPTIONS, RATE_OPTIONS, frames_at, sequence_constants, sequence_scale
 from .tracker import AbductionTracker, DEFAULT_MIN_HITS, TrackingResult, check_frame_budget
 
 AUTO = "auto"
@@ -125,8 +124,8 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
     if fps and setup.tuned_fps:
         options = replace(options, **{name: frames_at(getattr(options, name), fps, setup.tuned_fps)
                                       for name in FRAME_OPTIONS if name not in setup.in_frames})
-        options = replace(options, **{name: velocity_noise_at(getattr(options, name), fps, setup.tuned_fps)
-                                      for name in RATE_OPTIONS if name not in setup.in_frames})
+        options = replace(options, **{name: at(getattr(options, name), fps, setup.tuned_fps)
+                                      for name, at in RATE_OPTIONS.items() if name not in setup.in_frames})
     return AbductionTracker(solver or get_solver(setup.backend),
                             sequence_constants(dict(setup.constants), image_size, fps, setup.tuned_fps,
                                                setup.in_frames),

@@ -279,7 +279,7 @@ class AbductionTracker:
         """The prediction of a track whose filter's state degenerated (BoxKalman.predict would raise
         InvalidPrediction): the filter restarts, motionless, at the last observed box."""
         trk.kalman = BoxKalman(trk.observed[max(trk.observed)], trk.kalman.velocity_noise,
-                               area_noise=trk.kalman.area_noise)
+                               area_noise=trk.kalman.area_noise, size_change=trk.kalman.size_change)
         return trk.kalman.predict()
 
     # -- steps 2-3 and the update ------------------------------------------------------------
@@ -396,7 +396,8 @@ class AbductionTracker:
         for j in sorted(index[d] for (d,) in acts.get("start", ())):
             trk_id = f"trk_{self.next_number}"
             self.next_number += 1
-            kalman = BoxKalman(boxes[j], self.options.velocity_noise, scene, self.options.area_noise)
+            kalman = BoxKalman(boxes[j], self.options.velocity_noise, scene, self.options.area_noise,
+                               self.options.size_change)
             trk = _Track(trk_id, types[j], kalman, at_rest=None if scene is None else boxes[j].copy())
             trk.observed[frame] = self._written(trk_id, frame, kalman, boxes[j])
             trk.hits, trk.evidence = 1, int(confidences[j])
