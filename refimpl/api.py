@@ -61,7 +61,7 @@ from numpy.typing import ArrayLike
 
 from .core.confidence import RunEvidence, online_rule, pooled, sequence_evidence
 from .core.constants import default_constants
-from .core.ranges import check_constant
+from .core.ranges import FPS_RANGE_TEXT, check_constant, fps_fits
 from .core.spec import HistoryEvent, track_number
 from .io import (COCO_CLASS_TYPES, DetectionFrame, DetectionSequence, FORMATS, InputFormatWarning, MAX_COORD,
                  MAX_DETECTIONS_PER_FRAME, MIN_DET_SIZE, OBJECT_TYPES, class_id_type, class_type, get_format)
@@ -296,8 +296,8 @@ class Tracker:
     @staticmethod
     def _fps(fps: object) -> float:
         ok = not isinstance(fps, bool) and isinstance(fps, (int, float, np.integer, np.floating))
-        if not ok or not math.isfinite(fps) or not fps > 0:
-            raise ValueError(f"fps must be a finite number of frames per second above 0, got {fps!r}")
+        if not ok or not math.isfinite(fps) or not fps_fits(fps):
+            raise ValueError(f"fps must be {FPS_RANGE_TEXT}, got {fps!r}")
         return float(fps)
 
     @staticmethod

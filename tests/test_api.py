@@ -162,10 +162,14 @@ def test_bad_input_is_a_clear_error(dets, classes, message):
     ({"min_hits": -1}, "non-negative integer"),
     ({"object_type": "-"}, "object_type: class name '-' has no letter or digit"),
     ({"format": "kitti"}, "format='kitti' needs object_type="),
-    ({"fps": -1}, "fps must be a finite number of frames per second above 0, got -1"),
-    ({"fps": float("inf")}, "fps must be a finite number"),
-    ({"fps": 0}, "fps must be a finite number"),
-    ({"fps": "25"}, "fps must be a finite number"),
+    ({"fps": -1}, "fps must be a frame rate from 0.1 to 1000 frames per second, got -1"),
+    ({"fps": float("inf")}, "fps must be a frame rate from 0.1"),
+    ({"fps": 0}, "fps must be a frame rate from 0.1"),
+    ({"fps": "25"}, "fps must be a frame rate from 0.1"),
+    # beyond the range the presets' conversions leave their options' ranges (core.ranges.FPS_MIN):
+    # kitti/car's velocity noise at 0.01 fps would be 10 * (10 / 0.01) ** 2 = 10^7 > 10^6
+    ({"fps": 0.01, "format": "kitti", "object_type": "car"}, "fps must be a frame rate from 0.1 to 1000"),
+    ({"fps": 1e300}, "fps must be a frame rate from 0.1 to 1000"),
     ({"class_types": {-1: "car"}}, "class id -1 is not a non-negative integer"),
     ({"preset": "kitti/truck"}, "unknown preset 'kitti/truck'"),
     ({"format": "coco"}, "format must be one of"),

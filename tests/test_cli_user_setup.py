@@ -29,7 +29,7 @@ def test_version_names_the_package_version(capsys):
     assert re.search(r'^dynamic = \["version"\]', (REPO / "pyproject.toml").read_text(), re.M)
 
 
-@pytest.mark.parametrize("value", ["-1", "0", "inf", "nan", "fast"])
+@pytest.mark.parametrize("value", ["-1", "0", "inf", "nan", "fast", "0.01", "1e300"])
 def test_a_rate_that_is_no_frame_rate_is_one_error_line(value, capsys, tmp_path):
     with pytest.raises(SystemExit) as exit_:
         main(["track", "--dets", str(DEMO / "det" / "det.txt"), "--out", str(tmp_path / "o.txt"), "--fps", value])

@@ -507,6 +507,12 @@ def test_bad_seqinfo_values_are_rejected(tmp_path):
     r = write(tmp_path / "c.ini", "name=X\n")
     with raises_at(r, None, "not a valid seqinfo.ini"):
         io.read_seqinfo(r)
+    # a frame rate the presets' conversions cannot reach (refimpl.core.ranges.FPS_MIN..FPS_MAX):
+    # at 0.01 fps the KITTI Car preset's velocity noise would be 10 * (10 / 0.01) ** 2 = 10^7
+    for rate in ("0.01", "5000"):
+        s = write(tmp_path / "d.ini", SEQINFO.format(n=10).replace("frameRate=25", f"frameRate={rate}"))
+        with raises_at(s, 4, f"frameRate must be a frame rate from 0.1 to 1000 frames per second, got '{rate}'"):
+            io.read_seqinfo(s)
 
 
 def test_input_format_error_is_a_picklable_value_error():

@@ -166,6 +166,25 @@ def test_size_change_means_the_same_per_second_at_another_frame_rate():
     assert change(setup, 10.0) == 1.25 and change(setup, None) == 1.25
     assert change(replace(setup, in_frames=("size_change",)), 5.0) == 1.25
     assert change(Setup(tuned_fps=10.0), 5.0) == 0.0
+    # at the slowest frame rate a sequence may have (core.ranges.FPS_MIN, 0.1 fps) 1.25 ** 100 =
+    # 4.9e9, held at the option's largest value, 1e6 (options.NOISE_FACTOR_MAX)
+    assert change(setup, 0.1) == 1e6
+
+
+@pytest.mark.parametrize("fps", [0.1, 1000.0])
+def test_every_preset_converts_to_both_ends_of_the_frame_rate_range(fps):
+    # core.ranges.FPS_MIN and FPS_MAX: every preset's per-frame rates convert to a valid tracker:
+    # the velocity noise v * (tuned / fps) ** 2 (kitti/car at 0.1 fps: 10 * 100 ** 2 = 10^5 <= 10^6)
+    # and size_change F ** (tuned / fps), at most 10^6 (kitti/car at 0.1 fps: 1.25 ** 100, held at
+    # 10^6; at 1000 fps 1.25 ** 0.01 = 1.0022 > 1)
+    import refimpl
+    from refimpl.tracking.presets import load_presets
+    for name, preset in load_presets().items():
+        options = refimpl.Tracker(preset=name, fps=fps)._tracker.options
+        tuned, given = preset.fps, preset.tracker
+        assert options.velocity_noise == pytest.approx(given.velocity_noise * (tuned / fps) ** 2)
+        change = given.size_change and min(given.size_change ** (tuned / fps), 1e6)
+        assert options.size_change == pytest.approx(change) and (change == 0 or change > 1)
 
 
 def _car_stopping_missed() -> DetectionSequence:

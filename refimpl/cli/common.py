@@ -11,7 +11,7 @@ from contextlib import contextmanager
 from .. import io
 from ..core.constants import default_constants
 from ..core.errors import UserFacingError
-from ..core.ranges import check_constant
+from ..core.ranges import FPS_RANGE_TEXT, check_constant, fps_fits
 from ..runs.scaleout import Plan
 from ..io.datasets import DATASETS as BENCHMARKS  # noqa: F401  (the one dataset catalogue)
 from ..solvers import BACKENDS, BASELINE, DEFAULT_BACKEND, ORACLE_PAIR, REFERENCE_BACKEND, TRACKERS  # noqa: F401  (the registry)
@@ -103,8 +103,11 @@ def _time_limit(text: str) -> float:
 
 
 def _parse_fps(text: str) -> float:
-    """A frame rate: a finite number of frames per second above 0."""
-    return _positive_finite(text, "frames per second")
+    """A frame rate: a number of frames per second within FPS_MIN..FPS_MAX (refimpl.core.ranges)."""
+    value = _positive_finite(text, "frames per second")
+    if not fps_fits(value):
+        raise argparse.ArgumentTypeError(f"must be {FPS_RANGE_TEXT}, got {text!r}")
+    return value
 
 
 def _parse_img_size(text: str) -> tuple[int, int]:

@@ -151,7 +151,7 @@ def _add_track(sub: "argparse._SubParsersAction") -> None:
                    help="image width and height in pixels (the field-of-view border and the pixel constants, "
                         "docs/model.md 3.22; default: seqinfo.ini, 1242,375 for KITTI, unknown otherwise)")
     t.add_argument("--fps", type=_parse_fps, metavar="FPS",
-                   help="frames per second of the video, a number above 0: the preset's durations become the "
+                   help="frames per second of the video, 0.1 to 1000: the preset's durations become the "
                         "same seconds at this rate and a halt is bounded at 10 s (docs/model.md 3.22; default: "
                         "seqinfo.ini's frameRate, 10 for KITTI, unknown otherwise: durations in frames as written)")
     t.add_argument("--events", help="write the abduced event log in the paper's syntax")

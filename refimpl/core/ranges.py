@@ -55,6 +55,22 @@ from .constants import resolve_constants
 
 BOX_LIMIT = 2 ** 28
 TIME_LIMIT = 2 ** 30
+
+FPS_MIN, FPS_MAX = 0.1, 1000.0
+"""The frame rates a sequence may have, frames per second (``--fps``, ``fps=``, seqinfo.ini's
+frameRate): a preset's durations and per-frame rates are converted to the sequence's frame rate
+(refimpl.tracking.camera), and beyond these bounds the conversions leave the ranges of the options
+and constants they make (at 0.01 fps the KITTI Car preset's velocity noise would be 10^7, at
+10^6 fps its likelihood_halving 10^6 frames) or a float's.  A camera from one frame in ten seconds
+to a thousand a second."""
+
+
+def fps_fits(value: float) -> bool:
+    """A frame rate within FPS_MIN..FPS_MAX (a finite number)."""
+    return FPS_MIN <= value <= FPS_MAX
+
+
+FPS_RANGE_TEXT = f"a frame rate from {FPS_MIN:g} to {FPS_MAX:g} frames per second"
 _TEMPORAL = ("lost_after_missing", "lost_after_hidden", "noise_max_age", "claim_after", "mintime")
 _BORDER = ("img_width", "img_height", "border_margin")
 

@@ -9,6 +9,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ..core.ranges import FPS_RANGE_TEXT, fps_fits
 from .errors import InputFormatError
 from .lines import (MAX_FRAME, _check_coordinates, _check_integral, _check_max_frame, _check_min_frame,
                     _check_positive_size, _read_lines)
@@ -48,6 +49,9 @@ def read_seqinfo(path: str | os.PathLike) -> dict:
         # (an int may exceed the float range: np.isfinite would raise TypeError)
         if kind is not str and not (value > 0 and (kind is int or np.isfinite(value))):
             raise InputFormatError(f"{key} must be > 0, got {text!r}", path, line_of.get(key.lower()))
+        if key == "frameRate" and not fps_fits(value):
+            raise InputFormatError(f"frameRate must be {FPS_RANGE_TEXT}, got {text!r}", path,
+                                   line_of.get(key.lower()))
         if kind is str and not value:
             raise InputFormatError(f"{key} is empty", path, line_of.get(key.lower()))
         if key == "seqLength" and value > MAX_FRAME:

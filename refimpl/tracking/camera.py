@@ -9,6 +9,7 @@ import math
 from typing import Mapping
 
 from ..core.constants import default_constants
+from .options import NOISE_FACTOR_MAX
 
 HIDDEN_MAX_SECONDS = 10.0
 """The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
@@ -44,11 +45,12 @@ def velocity_noise_at(noise: float, fps: float, tuned_fps: float) -> float:
 
 def factor_at(factor: float, fps: float, tuned_fps: float) -> float:
     """A change by at most ``factor`` per frame at ``tuned_fps`` (the tracker option size_change),
-    per frame at ``fps``: the same change per second, factor ** (tuned_fps / fps) (0 stays 0: the
-    option switched off)."""
+    per frame at ``fps``: the same change per second, factor ** (tuned_fps / fps), at most the
+    option's largest value NOISE_FACTOR_MAX (a bound no box meets; 1.25 at 10 fps is 4.9e9 at
+    0.1 fps); 0 stays 0: the option switched off."""
     if factor <= 0:
         return float(factor)
-    return float(factor) ** (float(tuned_fps) / float(fps))
+    return min(float(factor) ** (float(tuned_fps) / float(fps)), NOISE_FACTOR_MAX)
 
 
 RATE_OPTIONS = {"velocity_noise": velocity_noise_at, "size_change": factor_at}
