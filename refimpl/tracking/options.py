@@ -52,17 +52,24 @@ NOISE_FACTOR_MAX = 1e6
 made it inf, the state NaN, and the run a traceback)."""
 
 
+def _number(value: object) -> float | None:
+    """A real number from itself or its text (the command line, a --grid value or presets.json);
+    None for anything else (a bool is no number here)."""
+    v = value
+    if isinstance(v, str):
+        try:
+            v = float(v)
+        except ValueError:
+            return None
+    return None if isinstance(v, bool) or not isinstance(v, (int, float)) else float(v)
+
+
 def _positive(name: str) -> Callable[[object], float]:
     def parse(value: object) -> float:
-        v = value
-        if isinstance(v, str):  # from the command line, a --grid value or presets.json
-            try:
-                v = float(v)
-            except ValueError:
-                pass
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (0 < float(v) <= NOISE_FACTOR_MAX):
+        v = _number(value)
+        if v is None or not (0 < v <= NOISE_FACTOR_MAX):
             raise ValueError(f"{name} must be a positive number up to {NOISE_FACTOR_MAX:g}, got {value!r}")
-        return float(v)
+        return v
     return parse
 
 
@@ -81,16 +88,10 @@ def _switch(name: str) -> Callable[[object], bool]:
 
 def _factor(name: str) -> Callable[[object], float]:
     def parse(value: object) -> float:
-        v = value
-        if isinstance(v, str):
-            try:
-                v = float(v)
-            except ValueError:
-                pass
-        if (isinstance(v, bool) or not isinstance(v, (int, float))
-                or not (float(v) == 0 or 1 < float(v) <= NOISE_FACTOR_MAX)):
+        v = _number(value)
+        if v is None or not (v == 0 or 1 < v <= NOISE_FACTOR_MAX):
             raise ValueError(f"{name} must be 0 (off) or a factor above 1 up to {NOISE_FACTOR_MAX:g}, got {value!r}")
-        return float(v)
+        return v
     return parse
 
 
