@@ -59,7 +59,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .core.confidence import RunEvidence, online_rule, pooled, sequence_evidence
+from .core.confidence import RunEvidence, online_rule, pooled, same_score_message, sequence_evidence
 from .core.constants import default_constants
 from .core.ranges import FPS_RANGE_TEXT, check_constant, fps_fits
 from .core.spec import HistoryEvent, track_number
@@ -239,6 +239,7 @@ class Tracker:
         self._reported: set[tuple[int, int]] = set()  # (frame, track number) returned by update
         self._class_of: dict[int, int] = {}  # track number -> the class id of its latest detection
         self._size_warned = False
+        self._same_warned = False  # every score the same: said once (docs/model.md 3.19)
         self._seen = [0, 0, 101, -1]  # detections, rows reported, smallest and largest confidence so far
 
     def _new_tracker(self, size):
@@ -499,7 +500,12 @@ class Tracker:
     def _confidences(self, boxes: np.ndarray, scores: np.ndarray, types: tuple[str, ...]) -> np.ndarray:
         """The frame's confidences by the score rule, exactly as the file readers compute them."""
         if self._rule is not None:
-            return self._rule.confidences(boxes, scores, types)
+            conf = self._rule.confidences(boxes, scores, types)
+            same = getattr(self._rule, "streak_score", None)
+            if same is not None and not self._same_warned:
+                self._same_warned = True
+                warnings.warn(same_score_message(self.name, same), UserWarning, stacklevel=4)
+            return conf
         return scale_confidences("update", range(len(scores)), scores, self.scores)  # scores checked above
 
     def _update_detections(self, detections):

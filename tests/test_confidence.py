@@ -11,8 +11,8 @@ import pytest
 import refimpl
 from refimpl import io
 from refimpl.cli import main
-from refimpl.core.confidence import (EVIDENCE_FLOOR, RANK_LOW, SEED_SIZE, OnlineRank, PersistenceEvidence, RankFrames,
-                                    RunEvidence, sequence_evidence)
+from refimpl.core.confidence import (EVIDENCE_FLOOR, RANK_LOW, SEED_SIZE, STREAK_MAX, OnlineRank, PersistenceEvidence,
+                                    RankFrames, RunEvidence, pooled, sequence_evidence)
 from refimpl.io import DetectionFrame
 
 RESCALES = {
@@ -298,3 +298,82 @@ def test_a_run_calibrates_each_file_on_the_others_in_any_order():
     # one file, or a fixed scale: as read
     assert io.calibrated_together([b], "evidence")[0] is b
     assert io.calibrated_together([a, b], "probability")[1] is b
+
+
+def _object_and_flicker(n: int, score_of=lambda t: (1.0, 1.0)) -> list[DetectionFrame]:
+    """n frames: a box that stays put (A, first) and a box that jumps 50 px a frame (B), never
+    overlapping where it was; scores (A, B) by frame."""
+    return [DetectionFrame(t, np.array([[0.0, 0.0, 10.0, 10.0], [100.0 + 50 * t, 0.0, 10.0, 10.0]]),
+                           np.array(score_of(t)), np.zeros(2, np.int64), ("car", "car")) for t in range(n)]
+
+
+def test_scores_that_say_nothing_are_read_from_streaks():
+    # Every score 1.0.  Frames 0..8 have shown 18 scores (< EVIDENCE_BINS 20): the tie's bare rank,
+    # 100, for both.  From frame 9 (20 scores) the streaks: A's is 0, 1, then 2; B's always 0.  At
+    # frame t >= 3 the counts (detections, seen again in the next frame) of frames 0..t-1 are:
+    # streak 0: A at 0 and B at 0..t-1 = t + 1, of which 1 (A); streak 1: A at 1, seen again;
+    # streak 2: A at 2..t-1 = t - 2, all seen again.  n = 2t; B's learned share (1 / (t + 1)) / 1.
+    # Frame 9: n 18, (18 * 100 / 10 + 50 * 40) / 68 = 32.06 -> 32; A (streak 2) 100.
+    # Frame 29: n 58, (58 * 100 / 30 + 50 * 40) / 108 = 20.31 -> 20.
+    rule = PersistenceEvidence()
+    got = [rule.confidences(f.boxes, f.scores, f.types).tolist() for f in _object_and_flicker(30)]
+    assert got[:9] == [[100, 100]] * 9
+    assert got[9] == [100, 32] and got[29] == [100, 20]
+    assert rule.streak_score == 1.0
+    assert STREAK_MAX == 2
+
+
+def test_two_different_scores_end_the_streak_reading_for_good():
+    # As above, but B scores 0.5 in frame 15: from then on the scores say something; the score curve
+    # reads them again (streak_score None) even when every later score is 1.0 again, and frames
+    # before it are read as before (frame 9: 32)
+    rule = PersistenceEvidence()
+    frames = _object_and_flicker(30, lambda t: (1.0, 0.5 if t == 15 else 1.0))
+    got = [rule.confidences(f.boxes, f.scores, f.types).tolist() for f in frames[:15]]
+    assert got[9] == [100, 32] and rule.streak_score == 1.0
+    for f in frames[15:]:
+        rule.confidences(f.boxes, f.scores, f.types)
+        assert rule.streak_score is None and rule.streak_counts() is None
+
+
+def test_a_run_of_files_without_scores_pools_its_streaks():
+    # The run's other file: the 30 frames above, whole: the counts of frames 0..28 (frame 29 has no
+    # frame after it), streak 0 [30, 1], streak 1 [1, 1], streak 2 [27, 27].  Seeded with them, a
+    # new file reads streaks from its first frame (62 scores of 1.0 seen):
+    # frame 0, both streak 0: n 58, (58 * 100 / 30 + 50 * 40) / 108 = 20.31 -> 20 each;
+    # frame 1: frame 0's A was seen again, B not: streak 0 [32, 2], n 60; A's streak 1 (share 1):
+    # (60 * 100 + 50 * 40) / 110 = 72.7 -> 73; B (2 / 32): (60 * 6.25 + 2000) / 110 = 21.6 -> 22
+    seed = sequence_evidence(_object_and_flicker(30))
+    assert seed.streaks.tolist() == [[30, 1], [1, 1], [27, 27]]
+    assert pooled([seed, seed]).streaks.tolist() == [[60, 2], [2, 2], [54, 54]]
+    rule = PersistenceEvidence(seed)
+    frames = _object_and_flicker(2)
+    assert rule.confidences(frames[0].boxes, frames[0].scores, frames[0].types).tolist() == [20, 20]
+    assert rule.confidences(frames[1].boxes, frames[1].scores, frames[1].types).tolist() == [73, 22]
+    # a file whose scores differ from the seed's one score reads them by the score curve
+    other = PersistenceEvidence(seed)
+    other.confidences(frames[0].boxes, np.array([0.9, 0.3]), frames[0].types)
+    assert other.streak_score is None
+
+
+def test_a_file_without_scores_is_said_once_on_the_command_line_and_in_the_api(tmp_path, capsys):
+    # the bundled TUD-Campus with every score 1: `refimpl track` names the one score and the rule it
+    # falls back on instead of the preset's score-scale warning; the API warns once, at the caller
+    demo = Path(__file__).resolve().parent.parent / "data" / "demo" / "TUD-Campus"
+    same = tmp_path / "TUD-Campus" / "det" / "det.txt"
+    _rewrite_scores(demo / "det" / "det.txt", same, 6, lambda s: 1.0)
+    (tmp_path / "TUD-Campus" / "seqinfo.ini").write_bytes((demo / "seqinfo.ini").read_bytes())
+    assert main(["track", "--dets", str(same), "--out", str(tmp_path / "a.txt")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("every detection has the score 1: the scores say nothing") == 1
+    assert "pass conf_thresh_new_track" not in err
+    rows = (tmp_path / "a.txt").read_text().splitlines()
+    assert len(rows) > 100  # tracks, from streaks
+    dets = np.loadtxt(same, delimiter=",")
+    tracker = refimpl.Tracker()
+    with pytest.warns(UserWarning, match="every detection has the score 1: the scores say nothing") as caught:
+        for f in range(1, int(dets[:, 0].max()) + 1):
+            d = dets[dets[:, 0] == f]
+            tracker.update(np.column_stack([d[:, 2], d[:, 3], d[:, 2] + d[:, 4], d[:, 3] + d[:, 5], d[:, 6]]))
+    assert sum("scores say nothing" in str(w.message) for w in caught) == 1
+    assert all(w.filename == __file__ for w in caught if "scores say nothing" in str(w.message))

@@ -11,6 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .. import io
+from ..core.confidence import EVIDENCE, one_score, same_score_message
 from ..core.constants import default_constants
 from ..core.display import visible
 from ..core.loader import load
@@ -149,9 +150,14 @@ def _say_setup(setup, seqs, args: argparse.Namespace) -> None:
     if setup.preset == "none":
         return
     together = getattr(args, "pool_scores", "no") == "yes" and len(seqs) > 1  # one share for the run
+    evidence = io.resolve_rule(args.scores, io.get_format(args.format).score_rule) == EVIDENCE
     for seq in seqs[:1] if together else seqs:
         if not isinstance(seq.frames, tuple):
             continue  # a pipe (refimpl.io.stream): its frames are read once, by the tracker
+        same = one_score(f for s in (seqs if together else [seq]) for f in s.frames) if evidence else None
+        if same is not None:
+            print(f"refimpl track: warning: {same_score_message(seq.name, same, together)}", file=sys.stderr)
+            continue
         line = score_warning(preset_named(setup.preset), seq, dict(setup.constants), seqs if together else ())
         if line:
             print(f"refimpl track: warning: {line}", file=sys.stderr)

@@ -17,6 +17,10 @@ detector's best" whatever the detector.  Its prior, before the sequence has show
 score's bare rank among the scores seen so far (times 100, :class:`OnlineRank`), never below
 EVIDENCE_FLOOR.
 
+A detector that writes one score for every detection (or none) says nothing by it: while every
+score seen is the same, the evidence rule reads a detection's streak instead, how many of the
+frames just before it showed a detection of its type on it (:class:`StreakEvidence`, STREAK_MAX).
+
 The rank rule (``rank``) maps each score's place among every score the sequence has shown so far,
 this frame included, linearly onto RANK_LOW..100:
 
@@ -65,6 +69,15 @@ every preset lets continue a track (assign and resume at 30) and not start one (
 more than 50).  Rank alone called the lowest 30 % of a sparse, clean sequence's first detections
 (KITTI pedestrians) unfit even to continue a track.  Chosen among 0 (rank alone), 40, 50, 55, 60 by the
 worst case over the shifts on the tuning sets (docs/model.md 3.19)."""
+STREAK_MAX = 2
+"""Scores that say nothing (every score the evidence rule has seen the same, at least EVIDENCE_BINS
+of them: a detector that writes no score, or one number for all): a detection's *streak* is 0 when
+no detection of its type overlapped it (IoU >= PERSIST_IOU) in the frame before, else 1 + the
+streak of the best one that did, at most 2 (seen in each of the two frames before).  Its confidence
+is how often detections of its streak were seen again in the next frame, relative to streak 2
+(:class:`StreakEvidence`; docs/model.md 3.19, "Scores that say nothing").  Chosen among streaks of
+at most 1 and 2 and fixed confidences for a lone detection (20, 40, 50) by the worst case over the
+tuning sets with every score made the same."""
 RANK_LOW = 20
 """The rank rule (``--scores rank``) maps the ranks 0..1 linearly onto 20..100 (module doc).  Chosen
 on the tuning sets (kitti-car-train, kitti-ped-train, mot15, each against its format's own scale)
@@ -123,6 +136,9 @@ class RunEvidence:
     seen: np.ndarray
     labelled: np.ndarray
     persistent: np.ndarray
+    streaks: np.ndarray | None = None
+    """(STREAK_MAX + 1, 2) counts while the scores said nothing: detections of each streak, and how
+    many of them were seen again in the next frame (StreakEvidence); None: none counted."""
 
 
 SEED_SIZE = 1000
@@ -147,7 +163,9 @@ def pooled(evidence: Sequence[RunEvidence]) -> RunEvidence | None:
     labelled = np.concatenate([e.labelled for e in evidence])
     persistent = np.concatenate([e.persistent for e in evidence])
     order = np.lexsort((persistent, labelled))  # by score, equal scores by flag: the same in any file order
-    return RunEvidence(np.sort(seen, kind="stable"), labelled[order], persistent[order])
+    counted = [e.streaks for e in evidence if e.streaks is not None]
+    return RunEvidence(np.sort(seen, kind="stable"), labelled[order], persistent[order],
+                       sum(counted[1:], counted[0].copy()) if counted else None)
 
 
 def sequence_evidence(frames) -> RunEvidence:
@@ -157,7 +175,7 @@ def sequence_evidence(frames) -> RunEvidence:
     for f in frames:
         state.confidences(f.boxes, f.scores, f.types)
     return RunEvidence(state._rank._seen.values.copy(), state._labelled.values.copy(),
-                       state._labelled.flags.copy())
+                       state._labelled.flags.copy(), state.streak_counts())
 
 
 class OnlineRank:
@@ -212,6 +230,23 @@ class RankFrames:
         self._rank.reset()
 
 
+def one_score(frames) -> float | None:
+    """The score every detection of these frames (each with ``scores``) has, when they are at least
+    EVIDENCE_BINS and all the same: the evidence rule then reads streaks (STREAK_MAX); else None."""
+    scores = [np.asarray(f.scores, dtype=float).reshape(-1) for f in frames]
+    every = np.concatenate(scores) if scores else np.zeros(0)
+    return float(every[0]) if len(every) >= EVIDENCE_BINS and (every == every[0]).all() else None
+
+
+def same_score_message(name: str, score: float, run: bool = False) -> str:
+    """The one line ``refimpl track`` and the API give when every score is the same (one_score)."""
+    whose = f"{name} and the run's other files, calibrated together:" if run else f"{name}:"
+    return (f"{whose} every detection has the score {score:g}: the scores say nothing, so a detection's "
+            f"confidence is read from the frames before it (one that continues no detection of the frame "
+            f"before counts as weak, one seen in each of the two frames before as strong; docs/model.md "
+            f"3.19, \"Scores that say nothing\")")
+
+
 def online_rule(rule: str, seed: RunEvidence | None = None) -> "PersistenceEvidence | RankFrames | None":
     """A fresh state of an online rule (``evidence``, ``rank``), or None for a fixed scale; ``seed``:
     what the run's other files showed it."""
@@ -236,6 +271,58 @@ def _increasing(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return np.repeat(np.array(level), size)
 
 
+def _near(a: np.ndarray, ta: tuple[str, ...], b: np.ndarray, tb: tuple[str, ...]) -> np.ndarray:
+    """(len(a), len(b)): whether box i of a overlaps box j of b by IoU >= PERSIST_IOU, of one type."""
+    if not len(a) or not len(b):
+        return np.zeros((len(a), len(b)), dtype=bool)
+    near = iou_matrix(a, b) >= PERSIST_IOU
+    if len(set(ta) | set(tb)) > 1:
+        near &= np.array(ta, dtype=object)[:, None] == np.array(tb, dtype=object)[None, :]
+    return near
+
+
+class StreakEvidence:
+    """The evidence rule while the scores say nothing (STREAK_MAX), online: ``frame(boxes, types)``
+    takes one frame in order, counts which detections of the frame before were seen again in it,
+    and returns its detections' streaks; ``confidences(streaks)`` gives them 0..100: the share of
+    detections of that streak seen again, divided by streak STREAK_MAX's, blended with the prior
+    (100 for streak STREAK_MAX, EVIDENCE_FLOOR otherwise) as the score curve is, rounded half up.
+    ``seed``: the counts of the run's other files (RunEvidence.streaks)."""
+
+    def __init__(self, seed: np.ndarray | None = None) -> None:
+        self._seed = seed
+        self.reset()
+
+    def reset(self) -> None:
+        counts = np.zeros((STREAK_MAX + 1, 2)) if self._seed is None else np.asarray(self._seed, dtype=float)
+        total = counts[:, 0].sum()
+        self.counts = counts * (SEED_SIZE / total) if total > SEED_SIZE else counts.copy()  # a seed weighs <= SEED_SIZE
+        self._previous: tuple[np.ndarray, tuple[str, ...], np.ndarray] | None = None
+
+    def frame(self, boxes: np.ndarray, types: tuple[str, ...]) -> np.ndarray:
+        streaks = np.zeros(len(boxes), dtype=np.int64)
+        if self._previous is not None and len(self._previous[0]):
+            before, kinds, counted = self._previous
+            near = _near(before, kinds, boxes, types)
+            np.add.at(self.counts[:, 0], counted, 1.0)
+            np.add.at(self.counts[:, 1], counted[near.any(axis=1)], 1.0)
+            if len(boxes):
+                streaks = np.minimum(np.where(near, counted[:, None] + 1, 0).max(axis=0), STREAK_MAX)
+        self._previous = (boxes, types, streaks)
+        return streaks
+
+    def confidences(self, streaks: np.ndarray) -> np.ndarray:
+        total, again = self.counts[:, 0], self.counts[:, 1]
+        prior = np.where(streaks == STREAK_MAX, 100, EVIDENCE_FLOOR)
+        if not total[STREAK_MAX] or not again[STREAK_MAX]:
+            return prior.astype(np.int64)
+        share = np.divide(again, total, out=np.zeros(STREAK_MAX + 1), where=total > 0)
+        share /= share[STREAK_MAX]
+        learned = np.where(total[streaks] > 0, np.minimum(share[streaks], 1.0), prior / 100.0)
+        n = total.sum()
+        return np.floor((n * 100.0 * learned + EVIDENCE_PRIOR * prior) / (n + EVIDENCE_PRIOR) + 0.5).astype(np.int64)
+
+
 class PersistenceEvidence:
     """The evidence rule's state (module doc), online: ``confidences(boxes, scores, types)`` takes
     one frame (xywh boxes) in order and returns its 0..100 confidences from frames <= it.
@@ -245,6 +332,8 @@ class PersistenceEvidence:
     detections per bin, made non-decreasing in the score (isotonic) and divided by the highest
     bin's share, is the learned curve; a score's confidence is the curve at its bin, blended with
     the prior (EVIDENCE_PRIOR: the bare rank, at least EVIDENCE_FLOOR), times 100, rounded half up.
+    While every score seen is the same (at least EVIDENCE_BINS of them), :class:`StreakEvidence`
+    gives the confidences instead (STREAK_MAX).
     ``seed``: the run's other files, seen and labelled before the first frame."""
 
     def __init__(self, seed: RunEvidence | None = None) -> None:
@@ -258,16 +347,24 @@ class PersistenceEvidence:
         if seed is not None and len(seed.labelled):
             self._labelled.add(*_thinned(seed.labelled, seed.persistent))
         self._recent: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []  # the last two frames
+        same = seed is None or not len(seed.seen) or seed.seen[0] == seed.seen[-1]
+        self._streaks = StreakEvidence(None if seed is None else seed.streaks) if same else None
+
+    @property
+    def streak_score(self) -> float | None:
+        """While the scores say nothing and StreakEvidence gives the confidences (STREAK_MAX): the one
+        score seen; else None."""
+        seen = self._rank._seen.values
+        return float(seen[0]) if self._streaks is not None and len(seen) >= EVIDENCE_BINS else None
+
+    def streak_counts(self) -> np.ndarray | None:
+        """StreakEvidence's counts while every score seen has been the same (None once two differed)."""
+        return None if self._streaks is None else self._streaks.counts.copy()
 
     @staticmethod
     def _overlapped(a: np.ndarray, ta: tuple[str, ...], b: np.ndarray, tb: tuple[str, ...]) -> np.ndarray:
         """For every box of b, whether a box of a of its type overlaps it by IoU >= PERSIST_IOU."""
-        if not len(a) or not len(b):
-            return np.zeros(len(b), dtype=bool)
-        near = iou_matrix(a, b) >= PERSIST_IOU
-        if len(set(ta) | set(tb)) > 1:
-            near &= np.array(ta, dtype=object)[:, None] == np.array(tb, dtype=object)[None, :]
-        return near.any(axis=0)
+        return _near(a, ta, b, tb).any(axis=0)
 
     def _label(self, boxes: np.ndarray, types: tuple[str, ...]) -> None:
         """Label the previous frame's detections now that the frame after it is here."""
@@ -301,6 +398,13 @@ class PersistenceEvidence:
         prior = np.maximum(self._rank.confidences(s), EVIDENCE_FLOOR)  # (OnlineRank checks the scores are finite)
         self._label(b, kinds)
         self._recent.append((b, s, kinds))
+        seen = self._rank._seen.values
+        if self._streaks is not None and len(seen) and seen[0] != seen[-1]:
+            self._streaks = None  # two scores differ: the scores say something, from now on
+        if self._streaks is not None:
+            streaks = self._streaks.frame(b, kinds)
+            if self.streak_score is not None:
+                return self._streaks.confidences(streaks)
         if not len(s):
             return np.zeros(0, dtype=np.int64)
         learned = self._learned(s)
