@@ -213,8 +213,9 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
                         f"{DEFAULT_BACKEND} if {BASELINE}) and every peer in one table per dataset")
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
     b.add_argument("--shift", metavar="LIST",
-                   help="re-run under detector and camera shifts of the datasets' own sequences, 'all' or a "
-                        "comma-separated list out of " + ", ".join(SHIFTS) + " (refimpl/io/shifts.py): "
+                   help="re-run under detector and camera shifts of the datasets' own sequences, 'all' (every "
+                        "one but scores-same) or a comma-separated list out of " + ", ".join(SHIFTS) +
+                        " (refimpl/io/shifts.py): "
                         "HOTA / IDF1 of the baseline, abduction and any --peers per shift, the worst case and the "
                         "largest drop")
     b.add_argument("--repeat", type=int, default=1, metavar="N",

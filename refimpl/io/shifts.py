@@ -19,6 +19,10 @@ score rule, as a file of the shifted rows would be read (refimpl.io.detections).
 * ``half-fps``: every second frame (frame rate halved, ground truth of the kept frames);
 * ``half-res``: every box, the image size and the ground truth at half the resolution.
 
+``all`` is that family (issue 39's).  Named only, outside ``all``: ``scores-same``, every score the
+same (1.0): a detector that writes none, or one number for all (docs/model.md 3.19, "Scores that
+say nothing").
+
 Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.  The
 table of their scores is refimpl.experiments.shift_table's; the command line reads the names here
 (``--shift``'s help) without importing the benchmarks.
@@ -44,6 +48,8 @@ class Shift:
     name: str
     what: str
     apply: Callable[[DetectionSequence, GroundTruth, np.random.Generator], Shifted]
+    in_all: bool = True
+    """Part of ``--shift all`` (the family every default is chosen by); False: by name only."""
 
 
 def _rescored(seq: DetectionSequence, f: Callable[[np.ndarray], np.ndarray]) -> DetectionSequence:
@@ -145,13 +151,17 @@ SHIFTS: dict[str, Shift] = {s.name: s for s in (
     Shift("fp-extra", "a quarter more detections, false, anywhere", _extra_false_positives),
     Shift("half-fps", "every second frame", _half_fps),
     Shift("half-res", "half the resolution (boxes, image size, ground truth)", _half_res),
+    Shift("scores-same", "every score the same (a detector that writes none)",
+          _score_shift(lambda s: np.ones_like(s)), in_all=False),
 )}
 """The shifts by name (``--shift all`` or a comma-separated list), ``none`` first."""
 
 
 def parse_shifts(text: str) -> tuple[str, ...]:
-    """``all`` or a comma-separated list of SHIFTS names (``none`` is always run first, the reference)."""
-    names = list(SHIFTS) if text.strip() == "all" else [n.strip() for n in text.split(",") if n.strip()]
+    """``all`` (every shift with ``in_all``) or a comma-separated list of SHIFTS names (``none`` is
+    always run first, the reference)."""
+    names = [n for n, s in SHIFTS.items() if s.in_all] if text.strip() == "all" else \
+        [n.strip() for n in text.split(",") if n.strip()]
     unknown = [n for n in names if n not in SHIFTS]
     if unknown or not names:
         raise ValueError(f"unknown shift {unknown[0] if unknown else text!r} (choose from all, {', '.join(SHIFTS)})")
