@@ -324,10 +324,11 @@ def test_the_api_takes_options_by_name_and_hands_backfilled_rows_over_afterwards
     from refimpl.api import Tracker
     tracker = Tracker("cpsat", img_size=(1000, 600), backfill=True, preset="none", history=True)
     reported = {}
-    for fr in _late_pedestrian().frames:
-        b = fr.boxes
-        dets = np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], np.full(len(b), 0.9)])
-        reported[fr.frame] = tracker.update(dets)[:, 4].tolist()
+    with pytest.warns(UserWarning, match="every detection has the score 0.9"):  # docs/model.md 3.19
+        for fr in _late_pedestrian().frames:
+            b = fr.boxes
+            dets = np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 2], b[:, 1] + b[:, 3], np.full(len(b), 0.9)])
+            reported[fr.frame] = tracker.update(dets)[:, 4].tolist()
     # online, trk 2 is reported from its confirming frame 9 on, as without backfill; its frames 6-8
     # (written by the confirmation, 3 frames late) come with interpolated_rows()
     assert [f for f, ids in reported.items() if 2.0 in ids] == list(range(9, 13))
