@@ -61,8 +61,8 @@ def test_bursty_misses_and_extra_detections_are_deterministic_and_of_the_expecte
 
 
 def test_shift_names_and_the_table():
-    # all: the family the defaults are chosen by; scores-same by name only
-    assert parse_shifts("all") == tuple(n for n in SHIFTS if n != "scores-same")
+    # all: the family the defaults are chosen by; scores-same and box-noise by name only
+    assert parse_shifts("all") == tuple(n for n in SHIFTS if n not in ("scores-same", "box-noise"))
     assert parse_shifts("half-res") == ("none", "half-res")
     assert parse_shifts("scores-same") == ("none", "scores-same")
     with pytest.raises(ValueError, match="unknown shift 'blur'"):
@@ -83,3 +83,19 @@ def test_benchmark_shift_prints_one_table_with_rescales_equal(data_root_with_val
     rows = {line.split("|")[1].strip(): line.split("|")[2:] for line in out.splitlines() if line.startswith("| ")}
     assert rows["none"] == rows["scores-x0.6"]  # the default rule reads the order of the scores only
     assert main(["benchmark", "kitti-ped-train", "--shift", "blur", "--quiet", "--data", root]) == 2
+
+
+def test_box_noise_moves_centres_and_scales_sizes_by_a_tenth_of_the_box():
+    # 400 frames of one 40 x 80 box: the centre's offsets are N(0, 0.1) times 40 and 80 px, so their
+    # standard deviations are about 4 and 8 px (sd of an sd estimate over 400: about 3.5 %); the log
+    # of width / 40 is N(0, 0.1); the ground truth is untouched, the scores too
+    (_, a, gt0), = shifted_dataset(_toy(400), "none")
+    (_, b, gt), = shifted_dataset(_toy(400), "box-noise")
+    before = np.vstack([f.boxes for f in a.frames])
+    after = np.vstack([f.boxes for f in b.frames])
+    dcx = (after[:, 0] + after[:, 2] / 2) - (before[:, 0] + before[:, 2] / 2)
+    dcy = (after[:, 1] + after[:, 3] / 2) - (before[:, 1] + before[:, 3] / 2)
+    assert 3.6 < dcx.std() < 4.4 and 7.2 < dcy.std() < 8.8
+    assert 0.09 < np.log(after[:, 2] / 40.0).std() < 0.11 and abs(np.log(after[:, 3] / 80.0).mean()) < 0.02
+    assert np.array_equal(gt.boxes, gt0.boxes)
+    assert all(np.array_equal(x.scores, y.scores) for x, y in zip(a.frames, b.frames))

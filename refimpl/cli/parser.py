@@ -214,7 +214,7 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
     b.add_argument("--shift", metavar="LIST",
                    help="re-run under detector and camera shifts of the datasets' own sequences, 'all' (every "
-                        "one but scores-same) or a comma-separated list out of " + ", ".join(SHIFTS) +
+                        "one but scores-same and box-noise) or a comma-separated list out of " + ", ".join(SHIFTS) +
                         " (refimpl/io/shifts.py): "
                         "HOTA / IDF1 of the baseline, abduction and any --peers per shift, the worst case and the "
                         "largest drop")

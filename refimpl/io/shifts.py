@@ -21,7 +21,9 @@ score rule, as a file of the shifted rows would be read (refimpl.io.detections).
 
 ``all`` is that family (issue 39's).  Named only, outside ``all``: ``scores-same``, every score the
 same (1.0): a detector that writes none, or one number for all (docs/model.md 3.19, "Scores that
-say nothing").
+say nothing"); ``box-noise``, a detector that localizes worse: every box's centre moved by
+N(0, 0.1) of its width and height, its width and height each multiplied by exp(N(0, 0.1)) (at
+least 1 px), the ground truth as it was.
 
 Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.  The
 table of their scores is refimpl.experiments.shift_table's; the command line reads the names here
@@ -117,6 +119,24 @@ def _extra_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.rand
     return replace(seq, frames=tuple(frames)), gt
 
 
+BOX_NOISE = 0.1
+"""``box-noise``'s standard deviation: of a box's width and height for its centre, of the log of its
+width and height for its size."""
+
+
+def _box_noise(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    frames = []
+    for fr in seq.frames:
+        b = np.asarray(fr.boxes, dtype=float).reshape(-1, 4)
+        n = rng.normal(0.0, BOX_NOISE, size=b.shape)
+        w = np.maximum(b[:, 2] * np.exp(n[:, 2]), 1.0)
+        h = np.maximum(b[:, 3] * np.exp(n[:, 3]), 1.0)
+        cx = b[:, 0] + b[:, 2] / 2 + n[:, 0] * b[:, 2]
+        cy = b[:, 1] + b[:, 3] / 2 + n[:, 1] * b[:, 3]
+        frames.append(replace(fr, boxes=np.column_stack([cx - w / 2, cy - h / 2, w, h])))
+    return replace(seq, frames=tuple(frames)), gt
+
+
 def _half_fps(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
     first = seq.first_frame
     frames = tuple(replace(f, frame=first + (f.frame - first) // 2) for f in seq.frames if (f.frame - first) % 2 == 0)
@@ -153,6 +173,7 @@ SHIFTS: dict[str, Shift] = {s.name: s for s in (
     Shift("half-res", "half the resolution (boxes, image size, ground truth)", _half_res),
     Shift("scores-same", "every score the same (a detector that writes none)",
           _score_shift(lambda s: np.ones_like(s)), in_all=False),
+    Shift("box-noise", "every box moved and resized by about 10 % of its size at random", _box_noise, in_all=False),
 )}
 """The shifts by name (``--shift all`` or a comma-separated list), ``none`` first."""
 
