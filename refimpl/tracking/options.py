@@ -3,7 +3,8 @@ the calibration.
 
 A tracker option is a choice of the tracking loop that a preset may carry beside the model
 constants; none of them changes a rule of the model (the same frame problems are solved by the
-same rules; what changes is the motion model that builds them or which rows are written).  Each
+same rules; what changes is the motion model that builds them, the value of a constant the problem
+carries, learned_gate's iou_thresh, or which rows are written).  Each
 option is one row of TRACKER_OPTIONS (name, command-line flag, parser, help) and one field of
 TrackerOptions (its default, the tracker's behaviour without a preset); adding an option is one
 row, one field and the code that reads it.
@@ -202,6 +203,11 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   f"their predictions makes at least {SHIFT_SUPPORT} of them, and {SHIFT_SUPPORT} more than without "
                   f"it, overlap one (IoU >= {MATCHED_IOU:g}), every track that overlaps no detection is also "
                   "matched at its prediction moved by that shift (a turning camera moves every object alike)"),
+    TrackerOption("learned_gate", _confidence("learned_gate"), None,
+                  "the gate iou_thresh learned from the sequence's own matches: this percent (0..100) of the "
+                  "median matching likelihood of the assignments so far, at most the constant and at least two "
+                  "thirds of it (a detector whose boxes wander is gated less tightly than a precise one; 0: the "
+                  "constant, as the paper)"),
     TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
                   "a halted track's prediction keeps its size and a bounded constant velocity "
                   "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),
@@ -232,6 +238,7 @@ class TrackerOptions:
     scene_velocity: bool = False
     uncertain_speed: bool = False
     scene_shift: bool = False
+    learned_gate: int = 0
     hold_hidden: bool = False
     reupdate_on_resume: bool = False
 

@@ -45,12 +45,13 @@ from typing import Callable, Mapping
 import numpy as np
 
 from ..core.confidence import RANK_PRIOR, OnlineRank
-from ..core.constants import resolve_constants
+from ..core.constants import default_constants, resolve_constants
 from ..core.geometry import integer_box_array, integer_boxes
 from ..knowledge.event_table import explaining
 from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
 from .bounds import PredictionBounds
+from .gate import MatchGate
 from .likelihood import matching_likelihood
 from .options import TrackerOptions, WrittenBox
 from .written_box import WrittenBoxLearner
@@ -210,6 +211,10 @@ class AbductionTracker:
         self._integer_boxes: np.ndarray | None = None  # the last problem's integer boxes, detections first
         self._latest_event = -math.inf  # the time of the latest event logged
         self._learner = WrittenBoxLearner() if options.written_box is WrittenBox.AUTO else None
+        self._gate = (MatchGate(options.learned_gate, self.constant_map.get("iou_thresh", default_constants()["iou_thresh"]))
+                      if options.learned_gate else None)
+        """The learned iou_thresh (option learned_gate, refimpl.tracking.gate); None: the constant."""
+        self._likelihood: tuple[np.ndarray, dict[str, int]] | None = None  # the last problem's ML, track rows
         self._ranker = OnlineRank(prior=RANK_PRIOR)
         self._ranks = np.zeros(0, dtype=np.int64)
         self.delay = max(self.options.bridge_gap, min_hits + self.options.backfill_gap if self.options.backfill else 0,
@@ -255,6 +260,8 @@ class AbductionTracker:
                 at_rest = [(k, b * scale) for k, b in at_rest]
             ml = matching_likelihood(working_predicted, working, [t.state for t in tracks], at_rest, last_seen,
                                      self.options.scene_shift)
+            if self._gate is not None:  # the assignments' likelihoods are counted once the hypothesis is in
+                self._likelihood = (ml, {t.id: k for k, t in enumerate(tracks)})
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
             track_ids = [t.id for t in tracks]  # the facts' tuples made by zip (a crowd has thousands)
             iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
@@ -271,8 +278,15 @@ class AbductionTracker:
             make = FrameProblem.unchecked
         else:
             make = FrameProblem
-        return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self.constants,
+        return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self._frame_constants(),
                     history=history)
+
+    def _frame_constants(self) -> tuple[tuple[str, int], ...]:
+        """The run's constants, with the learned gate as iou_thresh where it differs from the constant."""
+        gate = self._gate.gate() if self._gate is not None else None
+        if gate is None or gate == self._gate.preset:
+            return self.constants
+        return (*((k, v) for k, v in self.constants if k != "iou_thresh"), ("iou_thresh", gate))
 
     @staticmethod
     def _restarted(trk: _Track) -> np.ndarray:
@@ -367,6 +381,9 @@ class AbductionTracker:
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
         detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
         states = BoxKalman.update_many([trk.kalman for trk in assigned], detected)  # as floats, or None
+        if self._gate is not None and assignments:
+            ml, rows = self._likelihood
+            self._gate.add(int(ml[rows[trk_id], index[det_id]]) for trk_id, det_id in assignments)
         for k, (trk, (_, det_id)) in enumerate(zip(assigned, assignments)):
             self._observed(trk, frame, detected[k], int(confidences[index[det_id]]), None if states is None else states[k],
                            index[det_id])
