@@ -98,3 +98,23 @@ def test_the_option_is_parsed_as_a_percent():
     assert TrackerOptions.from_mapping({"learned_gate": "40"}).learned_gate == 40
     with pytest.raises(ValueError, match="learned_gate must be a confidence 0..100"):
         TrackerOptions.from_mapping({"learned_gate": 140})
+
+
+def test_refimpl_diff_re_solves_the_learned_gates_frames_with_clingo_alike():
+    # The diff tracks with a preset's setup (diff_sequence(setup=...)); every frame problem carries
+    # its gate as #const iou_thresh, and clingo gives the CP-SAT tracker's answer on every frame,
+    # the last one (assigned only under the learned gate) included.
+    pytest.importorskip("clingo")
+    from refimpl.io import DetectionFrame, DetectionSequence
+    from refimpl.runs.diff import diff_sequence
+    from refimpl.tracking.pipeline import run_sequence
+    from tracking_helpers import setup_with
+
+    frames = tuple(DetectionFrame(f, b, np.array([0.95]), c, t)
+                   for f, b, c, t in _wandering_walker(GATE_MIN_MATCHES + 12, 27.0))
+    seq = DetectionSequence(name="walker", frames=frames, first_frame=0, image_size=(640, 480), fps=None)
+    setup = setup_with("cpsat", learned_gate=40)
+    report = diff_sequence(seq, ("cpsat", "clingo"), setup=setup)
+    assert (report.frames, report.disagreements, report.divergences) == (GATE_MIN_MATCHES + 12, 0, [])
+    assert len(run_sequence(seq, setup).tracks) == 1  # one person, one track (without the gate: two)
+    assert len(run_sequence(seq, setup_with("cpsat")).tracks) == 2

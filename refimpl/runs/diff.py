@@ -21,6 +21,8 @@ tie-break would decide), counted, not a disagreement.
 
 from __future__ import annotations
 
+import dataclasses
+
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
@@ -235,10 +237,12 @@ def _compared(report: DiffReport, problem: FrameProblem, hyp: Hypothesis, answer
 def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=None,
                   solvers: Sequence[Solver] | None = None,
                   time_limit: float | None = DEFAULT_TIME_LIMIT, asp_model: AspModel | None = None,
-                  on_frame: Callable[[], None] | None = None) -> DiffReport:
+                  on_frame: Callable[[], None] | None = None, setup: Setup | None = None) -> DiffReport:
     """Track seq with backends[0], re-solving each frame with the other backends; with
     ``asp_model`` the clingo backend runs that encoding (module docstring); ``on_frame()`` once
-    per frame, when every backend has answered it (progress)."""
+    per frame, when every backend has answered it (progress).  ``setup``: track with a preset's
+    setup (its constants and tracker options, e.g. ``setup_for("mot", "pedestrian")``) instead of
+    the plain tracker with ``constants``; its backend and time limit are the diff's."""
     backends = tuple(backends)
     levels = PRIORITIES
     if asp_model is not None:
@@ -281,7 +285,10 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
             if report.first_divergence is None:
                 report.first_divergence = Divergence(problem.time, problem, answers, explanation)
 
-    setup = Setup(backends[0], tuple((constants or {}).items()), time_limit=time_limit)
+    if setup is None:
+        setup = Setup(backends[0], tuple((constants or {}).items()), time_limit=time_limit)
+    else:
+        setup = dataclasses.replace(setup, backend=backends[0], time_limit=time_limit, frame_budget=None)
     run_sequence(seq, setup, observer=observe, solver=solvers[0], on_frame=on_frame)
     return report
 
