@@ -21,9 +21,7 @@ tie-break would decide), counted, not a disagreement.
 
 from __future__ import annotations
 
-import dataclasses
-
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Sequence
 
 from ..solvers.check import check_answer
@@ -288,7 +286,7 @@ def diff_sequence(seq, backends: Sequence[str] = DEFAULT_BACKENDS, constants=Non
     if setup is None:
         setup = Setup(backends[0], tuple((constants or {}).items()), time_limit=time_limit)
     else:
-        setup = dataclasses.replace(setup, backend=backends[0], time_limit=time_limit, frame_budget=None)
+        setup = replace(setup, backend=backends[0], time_limit=time_limit, frame_budget=None)
     run_sequence(seq, setup, observer=observe, solver=solvers[0], on_frame=on_frame)
     return report
 
