@@ -181,6 +181,22 @@ def measurement_noise() -> np.ndarray:
     return np.diag([MEASUREMENT_POSITION_VARIANCE] * 2 + [MEASUREMENT_SHAPE_VARIANCE] * 2)
 
 
+def centre_noise(x: np.ndarray, share: float) -> np.ndarray:
+    """R for a detection of a box that wanders (the tracker option ``wander_noise``; refimpl
+    decision, docs/tracking.md 'A detector whose boxes wander'): the centre's variance
+    (share * w)^2 and (share * h)^2, never below SORT's 1 px^2, w and h those of the state ``x``
+    the detection corrects (the prediction); the size block SORT's.  SORT's R where the state
+    has no box (s <= 0 or r <= 0) or ``share`` is 0."""
+    s, r = float(x[2, 0]), float(x[3, 0])
+    if share <= 0 or not (s > 0 and r > 0 and math.isfinite(s * r)):
+        return _R
+    w = math.sqrt(s * r)
+    h = s / w
+    return np.diag([max(MEASUREMENT_POSITION_VARIANCE, (share * w) ** 2),
+                    max(MEASUREMENT_POSITION_VARIANCE, (share * h) ** 2)]
+                   + [MEASUREMENT_SHAPE_VARIANCE] * 2)
+
+
 def process_noise(velocity_noise: float = 1.0, area_noise: float = 1.0) -> np.ndarray:
     """Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001), the velocity block (du, dv, ds) times
     ``velocity_noise`` and the area s times ``area_noise`` (1, 1: SORT's values)."""
@@ -336,16 +352,20 @@ class BoxKalman:
             self.hit_streak = 0
         self.time_since_update += 1
 
-    def update(self, box_xywh) -> None:
-        """Correct the state with a detected (x, y, w, h) box. Counters: hits += 1, hit_streak += 1, time_since_update = 0."""
+    def update(self, box_xywh, wander: float = 0.0) -> None:
+        """Correct the state with a detected (x, y, w, h) box. Counters: hits += 1, hit_streak += 1, time_since_update = 0.
+        ``wander``: 0 (SORT's measurement noise R), or the share of the box by which the detector's
+        centres wander (centre_noise)."""
         z = xywh_to_z(box_xywh)
+        self.kf.R = centre_noise(self.kf.x, wander) if wander else _R
         self.kf.update(z.reshape(DIM_Z, 1))
         self._observed(box_xywh)
 
     @staticmethod
-    def update_many(filters: "list[BoxKalman]", boxes) -> "list[list[float]] | None":
-        """``f.update(box)`` for every (filter, box) pair, the filters corrected as one batch
-        (refimpl.tracking.kalman.update_many: the same bits).  Every box is checked before any
+    def update_many(filters: "list[BoxKalman]", boxes, wander: float = 0.0) -> "list[list[float]] | None":
+        """``f.update(box, wander)`` for every (filter, box) pair, the filters corrected as one batch
+        (refimpl.tracking.kalman.update_many: the same bits; with ``wander`` each filter has its own
+        R, and they are corrected one by one).  Every box is checked before any
         filter changes.  Returns each filter's new state as a list of Python floats where the batch
         left them stacked (for ``box_of_state``), else None."""
         b = np.asarray(boxes, dtype=float)
@@ -355,6 +375,8 @@ class BoxKalman:
             zs = [_z_values(v) for v in b.tolist()]
         if not len(zs):
             return None
+        for f in filters:
+            f.kf.R = centre_noise(f.kf.x, wander) if wander else _R
         stacked = update_many([f.kf for f in filters], np.array(zs, dtype=float).reshape(-1, DIM_Z, 1))
         if stacked is None or b.ndim != 2:
             for f, v in zip(filters, b if b.ndim == 2 else boxes):
@@ -389,7 +411,7 @@ class BoxKalman:
         self.hits += 1
         self.hit_streak += 1
 
-    def reupdate(self, box_xywh) -> None:
+    def reupdate(self, box_xywh, wander: float = 0.0) -> None:
         """Update after a gap, observation-centric (the idea of OC-SORT's re-update; written here).
 
         After k = time_since_update predictions without an update (k >= 2: a gap of k-1 frames),
@@ -399,11 +421,11 @@ class BoxKalman:
         and at step k it predicts and is updated with box_xywh itself.  So the velocity after a
         long occlusion is the one the gap implies, not the one the unobserved drift left.  With
         k <= 1 this is update().  Counters as update(); age is unchanged (the predictions were
-        counted when they were made).
+        counted when they were made).  ``wander``: as update's, at every step.
         """
         k = self.time_since_update
         if k <= 1:
-            self.update(box_xywh)
+            self.update(box_xywh, wander)
             return
         z2 = xywh_to_z(box_xywh)  # validates before the state is touched
         x0, p0, last = self._last_obs
@@ -415,5 +437,6 @@ class BoxKalman:
                 x[6, 0] = 0.0
             self.kf.predict()
             z = z2 if i == k else xywh_to_z(last + (new - last) * (i / k))
+            self.kf.R = centre_noise(self.kf.x, wander) if wander else _R
             self.kf.update(z.reshape(DIM_Z, 1))
         self._observed(box_xywh)

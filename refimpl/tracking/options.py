@@ -208,6 +208,10 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "median matching likelihood of the assignments so far, at most the constant and at least two "
                   "thirds of it (a detector whose boxes wander is gated less tightly than a precise one; 0: the "
                   "constant, as the paper)"),
+    TrackerOption("wander_noise", _confidence("wander_noise"), None,
+                  "while the learned gate is below the constant (the sequence's matches show a detector whose "
+                  "boxes wander), the Kalman filter takes a detection's centre to wander by this percent (0..100) "
+                  "of the box's width and height instead of SORT's 1 px (0: SORT's filter)"),
     TrackerOption("hold_hidden", _switch("hold_hidden"), ("yes", "no"),
                   "a halted track's prediction keeps its size and a bounded constant velocity "
                   "(BoxKalman.predict(hold=True)) instead of the free Kalman prediction"),
@@ -239,6 +243,7 @@ class TrackerOptions:
     uncertain_speed: bool = False
     scene_shift: bool = False
     learned_gate: int = 0
+    wander_noise: int = 0
     hold_hidden: bool = False
     reupdate_on_resume: bool = False
 

@@ -281,6 +281,16 @@ class AbductionTracker:
         return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self._frame_constants(),
                     history=history)
 
+    def _wander(self) -> float:
+        """The tracker option wander_noise (refimpl decision, docs/tracking.md 'A detector whose
+        boxes wander'): while the learned gate is below the constant (the sequence's matches
+        overlap less than a precise detector's), the share of a box by which its detections'
+        centres are taken to wander; else 0, SORT's measurement noise."""
+        gate = self._gate
+        if not self.options.wander_noise or gate is None or gate.gate() >= gate.preset:
+            return 0.0
+        return self.options.wander_noise / 100
+
     def _frame_constants(self) -> tuple[tuple[str, int], ...]:
         """The run's constants, with the learned gate as iou_thresh where it differs from the constant."""
         gate = self._gate.gate() if self._gate is not None else None
@@ -380,7 +390,8 @@ class AbductionTracker:
         # each track's streak and rows in sorted atom order: deterministic
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
         detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
-        states = BoxKalman.update_many([trk.kalman for trk in assigned], detected)  # as floats, or None
+        wander = self._wander()  # the frame problem's gate decides it: before this frame's matches are counted
+        states = BoxKalman.update_many([trk.kalman for trk in assigned], detected, wander)  # as floats, or None
         if self._gate is not None and assignments:
             ml, rows = self._likelihood
             self._gate.add(int(ml[rows[trk_id], index[det_id]]) for trk_id, det_id in assignments)
@@ -402,7 +413,7 @@ class AbductionTracker:
             if trk.bridged:
                 trk.gaps.append((last, frame))
             trk.state = "active"
-            self._observe(trk, frame, boxes[j], int(confidences[j]), j, resumed=True)
+            self._observe(trk, frame, boxes[j], int(confidences[j]), j, resumed=True, wander=wander)
             if trk.bridged and self.sink is not None:
                 self._pend_gap(trk, last, frame)
         for (trk_id,) in acts.get("halt", ()):
@@ -467,12 +478,14 @@ class AbductionTracker:
                   if t.state == "active" and frame - 1 in t.observed and t.streak >= 1]
         return column_medians(np.array(moving)) if len(moving) >= 2 else None
 
-    def _observe(self, trk: _Track, frame: int, box: np.ndarray, conf: int, j: int, resumed: bool = False) -> None:
-        """A detection assigned to, or resuming, the track: update the filter and SORT's hit streak."""
+    def _observe(self, trk: _Track, frame: int, box: np.ndarray, conf: int, j: int, resumed: bool = False,
+                 wander: float = 0.0) -> None:
+        """A detection assigned to, or resuming, the track: update the filter (``wander``: _wander's)
+        and SORT's hit streak."""
         if resumed and self.options.reupdate_on_resume:
-            trk.kalman.reupdate(box)  # observation-centric re-update along the gap
+            trk.kalman.reupdate(box, wander)  # observation-centric re-update along the gap
         else:
-            trk.kalman.update(box)
+            trk.kalman.update(box, wander)
         self._observed(trk, frame, box, conf, None, j)
 
     def _observed(self, trk: _Track, frame: int, box: np.ndarray, conf: int, state: list[float] | None, j: int) -> None:
