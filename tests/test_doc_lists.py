@@ -44,7 +44,8 @@ DOCS = [README, REPO / "CONTRIBUTING.md", *sorted((REPO / "docs").glob("*.md"))]
 PRESETS = tuple(json.loads((REPO / "model" / "presets.json").read_text(encoding="utf-8")))
 COUNT_WORDS = {"two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7, "eight": 8, "nine": 9,
                "ten": 10, "eleven": 11, "twelve": 12, "thirteen": 13, "fourteen": 14,
-               "fifteen": 15, "sixteen": 16, "seventeen": 17, "eighteen": 18}
+               "fifteen": 15, "sixteen": 16, "seventeen": 17, "eighteen": 18, "nineteen": 19,
+               "twenty": 20}
 
 # the values an option without argparse choices accepts, from the registry it reads ("all": the
 # keyword of the list options that takes every row)

@@ -27,8 +27,8 @@ def test_a_precise_detector_keeps_the_preset_and_a_wandering_one_stops_at_the_fl
     precise, wandering = MatchGate(40, 30000), MatchGate(40, 30000)
     precise.add([84000] * 30 + [50000] * 29)  # median (30th of 59) in bin 84: 84500, 40 % = 33800 > 30000
     wandering.add([40000] * 50 + [90000] * 49)  # median (50th of 99) in bin 40: 40500, 40 % = 16200 < 20000
-    assert precise.gate() == 30000
-    assert wandering.gate() == 20000
+    assert precise.gate() == 30000 and not precise.lowered()
+    assert wandering.gate() == 20000 and wandering.lowered()  # what wander_noise goes by
     assert MatchGate(0, 30000).gate() == 30000  # ratio 0: the option off
 
 

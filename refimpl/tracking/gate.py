@@ -67,3 +67,9 @@ class MatchGate:
         if median is None or self.ratio == 0:
             return self.preset
         return min(self.preset, max(self.floor, self.ratio * median // 100))
+
+    def lowered(self) -> bool:
+        """Whether the gate is below the preset: the sequence's matches show a detector whose boxes
+        wander (the tracker option wander_noise reads it, docs/tracking.md 'A detector whose boxes
+        wander')."""
+        return self.gate() < self.preset

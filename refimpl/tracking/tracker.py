@@ -281,16 +281,6 @@ class AbductionTracker:
         return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self._frame_constants(),
                     history=history)
 
-    def _wander(self) -> float:
-        """The tracker option wander_noise (refimpl decision, docs/tracking.md 'A detector whose
-        boxes wander'): while the learned gate is below the constant (the sequence's matches
-        overlap less than a precise detector's), the share of a box by which its detections'
-        centres are taken to wander; else 0, SORT's measurement noise."""
-        gate = self._gate
-        if not self.options.wander_noise or gate is None or gate.gate() >= gate.preset:
-            return 0.0
-        return self.options.wander_noise / 100
-
     def _frame_constants(self) -> tuple[tuple[str, int], ...]:
         """The run's constants, with the learned gate as iou_thresh where it differs from the constant."""
         gate = self._gate.gate() if self._gate is not None else None
@@ -390,7 +380,9 @@ class AbductionTracker:
         # each track's streak and rows in sorted atom order: deterministic
         assigned = [self.tracks[trk_id] for trk_id, _ in assignments]
         detected = boxes[[index[det_id] for _, det_id in assignments]]  # their boxes, (n, 4)
-        wander = self._wander()  # the frame problem's gate decides it: before this frame's matches are counted
+        # wander_noise (docs/tracking.md 'A detector whose boxes wander'): where the gate this frame's
+        # problem carried is lowered, a detection's centre is taken to scatter by a share of its box
+        wander = self.options.wander_noise / 100 if self._gate is not None and self._gate.lowered() else 0.0
         states = BoxKalman.update_many([trk.kalman for trk in assigned], detected, wander)  # as floats, or None
         if self._gate is not None and assignments:
             ml, rows = self._likelihood
@@ -480,7 +472,7 @@ class AbductionTracker:
 
     def _observe(self, trk: _Track, frame: int, box: np.ndarray, conf: int, j: int, resumed: bool = False,
                  wander: float = 0.0) -> None:
-        """A detection assigned to, or resuming, the track: update the filter (``wander``: _wander's)
+        """A detection assigned to, or resuming, the track: update the filter (``wander``: wander_noise's share, or 0)
         and SORT's hit streak."""
         if resumed and self.options.reupdate_on_resume:
             trk.kalman.reupdate(box, wander)  # observation-centric re-update along the gap

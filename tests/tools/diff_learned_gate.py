@@ -1,6 +1,8 @@
 """The learned gate (docs/model.md 3.33) through `refimpl diff`'s own comparison: track
 box-noise-shifted tuning sequences with cpsat and their preset (learned_gate 45), re-solve every
-frame with clingo, and count the frames whose problem carried a learned iou_thresh.
+frame with clingo, and count the frames whose problem carried a learned iou_thresh (in those
+frames a preset's wander_noise acts too: the predictions the problems carry are the smoothed
+filter's, docs/tracking.md 'A detector whose boxes wander').
 
     python tests/tools/diff_learned_gate.py [--data ../shared/data] [--benchmark mot15]
         [--sequences TUD-Campus,TUD-Stadtmitte,KITTI-17] [--shift box-noise]
