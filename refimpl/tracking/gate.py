@@ -28,8 +28,6 @@ from __future__ import annotations
 
 from typing import Iterable
 
-import numpy as np
-
 GATE_MIN_MATCHES = 50
 """The gate stays the preset's until the sequence has shown this many assignments."""
 GATE_BIN = 1000
@@ -43,30 +41,37 @@ class MatchGate:
         self.ratio = int(ratio)
         self.preset = int(preset)
         self.floor = self.preset * 2 // 3
-        self.counts = np.zeros(100000 // GATE_BIN + 1, dtype=np.int64)
+        self.counts = [0] * (100000 // GATE_BIN + 1)
+        self.n = 0
+        self._gate = self.preset  # gate(), recomputed when a frame's assignments are counted
 
     def add(self, likelihoods: Iterable[int]) -> None:
         """Count the iou/3 values (0..100000) of one frame's assignments."""
-        values = np.fromiter(likelihoods, dtype=np.int64)
-        if len(values):
-            np.add.at(self.counts, np.clip(values, 0, 100000) // GATE_BIN, 1)
+        counts, added = self.counts, self.n
+        for v in likelihoods:
+            counts[min(max(int(v), 0), 100000) // GATE_BIN] += 1
+            self.n += 1
+        if self.n != added:
+            median = self.median
+            self._gate = (self.preset if median is None or self.ratio == 0
+                          else min(self.preset, max(self.floor, self.ratio * median // 100)))
 
     @property
     def median(self) -> int | None:
         """The middle of the median's bin (None before GATE_MIN_MATCHES): the lower median of an
         even count, so that integer arithmetic decides it."""
-        n = int(self.counts.sum())
-        if n < GATE_MIN_MATCHES:
+        if self.n < GATE_MIN_MATCHES:
             return None
-        b = int(np.searchsorted(np.cumsum(self.counts), (n + 1) // 2))
-        return min(100000, b * GATE_BIN + GATE_BIN // 2)
+        half, below = (self.n + 1) // 2, 0
+        for b, c in enumerate(self.counts):  # the first bin whose running count reaches half
+            below += c
+            if below >= half:
+                return min(100000, b * GATE_BIN + GATE_BIN // 2)
+        raise AssertionError("unreachable: the counts sum to n")
 
     def gate(self) -> int:
         """The frame problem's ``iou_thresh``: the preset's until enough matches were counted."""
-        median = self.median
-        if median is None or self.ratio == 0:
-            return self.preset
-        return min(self.preset, max(self.floor, self.ratio * median // 100))
+        return self._gate
 
     def lowered(self) -> bool:
         """Whether the gate is below the preset: the sequence's matches show a detector whose boxes
