@@ -185,13 +185,12 @@ def centre_noise(x: np.ndarray, share: float) -> np.ndarray:
     """R for a detection of a box that wanders (the tracker option ``wander_noise``; refimpl
     decision, docs/tracking.md 'A detector whose boxes wander'): the centre's variance
     (share * w)^2 and (share * h)^2, never below SORT's 1 px^2, w and h those of the state ``x``
-    the detection corrects (the prediction); the size block SORT's.  SORT's R where the state
-    has no box (s <= 0 or r <= 0) or ``share`` is 0."""
-    s, r = float(x[2, 0]), float(x[3, 0])
-    if share <= 0 or not (s > 0 and r > 0 and math.isfinite(s * r)):
+    the detection corrects (the prediction, its box as ``BoxKalman.box`` reads it); the size block
+    SORT's.  SORT's R where the state is no box or ``share`` is 0."""
+    box = _state_box_values(x) if share > 0 else None
+    if box is None:
         return _R
-    w = math.sqrt(s * r)
-    h = s / w
+    w, h = box[2], box[3]
     return np.diag([max(MEASUREMENT_POSITION_VARIANCE, (share * w) ** 2),
                     max(MEASUREMENT_POSITION_VARIANCE, (share * h) ** 2)]
                    + [MEASUREMENT_SHAPE_VARIANCE] * 2)
