@@ -20,6 +20,7 @@ from refimpl import io
 from refimpl.cli import main
 from refimpl.runs.diff import DiffJob, diff_job, diff_sequence
 from refimpl.solvers import get_solver
+from tools.signals import as_from_a_terminal
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -278,7 +279,8 @@ def test_ctrl_c_and_sigterm_end_the_grounding_of_an_encoding(tmp_path, sig, code
     folder = _endless(tmp_path)
     proc = subprocess.Popen([sys.executable, "-m", "refimpl", "diff", "--dets",
                              str(REPO / "data/demo/TUD-Campus/det/det.txt"), "--asp-model", str(folder),
-                             "--time-limit", "600", "--quiet"], cwd=REPO, stderr=subprocess.PIPE, text=True)
+                             "--time-limit", "600", "--quiet"], cwd=REPO, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=as_from_a_terminal(sig))
     deadline = time.monotonic() + 120
     while not (child := _child_running(proc.pid, "refimpl.solvers.asp_model_worker")):  # grounding has begun
         assert proc.poll() is None and time.monotonic() < deadline

@@ -23,6 +23,7 @@ from refimpl.core import confidence, geometry
 from refimpl.core.confidence import SortedWindow
 from refimpl.core.records import MAX_LINE_CHARS, MAX_TEXT_CHARS, RecordTooLong, bounded_lines, read_text
 from refimpl.io import MAX_DETECTIONS_PER_FRAME, InputFormatError, read_mot_detections, stream_mot_detections
+from tools.signals import as_from_a_terminal
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus" / "det" / "det.txt"
@@ -99,7 +100,7 @@ def test_ctrl_c_ends_a_pipe_waiting_for_its_next_line(tmp_path):
     # one line, and the staged results file is removed
     proc = subprocess.Popen([sys.executable, "-m", "refimpl", "track", "--dets", "-", "--backend", "baseline",
                              "--out", str(tmp_path / "r.txt")], stdin=subprocess.PIPE, stderr=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True, cwd=REPO)
+                            stdout=subprocess.PIPE, text=True, cwd=REPO, preexec_fn=as_from_a_terminal(signal.SIGINT))
     proc.stdin.write(ROW + ROW.replace("1,", "2,", 1))
     proc.stdin.flush()
     # frame 1 is complete once frame 2's line is read: the warning that no image size is known

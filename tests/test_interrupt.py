@@ -20,6 +20,7 @@ import pytest
 from refimpl.solvers import TRACKERS
 
 from refimpl.experiments.walkers import write_sequence
+from tools.signals import started_with
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -30,12 +31,16 @@ def long_dets(tmp_path_factory) -> Path:
     return write_sequence(tmp_path_factory.mktemp("seq") / "LONG", 4000, 20, seed=0)
 
 
-def _interrupt(dets: Path, out_dir: Path, backend: str, sig: int = signal.SIGINT) -> tuple[int, float, str]:
+def _start(dets: Path, out_dir: Path, backend: str, sig: int, action=signal.SIG_DFL) -> subprocess.Popen:
+    """`refimpl track` on ``dets``, started with ``action`` for ``sig`` (the default: as from a
+    terminal, whatever this test's runner inherited: tools.signals), once it is inside its
+    tracking loop."""
     out_dir.mkdir()
     argv = [sys.executable, "-m", "refimpl", "track", "--dets", str(dets), "--backend", backend,
             "--out", str(out_dir / "res.txt"), "--events", str(out_dir / "ev.lp"),
             "--events-json", str(out_dir / "ev.jsonl")]
-    proc = subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(argv, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=started_with(action, sig))
     deadline = time.monotonic() + 60
     # the staged temporary files appear when tracking starts (after imports and reading)
     while len(list(out_dir.iterdir())) < 3:
@@ -44,6 +49,11 @@ def _interrupt(dets: Path, out_dir: Path, backend: str, sig: int = signal.SIGINT
         time.sleep(0.05)
     time.sleep(0.5)  # well inside the tracking loop
     assert proc.poll() is None
+    return proc
+
+
+def _interrupt(dets: Path, out_dir: Path, backend: str, sig: int = signal.SIGINT) -> tuple[int, float, str]:
+    proc = _start(dets, out_dir, backend, sig)
     sent = time.monotonic()
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=30)
@@ -78,6 +88,20 @@ def test_sighup_and_sigquit_end_track_like_sigterm(long_dets, tmp_path, sig, cod
     got, _, err = _interrupt(long_dets, tmp_path / "out", "baseline", sig)
     assert got == code, err
     assert [line for line in err.splitlines() if not line.startswith(("refimpl: warning", "refimpl track: note:"))] == ["refimpl: terminated"]
+    assert os.listdir(tmp_path / "out") == []
+
+
+def test_a_run_under_nohup_keeps_running_on_sighup(long_dets, tmp_path):
+    # nohup starts a command with SIGHUP ignored so that closing the terminal does not end it;
+    # refimpl handles only signals at their default action, so the ignored SIGHUP stays ignored
+    # and the run goes on; a later SIGTERM still ends it cleanly (143, no output left behind)
+    proc = _start(long_dets, tmp_path / "out", "baseline", signal.SIGHUP, signal.SIG_IGN)
+    proc.send_signal(signal.SIGHUP)
+    time.sleep(1.0)  # the baseline needs ~10 s for the whole sequence: still tracking
+    assert proc.poll() is None
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 143, err
     assert os.listdir(tmp_path / "out") == []
 
 

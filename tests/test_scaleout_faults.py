@@ -27,6 +27,7 @@ from refimpl import cli  # noqa: E402
 
 from refimpl.runs import scaleout  # noqa: E402
 from refimpl.runs.scaleout import ClusterError, Plan, check_address, run_tasks  # noqa: E402
+from tools.signals import as_from_a_terminal  # noqa: E402
 
 REPO = Path(__file__).resolve().parent.parent
 DEMO = REPO / "data" / "demo" / "TUD-Campus"
@@ -427,7 +428,7 @@ def test_ctrl_c_on_a_local_cluster_is_the_commands_one_line(long_inputs, tmp_pat
     run = subprocess.Popen([sys.executable, "-m", "refimpl", "track", "--backend", "cpsat", "--dets", *long_inputs,
                             "--out-dir", str(tmp_path / "out"), "--quiet", "--workers", "2", "--serial-below", "0"],
                            cwd=REPO, env=ENV, text=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+                           start_new_session=True, preexec_fn=as_from_a_terminal(signal.SIGINT))
     deadline = time.monotonic() + 120
     while run.poll() is None and time.monotonic() < deadline and len(_children(run.pid)) < 2:
         time.sleep(0.1)  # until both workers exist

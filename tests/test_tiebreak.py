@@ -17,6 +17,7 @@ import pytest
 from framegen import random_frame
 from refimpl.solvers import BACKENDS, NoAdmissibleHypothesis, SolveTimeout, check_time_limit, get_solver
 from refimpl.solvers.common import components, tiebreak_level, tiebreak_weights
+from tools.signals import as_from_a_terminal
 from refimpl.core.spec import Detection, FrameProblem, TrackPrediction, with_constants
 from refimpl.core.facts import read_problem
 from refimpl.experiments.synthetic import synthetic_frame
@@ -316,7 +317,8 @@ def test_sigint_is_not_swallowed_by_cp_sat():
     import sys
     repo = Path(__file__).resolve().parent.parent
     out = subprocess.run([sys.executable, "-c", _CPSAT_SIGINT], capture_output=True, text=True, cwd=repo,
-                         env=dict(os.environ, PYTHONPATH=str(repo)), timeout=300)
+                         env=dict(os.environ, PYTHONPATH=str(repo)), timeout=300,
+                         preexec_fn=as_from_a_terminal(signal.SIGINT))  # Python's Ctrl-C handler however pytest was started
     assert out.returncode == 0, out.stdout + out.stderr
     assert float(out.stdout.split()[1]) < 1.0, out.stdout
 
