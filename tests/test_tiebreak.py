@@ -17,10 +17,10 @@ import pytest
 from framegen import random_frame
 from refimpl.solvers import BACKENDS, NoAdmissibleHypothesis, SolveTimeout, check_time_limit, get_solver
 from refimpl.solvers.common import components, tiebreak_level, tiebreak_weights
-from tools.signals import as_from_a_terminal
 from refimpl.core.spec import Detection, FrameProblem, TrackPrediction, with_constants
 from refimpl.core.facts import read_problem
 from refimpl.experiments.synthetic import synthetic_frame
+from tools.signals import as_from_a_terminal
 
 EQUAL_COSTS = {name: 1 for name in ("cost_hides_behind", "cost_missing_detections", "cost_unhides_from_behind",
                                     "cost_recover", "cost_leaves_fov", "cost_lost", "cost_noise")}
