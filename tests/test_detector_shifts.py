@@ -61,8 +61,8 @@ def test_bursty_misses_and_extra_detections_are_deterministic_and_of_the_expecte
 
 
 def test_shift_names_and_the_table():
-    # all: the family the defaults are chosen by; scores-same and box-noise by name only
-    assert parse_shifts("all") == tuple(n for n in SHIFTS if n not in ("scores-same", "box-noise"))
+    # all: the family the defaults are chosen by; scores-same, box-noise and fp-static by name only
+    assert parse_shifts("all") == tuple(n for n in SHIFTS if n not in ("scores-same", "box-noise", "fp-static"))
     assert parse_shifts("half-res") == ("none", "half-res")
     assert parse_shifts("scores-same") == ("none", "scores-same")
     with pytest.raises(ValueError, match="unknown shift 'blur'"):
@@ -99,3 +99,25 @@ def test_box_noise_moves_centres_and_scales_sizes_by_a_tenth_of_the_box():
     assert 0.09 < np.log(after[:, 2] / 40.0).std() < 0.11 and abs(np.log(after[:, 3] / 80.0).mean()) < 0.02
     assert np.array_equal(gt.boxes, gt0.boxes)
     assert all(np.array_equal(x.scores, y.scores) for x, y in zip(a.frames, b.frames))
+
+
+def test_static_false_positives_come_back_at_the_same_few_places_with_low_scores():
+    # 20 detections a frame over 400 frames: round(0.25 * 20) = 5 false places, each seen with
+    # probability 0.5 a frame, so about 1,000 false detections (binomial sd about 22), every one
+    # within a few jitters (sd 0.05 of 30 px = 1.5 px) of one of 5 places, scored from the lower half
+    rng = np.random.default_rng(3)
+    frames = tuple(DetectionFrame(t, np.column_stack([rng.random((20, 2)) * 500, np.full((20, 2), 30.0)]),
+                                  rng.random(20), np.zeros(20, dtype=np.int64), ("car",) * 20) for t in range(400))
+    data = [("s", DetectionSequence("s", frames, 0, (640, 480), 10.0), _toy(1)[0][2])]
+    (_, shifted, _), = shifted_dataset(data, "fp-static")
+    extra = np.vstack([f.boxes[20:] for f in shifted.frames])
+    assert 930 < len(extra) < 1070
+    places: list[np.ndarray] = []  # each box joins the first place within 10 px (6 jitter sd), else starts one
+    for xy in extra[:, :2]:
+        if not any(np.abs(xy - p).max() <= 10.0 for p in places):
+            places.append(xy)
+    assert len(places) == 5
+    median = np.median(np.concatenate([f.scores[:20] for f in frames]))
+    assert max(f.scores[20:].max(initial=-1.0) for f in shifted.frames) <= median
+    again = shifted_dataset(data, "fp-static")[0][1]
+    assert all(np.array_equal(a.boxes, b.boxes) for a, b in zip(again.frames, shifted.frames))  # same seed

@@ -23,7 +23,11 @@ score rule, as a file of the shifted rows would be read (refimpl.io.detections).
 same (1.0): a detector that writes none, or one number for all (docs/model.md 3.19, "Scores that
 say nothing"); ``box-noise``, a detector that localizes worse: every box's centre moved by
 N(0, 0.1) of its width and height, its width and height each multiplied by exp(N(0, 0.1)) (at
-least 1 px), the ground truth as it was.
+least 1 px), the ground truth as it was; ``fp-static``, a detector that fires on the background:
+false detections that persist at fixed places (a sign, a pole, a reflection), a quarter as many
+places as the mean detections per frame (at least one), each the size of a random detection of the
+sequence, anywhere in the image, seen in a frame with probability 0.5, its centre moved by N(0,
+0.05) of its size, with a score drawn from the sequence's lower half.
 
 Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.  The
 table of their scores is refimpl.experiments.shift_table's; the command line reads the names here
@@ -119,6 +123,38 @@ def _extra_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.rand
     return replace(seq, frames=tuple(frames)), gt
 
 
+STATIC_SEEN = 0.5
+"""``fp-static``: the probability that a false place is detected in a frame."""
+STATIC_JITTER = 0.05
+"""``fp-static``: the standard deviation of a false place's centre, as a share of its width and height."""
+
+
+def _static_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    boxes = [np.asarray(f.boxes, dtype=float).reshape(-1, 4) for f in seq.frames]
+    every = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    if not len(every):
+        return seq, gt
+    scores = np.sort(np.concatenate([f.scores for f in seq.frames]))
+    low = scores[: max(1, len(scores) // 2)]
+    width, height = seq.image_size or (float(np.max(every[:, 0] + every[:, 2])), float(np.max(every[:, 1] + every[:, 3])))
+    places = max(1, int(round(0.25 * len(every) / max(1, len(seq.frames)))))
+    size = every[rng.integers(0, len(every), size=places), 2:]
+    xy = rng.random((places, 2)) * np.maximum(np.array([width, height]) - size, 1.0)
+    sites = np.column_stack([xy, size])
+    kind = next((f.types[0] for f in seq.frames if len(f)), "pedestrian")
+    frames = []
+    for fr in seq.frames:
+        seen = rng.random(places) < STATIC_SEEN
+        k = int(seen.sum())
+        extra = sites[seen].copy()
+        extra[:, :2] += rng.normal(0.0, STATIC_JITTER, size=(k, 2)) * extra[:, 2:]
+        frames.append(DetectionFrame(fr.frame, np.vstack([fr.boxes, extra]),
+                                     np.concatenate([fr.scores, rng.choice(low, size=k)]),
+                                     np.concatenate([fr.confidences, np.zeros(k, dtype=np.int64)]),
+                                     tuple(fr.types) + (kind,) * k))
+    return replace(seq, frames=tuple(frames)), gt
+
+
 BOX_NOISE = 0.1
 """``box-noise``'s standard deviation: of a box's width and height for its centre, of the log of its
 width and height for its size."""
@@ -174,6 +210,8 @@ SHIFTS: dict[str, Shift] = {s.name: s for s in (
     Shift("scores-same", "every score the same (a detector that writes none)",
           _score_shift(lambda s: np.ones_like(s)), in_all=False),
     Shift("box-noise", "every box moved and resized by about 10 % of its size at random", _box_noise, in_all=False),
+    Shift("fp-static", "false detections that persist at fixed places, seen every other frame",
+          _static_false_positives, in_all=False),
 )}
 """The shifts by name (``--shift all`` or a comma-separated list), ``none`` first."""
 
