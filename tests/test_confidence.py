@@ -47,6 +47,17 @@ def test_bare_rank_on_two_frames():
     assert bare_ranks([[1, 2, 3, 4, 5, 6, 7, 8]])[0].tolist() == [13, 25, 38, 50, 63, 75, 88, 100]
 
 
+def test_rank_of_asks_a_score_s_rank_so_far_without_adding_it():
+    r = OnlineRank(prior=2)
+    r.confidences([0.3, 0.1, 0.2])
+    # seen 0.1 0.2 0.3 and 2 below every one: n = 5; 0.2 has 2 + 2 = 4 <= it -> 80, 0.05 has the
+    # prior's 2 -> 40, 0.3 has 5 -> 100; asking adds nothing, so asking again gives the same
+    assert [r.rank_of(0.2), r.rank_of(0.05), r.rank_of(0.3), r.rank_of(0.2)] == [80, 40, 100, 80]
+    # one more frame of two higher scores: n = 7, 0.2 now 4 of 7 -> floor(57.1 + .5) = 57
+    r.confidences([0.5, 0.6])
+    assert r.rank_of(0.2) == 57
+
+
 def test_the_rank_rule_maps_ranks_linearly_onto_twenty_to_a_hundred():
     # --scores rank reads RankFrames: eight scores in one frame rank k / 8 for k = 1..8, mapped onto
     # RANK_LOW 20 .. 100 (docs/model.md 3.19, "The rank rule's map"): 20 + 80 k / 8 = 20 + 10 k,

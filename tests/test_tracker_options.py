@@ -219,22 +219,41 @@ def _ranked_walkers() -> DetectionSequence:
 def test_write_peak_holds_back_a_track_the_detector_never_ranked_high(backend):
     if backend == "clingo":
         pytest.importorskip("clingo")
-    # trk_1 = A, trk_2 = D, trk_3 = C.  A rank is floor(100 (k + 50) / (n + 50) + 1/2): k of the n
-    # scores seen so far at most its own, RANK_PRIOR = 50 more below every one.  D's first
-    # detection ranks (50 + 1) / (50 + 2) -> 98.  C's first, at frame 31, is the lowest of n = 63:
-    # 51 / 113 -> 45, and each later frame adds two higher scores, so 45 is its peak.  Rows (with
-    # backfill the delay is max(bridge_gap 2, min_hits 3) = 3 frames):
-    # * no option: C confirmed at 33 (min_hits), written from its first frame, 31;
+    # trk_1 = A, trk_2 = D, trk_3 = C.  A track's rank is its best score's among the scores seen so
+    # far, judged anew every frame: floor(100 (k + 50) / (n + 50) + 1/2), k of the n scores at most
+    # its own, RANK_PRIOR = 50 more below every one.  A (0.9) and D (0.8) rank high throughout (D
+    # at frame 40: (50 + 50) / (50 + 90) -> 71).  C's 0.2 is the lowest: at frame f >= 31 it has
+    # c = f - 30 scores, n = 2f + c, so C ranks (50 + c) / (50 + 2f + c): 44 at f = 34..37
+    # ((50 + 4) / 122 = 44.3, ..., 57 / 131 = 43.5 rounds to 44), 43 from 38 (58 / 134 = 43.3).
+    # C is confirmed at 34 (min_hits 3: its streak is 0 at birth, frame 31), backfilled to its
+    # first frame.  Rows (with backfill the delay is max(bridge_gap 2, min_hits 3) = 3 frames):
+    # * no option: C written 31..40;
     # * write_peak 55: C never written; A and D as before;
-    # * write_peak 45: C's peak suffices: as without the option;
-    # * write_peak 55, peak_wait 5: C written at its fifth detection (frame 35), backfilled to 32.
+    # * write_peak 44: C written while it ranks 44: 31..37, held back again from 38;
+    # * write_peak 55, peak_wait 5: C observed 5 frames in a row at 36, from then on written,
+    #   backfilled over the 3 frames not final yet: 33..40.
     runs = [run_sequence(_ranked_walkers(), setup_with(backend, backfill=True, **o))
-            for o in ({}, {"write_peak": 55}, {"write_peak": 45}, {"write_peak": 55, "peak_wait": 5})]
+            for o in ({}, {"write_peak": 55}, {"write_peak": 44}, {"write_peak": 55, "peak_wait": 5})]
     every = list(range(1, 41))
     assert [[_rows_of(r, n) for n in (1, 2, 3)] for r in runs] == [
-        [every, every, list(range(31, 41))], [every, every, []], [every, every, list(range(31, 41))],
-        [every, every, list(range(32, 41))]]
+        [every, every, list(range(31, 41))], [every, every, []], [every, every, list(range(31, 38))],
+        [every, every, list(range(33, 41))]]
     assert all([str(e) for e in r.events] == [str(e) for e in runs[0].events] for r in runs)  # only the writing differs
+
+
+def test_peak_wait_counts_frames_in_a_row_and_once_reached_holds_across_a_miss():
+    # _ranked_walkers with the pole C missed at frame 38.  C (trk_3) is born at 31 with streak 0,
+    # so its streak is 5 at frame 36 and 6 at 37; the miss at 38 restarts it (1 at 39, 2 at 40).
+    # * peak_wait 5: reached at 36 (written from then on, backfilled over the 3 frames not final:
+    #   33..36, then 37); 38 bridged (resumed at 39 with confidence 90 >= bridge_conf 90, gap 1 <=
+    #   bridge_gap 2) and interpolated; 39 and 40 written though C ranks below 55 and its streak is 1-2;
+    # * peak_wait 9: never 9 frames in a row, and C ranks below 55 throughout: never written.
+    seq = _ranked_walkers()
+    frames = tuple(dataclasses.replace(fr, boxes=fr.boxes[:2], scores=fr.scores[:2], confidences=fr.confidences[:2],
+                                       types=fr.types[:2]) if fr.frame == 38 else fr for fr in seq.frames)
+    missed = dataclasses.replace(seq, frames=frames)
+    runs = [run_sequence(missed, setup_with("cpsat", backfill=True, write_peak=55, peak_wait=w)) for w in (5, 9)]
+    assert [_rows_of(r, 3) for r in runs] == [list(range(33, 41)), []]
 
 
 def test_write_peak_reads_the_scores_order_not_their_scale():

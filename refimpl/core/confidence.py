@@ -208,6 +208,13 @@ class OnlineRank:
         at_most = np.searchsorted(seen, s, side="right") + self.prior  # scores seen so far <= s, itself included
         return at_most.astype(np.int64), len(seen) + self.prior
 
+    def rank_of(self, score: float) -> int:
+        """A score's rank among the scores seen so far (the prior included), times 100, rounded half
+        up, without adding it: floor(100 k / n + 1/2)."""
+        k = int(np.searchsorted(self._seen.values, score, side="right")) + self.prior
+        n = len(self._seen) + self.prior
+        return (200 * k + n) // (2 * n) if n else 100
+
     def reset(self) -> None:
         self._seen = SortedWindow()
         if self._seed is not None and len(self._seed):

@@ -182,13 +182,13 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "a track is first written once the mean confidence (0..100) of the detections it has taken "
                   "is at least this, besides min_hits (0: min_hits alone, as SORT)"),
     TrackerOption("write_peak", _confidence("write_peak"), None,
-                  "a track is first written once one of its detections ranked at least this (0..100) among the "
-                  "scores seen so far (the rank rule, with RANK_PRIOR scores taken to lie below them), besides "
-                  "write_evidence (0: never asked)"),
+                  "a track is written while its best detection ranks at least this (0..100) among the scores "
+                  "seen so far (the rank rule, with RANK_PRIOR scores taken to lie below them), judged anew "
+                  "every frame, besides write_evidence (0: never asked)"),
     TrackerOption("peak_wait", _frames("peak_wait"), None,
-                  "a track that write_peak holds back is written all the same once it has taken this many "
-                  "detections: an object followed that long is there, whatever its scores' rank (0: held until "
-                  "its peak)"),
+                  "a track that write_peak holds back is written all the same, from then on, once it has been "
+                  "observed this many frames in a row: an object followed that long is there, whatever its "
+                  "scores' rank (0: held until its peak)"),
     TrackerOption("scene_velocity", _switch("scene_velocity"), ("yes", "no"),
                   "a new track starts with the median velocity of the tracks observed in the previous frame "
                   "(the image motion that a turning camera gives every object) instead of zero; until it is "

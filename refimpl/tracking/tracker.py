@@ -109,7 +109,8 @@ class _Track:
     hits: int = 0  # detections taken (write_evidence)
     evidence: int = 0  # the sum of their confidences
     evident: bool = False  # its mean confidence has reached write_evidence: it may be written
-    peak: int = 0  # the highest rank of a detection it has taken (write_peak)
+    best: float = float("-inf")  # the highest score of a detection it has taken (write_peak)
+    waited: bool = False  # it has been observed peak_wait frames in a row: write_peak holds it back no more
 
 
 @dataclass(frozen=True)
@@ -216,7 +217,7 @@ class AbductionTracker:
         """The learned iou_thresh (option learned_gate, refimpl.tracking.gate); None: the constant."""
         self._likelihood: tuple[np.ndarray, dict[str, int]] | None = None  # the last problem's ML, track rows
         self._ranker = OnlineRank(prior=RANK_PRIOR)
-        self._ranks = np.zeros(0, dtype=np.int64)
+        self._scores = np.zeros(0, dtype=float)  # the frame's scores as the detector wrote them (write_peak)
         self.delay = max(self.options.bridge_gap, min_hits + self.options.backfill_gap if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled episodes, backfills)."""
@@ -304,8 +305,9 @@ class AbductionTracker:
         (the confidences' where not given)."""
         started = perf_counter()
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        if self.options.write_peak:  # each detection's rank among the scores seen so far (write_peak)
-            self._ranks = self._ranker.confidences(confidences if scores is None else scores)
+        if self.options.write_peak:  # the scores seen so far, whose order write_peak reads
+            self._scores = np.asarray(confidences if scores is None else scores, dtype=float).reshape(-1)
+            self._ranker.counts(self._scores)  # seen: the ranks write_peak reads (_peaked)
         problem = self.frame_problem(frame, boxes, confidences, types)
         rounded = self._integer_boxes  # the frame's integer boxes: their range tests on the array
         checked = rounded is not None and integer_boxes_fit(rounded, len(boxes),
@@ -422,7 +424,7 @@ class AbductionTracker:
             trk.observed[frame] = self._written(trk_id, frame, kalman, boxes[j])
             trk.hits, trk.evidence = 1, int(confidences[j])
             if self.options.write_peak:
-                trk.peak = int(self._ranks[j])
+                trk.best = float(self._scores[j])
             self._confirm(trk, frame)
             self.tracks[trk_id] = trk
             new_ids[_det_id(j)] = trk_id
@@ -488,7 +490,7 @@ class AbductionTracker:
         trk.hits += 1
         trk.evidence += conf
         if self.options.write_peak:
-            trk.peak = max(trk.peak, int(self._ranks[j]))
+            trk.best = max(trk.best, float(self._scores[j]))
         trk.observed[frame] = self._written(trk.id, frame, trk.kalman, box, state)
         self._confirm(trk, frame)
 
@@ -511,9 +513,9 @@ class AbductionTracker:
         if not trk.evident:
             if trk.evidence < self.options.write_evidence * trk.hits:
                 return
-            if trk.peak < self.options.write_peak and not 0 < self.options.peak_wait <= trk.hits:
-                return
             trk.evident = True
+        if self.options.write_peak and not self._peaked(trk):
+            return
         first = frame
         if self.options.backfill and frame - 1 not in trk.confirmed:  # the streak's frames, a new track's first included
             first = self._backfilled(trk, frame)
@@ -533,6 +535,15 @@ class AbductionTracker:
                 trk.confirmed.add(f)
                 if self.sink is not None:
                     self._pending.setdefault(f, []).append([f, _trk_number(trk.id), *trk.observed[f]])
+
+    def _peaked(self, trk: _Track) -> bool:
+        """write_peak: the track's best detection ranks at least write_peak among the scores the
+        sequence has shown so far, judged anew every frame (the prior's share shrinks as the
+        sequence shows more scores), or it has been observed peak_wait frames in a row, from then
+        on (docs/tracking.md, "Written once the detector was sure of it")."""
+        if not trk.waited and 0 < self.options.peak_wait <= trk.streak:
+            trk.waited = True
+        return trk.waited or self._ranker.rank_of(trk.best) >= self.options.write_peak
 
     def _backfilled(self, trk: _Track, frame: int) -> int:
         """The first frame a confirmation at ``frame`` writes with backfill: back over the track's
