@@ -217,7 +217,6 @@ class AbductionTracker:
         """The learned iou_thresh (option learned_gate, refimpl.tracking.gate); None: the constant."""
         self._likelihood: tuple[np.ndarray, dict[str, int]] | None = None  # the last problem's ML, track rows
         self._ranker = OnlineRank(prior=RANK_PRIOR)
-        self._scores = np.zeros(0, dtype=float)  # the frame's scores as the detector wrote them (write_peak)
         self.delay = max(self.options.bridge_gap, min_hits + self.options.backfill_gap if self.options.backfill else 0,
                          self.options.fill_hidden + min_hits if self.options.fill_hidden else 0)
         """How many frames late a frame's rows are final (bridged gaps, filled episodes, backfills)."""
@@ -307,7 +306,7 @@ class AbductionTracker:
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         if self.options.write_peak:  # the scores seen so far, whose order write_peak reads
             self._scores = np.asarray(confidences if scores is None else scores, dtype=float).reshape(-1)
-            self._ranker.counts(self._scores)  # seen: the ranks write_peak reads (_peaked)
+            self._ranker.counts(self._scores)  # seen: the ranks write_peak reads (_confirm)
         problem = self.frame_problem(frame, boxes, confidences, types)
         rounded = self._integer_boxes  # the frame's integer boxes: their range tests on the array
         checked = rounded is not None and integer_boxes_fit(rounded, len(boxes),
@@ -510,12 +509,13 @@ class AbductionTracker:
         and the frames that re-confirmed it."""
         if not (trk.streak >= self.min_hits or self.frames <= self.min_hits or trk.bridged):
             return
+        trk.evident = trk.evident or trk.evidence >= self.options.write_evidence * trk.hits  # once, for good
         if not trk.evident:
-            if trk.evidence < self.options.write_evidence * trk.hits:
-                return
-            trk.evident = True
-        if self.options.write_peak and not self._peaked(trk):
             return
+        if self.options.write_peak:  # its best score ranks high among those so far, judged anew, or it was
+            trk.waited = trk.waited or 0 < self.options.peak_wait <= trk.streak  # seen peak_wait frames in a row
+            if not trk.waited and self._ranker.rank_of(trk.best) < self.options.write_peak:
+                return
         first = frame
         if self.options.backfill and frame - 1 not in trk.confirmed:  # the streak's frames, a new track's first included
             first = self._backfilled(trk, frame)
@@ -535,15 +535,6 @@ class AbductionTracker:
                 trk.confirmed.add(f)
                 if self.sink is not None:
                     self._pending.setdefault(f, []).append([f, _trk_number(trk.id), *trk.observed[f]])
-
-    def _peaked(self, trk: _Track) -> bool:
-        """write_peak: the track's best detection ranks at least write_peak among the scores the
-        sequence has shown so far, judged anew every frame (the prior's share shrinks as the
-        sequence shows more scores), or it has been observed peak_wait frames in a row, from then
-        on (docs/tracking.md, "Written once the detector was sure of it")."""
-        if not trk.waited and 0 < self.options.peak_wait <= trk.streak:
-            trk.waited = True
-        return trk.waited or self._ranker.rank_of(trk.best) >= self.options.write_peak
 
     def _backfilled(self, trk: _Track, frame: int) -> int:
         """The first frame a confirmation at ``frame`` writes with backfill: back over the track's
