@@ -100,26 +100,38 @@ def _bursty_recall(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Gener
     return replace(seq, frames=tuple(frames)), gt
 
 
-def _extra_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
-    boxes = [np.asarray(f.boxes, dtype=float).reshape(-1, 4) for f in seq.frames]
-    every = np.concatenate(boxes) if boxes else np.zeros((0, 4))
-    scores = np.sort(np.concatenate([f.scores for f in seq.frames])) if seq.frames else np.zeros(0)
+def _false_box_source(seq: DetectionSequence) -> tuple[np.ndarray, np.ndarray, float, float, str] | None:
+    """What a false detection of ``fp-extra`` or ``fp-static`` is drawn from: the sequence's boxes
+    (sizes), the lower half of its scores, the image's width and height and the sequence's type;
+    None for a sequence without detections."""
+    every = np.concatenate([np.asarray(f.boxes, dtype=float).reshape(-1, 4) for f in seq.frames]) \
+        if seq.frames else np.zeros((0, 4))
     if not len(every):
-        return seq, gt
-    low = scores[: max(1, len(scores) // 2)]
+        return None
+    scores = np.sort(np.concatenate([f.scores for f in seq.frames]))
     width, height = seq.image_size or (float(np.max(every[:, 0] + every[:, 2])), float(np.max(every[:, 1] + every[:, 3])))
-    rate = 0.25 * len(every) / max(1, len(seq.frames))
     kind = next((f.types[0] for f in seq.frames if len(f)), "pedestrian")
+    return every, scores[: max(1, len(scores) // 2)], width, height, kind
+
+
+def _with_false(fr: DetectionFrame, extra: np.ndarray, scores: np.ndarray, kind: str) -> DetectionFrame:
+    k = len(extra)
+    return DetectionFrame(fr.frame, np.vstack([fr.boxes, extra]), np.concatenate([fr.scores, scores]),
+                          np.concatenate([fr.confidences, np.zeros(k, dtype=np.int64)]), tuple(fr.types) + (kind,) * k)
+
+
+def _extra_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    source = _false_box_source(seq)
+    if source is None:
+        return seq, gt
+    every, low, width, height, kind = source
+    rate = 0.25 * len(every) / max(1, len(seq.frames))
     frames = []
     for fr in seq.frames:
         k = int(rng.poisson(rate))
         size = every[rng.integers(0, len(every), size=k), 2:]
         xy = rng.random((k, 2)) * np.maximum(np.array([width, height]) - size, 1.0)
-        extra = np.column_stack([xy, size])
-        frames.append(DetectionFrame(fr.frame, np.vstack([fr.boxes, extra]),
-                                     np.concatenate([fr.scores, rng.choice(low, size=k)]),
-                                     np.concatenate([fr.confidences, np.zeros(k, dtype=np.int64)]),
-                                     tuple(fr.types) + (kind,) * k))
+        frames.append(_with_false(fr, np.column_stack([xy, size]), rng.choice(low, size=k), kind))
     return replace(seq, frames=tuple(frames)), gt
 
 
@@ -130,28 +142,20 @@ STATIC_JITTER = 0.05
 
 
 def _static_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
-    boxes = [np.asarray(f.boxes, dtype=float).reshape(-1, 4) for f in seq.frames]
-    every = np.concatenate(boxes) if boxes else np.zeros((0, 4))
-    if not len(every):
+    source = _false_box_source(seq)
+    if source is None:
         return seq, gt
-    scores = np.sort(np.concatenate([f.scores for f in seq.frames]))
-    low = scores[: max(1, len(scores) // 2)]
-    width, height = seq.image_size or (float(np.max(every[:, 0] + every[:, 2])), float(np.max(every[:, 1] + every[:, 3])))
+    every, low, width, height, kind = source
     places = max(1, int(round(0.25 * len(every) / max(1, len(seq.frames)))))
     size = every[rng.integers(0, len(every), size=places), 2:]
     xy = rng.random((places, 2)) * np.maximum(np.array([width, height]) - size, 1.0)
     sites = np.column_stack([xy, size])
-    kind = next((f.types[0] for f in seq.frames if len(f)), "pedestrian")
     frames = []
     for fr in seq.frames:
         seen = rng.random(places) < STATIC_SEEN
-        k = int(seen.sum())
         extra = sites[seen].copy()
-        extra[:, :2] += rng.normal(0.0, STATIC_JITTER, size=(k, 2)) * extra[:, 2:]
-        frames.append(DetectionFrame(fr.frame, np.vstack([fr.boxes, extra]),
-                                     np.concatenate([fr.scores, rng.choice(low, size=k)]),
-                                     np.concatenate([fr.confidences, np.zeros(k, dtype=np.int64)]),
-                                     tuple(fr.types) + (kind,) * k))
+        extra[:, :2] += rng.normal(0.0, STATIC_JITTER, size=(len(extra), 2)) * extra[:, 2:]
+        frames.append(_with_false(fr, extra, rng.choice(low, size=len(extra)), kind))
     return replace(seq, frames=tuple(frames)), gt
 
 
