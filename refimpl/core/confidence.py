@@ -178,6 +178,11 @@ def sequence_evidence(frames) -> RunEvidence:
                        state._labelled.flags.copy(), state.streak_counts())
 
 
+def _percent(k, n):
+    """floor(100 k / n + 1/2), exact in integers: the bare rank of k of n scores, times 100."""
+    return (200 * k + n) // (2 * n)
+
+
 class OnlineRank:
     """A score's bare rank among the last SCORE_WINDOW scores seen (kept sorted), the rank rule's
     and the evidence prior's state.  ``confidences(scores)`` adds one frame's scores and returns
@@ -193,7 +198,7 @@ class OnlineRank:
 
     def confidences(self, scores) -> np.ndarray:
         at_most, n = self.counts(scores)
-        return (100 * at_most * 2 + n) // (2 * n)  # floor(100 * k / n + 1/2), exact
+        return _percent(at_most, n)
 
     def counts(self, scores) -> tuple[np.ndarray, int]:
         """Adds one frame's scores; returns, for each, how many scores seen so far are <= it (itself
@@ -213,7 +218,7 @@ class OnlineRank:
         up, without adding it: floor(100 k / n + 1/2)."""
         k = int(np.searchsorted(self._seen.values, score, side="right")) + self.prior
         n = len(self._seen) + self.prior
-        return (200 * k + n) // (2 * n) if n else 100
+        return int(_percent(k, n)) if n else 100
 
     def reset(self) -> None:
         self._seen = SortedWindow()
