@@ -61,8 +61,10 @@ def test_bursty_misses_and_extra_detections_are_deterministic_and_of_the_expecte
 
 
 def test_shift_names_and_the_table():
-    # all: the family the defaults are chosen by; scores-same, box-noise and fp-static by name only
-    assert parse_shifts("all") == tuple(n for n in SHIFTS if n not in ("scores-same", "box-noise", "fp-static"))
+    # all: the family the defaults are chosen by; scores-same, box-noise, fp-static and fp-duplicate
+    # by name only
+    assert parse_shifts("all") == tuple(n for n in SHIFTS
+                                        if n not in ("scores-same", "box-noise", "fp-static", "fp-duplicate"))
     assert parse_shifts("half-res") == ("none", "half-res")
     assert parse_shifts("scores-same") == ("none", "scores-same")
     with pytest.raises(ValueError, match="unknown shift 'blur'"):
@@ -121,3 +123,22 @@ def test_static_false_positives_come_back_at_the_same_few_places_with_low_scores
     assert max(f.scores[20:].max(initial=-1.0) for f in shifted.frames) <= median
     again = shifted_dataset(data, "fp-static")[0][1]
     assert all(np.array_equal(a.boxes, b.boxes) for a, b in zip(again.frames, shifted.frames))  # same seed
+
+
+def test_duplicate_false_positives_sit_beside_three_in_ten_detections_with_low_scores():
+    # one 40 x 80 box a frame over 2,000 frames, scores rising 0.51..20.5: a second box beside it with
+    # probability 0.3, so about 600 (binomial sd about 20); its centre offset is N(0, 0.3) of 40 and
+    # 80 px (sd 12 and 24 px, about 3 % error over 600), its log width / 40 N(0, 0.2); its score from
+    # the lower half, at most the median score
+    (_, a, _), = shifted_dataset(_toy(2000), "none")
+    (_, b, _), = shifted_dataset(_toy(2000), "fp-duplicate")
+    twins = [(f.boxes[1:], f.boxes[0], f.scores[1:]) for f in b.frames if len(f) > 1]
+    assert all(len(f) <= 2 for f in b.frames) and 540 < len(twins) < 660
+    extra = np.vstack([t for t, _, _ in twins])
+    own = np.vstack([np.repeat(o[None], len(t), axis=0) for t, o, _ in twins])
+    dcx = (extra[:, 0] + extra[:, 2] / 2) - (own[:, 0] + own[:, 2] / 2)
+    dcy = (extra[:, 1] + extra[:, 3] / 2) - (own[:, 1] + own[:, 3] / 2)
+    assert 11.0 < dcx.std() < 13.0 and 22.0 < dcy.std() < 26.0 and abs(dcx.mean()) < 1.5
+    assert 0.18 < np.log(extra[:, 2] / 40.0).std() < 0.22
+    assert max(s.max() for _, _, s in twins) <= np.median(np.concatenate([f.scores for f in a.frames]))
+    assert all(np.array_equal(x.boxes, y.boxes[:1]) for x, y in zip(a.frames, b.frames))  # the true box kept

@@ -27,7 +27,10 @@ least 1 px), the ground truth as it was; ``fp-static``, a detector that fires on
 false detections that persist at fixed places (a sign, a pole, a reflection), a quarter as many
 places as the mean detections per frame (at least one), each the size of a random detection of the
 sequence, anywhere in the image, seen in a frame with probability 0.5, its centre moved by N(0,
-0.05) of its size, with a score drawn from the sequence's lower half.
+0.05) of its size, with a score drawn from the sequence's lower half; ``fp-duplicate``, a detector
+whose non-maximum suppression is weak: beside three in ten detections a second, weaker box on the
+same object, its centre moved by N(0, 0.3) of the box's width and height, its width and height each
+multiplied by exp(N(0, 0.2)) (at least 1 px), with a score drawn from the sequence's lower half.
 
 Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.  The
 table of their scores is refimpl.experiments.shift_table's; the command line reads the names here
@@ -159,6 +162,30 @@ def _static_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.ran
     return replace(seq, frames=tuple(frames)), gt
 
 
+DUPLICATE_SHARE = 0.3
+"""``fp-duplicate``: the probability that a detection gets a second, false box beside it."""
+DUPLICATE_SHIFT = 0.3
+"""``fp-duplicate``: the standard deviation of the second box's centre offset, as a share of the
+detection's width and height (its log width and height: two thirds of this)."""
+
+
+def _duplicate_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Generator) -> Shifted:
+    source = _false_box_source(seq)
+    if source is None:
+        return seq, gt
+    low, kind = source[1], source[4]
+    frames = []
+    for fr in seq.frames:
+        boxes = np.asarray(fr.boxes, dtype=float).reshape(-1, 4)
+        twin = boxes[rng.random(len(boxes)) < DUPLICATE_SHARE].copy()
+        n = rng.normal(0.0, 1.0, size=twin.shape)
+        centre = twin[:, :2] + twin[:, 2:] * (0.5 + DUPLICATE_SHIFT * n[:, :2])
+        twin[:, 2:] = np.maximum(twin[:, 2:] * np.exp(DUPLICATE_SHIFT * 2 / 3 * n[:, 2:]), 1.0)
+        twin[:, :2] = centre - twin[:, 2:] / 2
+        frames.append(_with_false(fr, twin, rng.choice(low, size=len(twin)), kind))
+    return replace(seq, frames=tuple(frames)), gt
+
+
 BOX_NOISE = 0.1
 """``box-noise``'s standard deviation: of a box's width and height for its centre, of the log of its
 width and height for its size."""
@@ -216,6 +243,8 @@ SHIFTS: dict[str, Shift] = {s.name: s for s in (
     Shift("box-noise", "every box moved and resized by about 10 % of its size at random", _box_noise, in_all=False),
     Shift("fp-static", "false detections that persist at fixed places, seen every other frame",
           _static_false_positives, in_all=False),
+    Shift("fp-duplicate", "a second, weaker box beside three in ten detections (weak suppression)",
+          _duplicate_false_positives, in_all=False),
 )}
 """The shifts by name (``--shift all`` or a comma-separated list), ``none`` first."""
 
