@@ -122,7 +122,11 @@ def test_demo_scores_both_trackers_and_times_a_second_run(capsys):
     lines = [ln for ln in out.splitlines() if ln.startswith("### ")]
     assert [ln.split(":")[0] for ln in lines] == ["### baseline", "### cpsat"]
     assert all("frames/s (CPU of a second run" in ln for ln in lines)
-    assert lines[1].endswith(", 64 events")  # the event log of the same run (`track --events` on the demo: 64 lines)
+    # the event log of the same run (`track --events` on the demo: 60 lines; 64 with
+    # --const iou_thresh_occupied=50000, where a detection beside trk_7 starts trk_11 at frame 56,
+    # with its enters_fov, missing_detections and two more occlusion events, and trk_7 is lost at 65;
+    # the MOT preset's 0.3 keeps it from starting and trk_7 unhides at 62 instead; the rows are the same)
+    assert lines[1].endswith(", 60 events")
 
 
 def test_demo_speed_line_is_frames_over_cpu_seconds():
