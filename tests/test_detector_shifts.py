@@ -80,10 +80,12 @@ def test_benchmark_shift_prints_one_table_with_rescales_equal(data_root_with_val
     # sequence in its val seqmap): 1,104 Pedestrian detections, not the shared split's 10 sequences
     from refimpl.io.catalogue import KITTI_TRAIN
     root = str(data_root_with_val(*(s for s in KITTI_TRAIN if s not in ("0014", "0017"))))
-    assert main(["benchmark", "kitti-ped-train", "--shift", "scores-x0.6", "--quiet", "--data", root]) == 0
+    assert main(["benchmark", "kitti-ped-train", "--shift", "scores-x0.6,scores-x0.6+scores-power3", "--quiet",
+                 "--data", root]) == 0
     out = capsys.readouterr().out
     rows = {line.split("|")[1].strip(): line.split("|")[2:] for line in out.splitlines() if line.startswith("| ")}
     assert rows["none"] == rows["scores-x0.6"]  # the default rule reads the order of the scores only
+    assert rows["none"] == rows["scores-x0.6+scores-power3"]  # two increasing rescales keep the order too
     assert main(["benchmark", "kitti-ped-train", "--shift", "blur", "--quiet", "--data", root]) == 2
 
 
@@ -142,3 +144,20 @@ def test_duplicate_false_positives_sit_beside_three_in_ten_detections_with_low_s
     assert 0.18 < np.log(extra[:, 2] / 40.0).std() < 0.22
     assert max(s.max() for _, _, s in twins) <= np.median(np.concatenate([f.scores for f in a.frames]))
     assert all(np.array_equal(x.boxes, y.boxes[:1]) for x, y in zip(a.frames, b.frames))  # the true box kept
+
+
+def test_joined_shifts_apply_one_after_the_other_the_first_as_it_does_alone():
+    # fp-duplicate+half-res: the first part draws as fp-duplicate alone does (same second boxes),
+    # then every box is halved; half-fps+half-res: 6 frames -> frames 1, 3, 5 renumbered 1, 2, 3,
+    # each box halved (the toy's box at frame t: x = 10 + 4t, 40 x 80 -> x / 2, 20 x 40)
+    (_, dup, _), = shifted_dataset(_toy(400), "fp-duplicate")
+    (_, both, _), = shifted_dataset(_toy(400), "fp-duplicate+half-res")
+    assert all(np.allclose(a.boxes * 0.5, b.boxes) for a, b in zip(dup.frames, both.frames))
+    (_, seq, gt), = shifted_dataset(_toy(6), "half-fps+half-res")
+    assert [f.frame for f in seq.frames] == [1, 2, 3]
+    assert np.allclose(np.vstack([f.boxes for f in seq.frames]), [[7.0, 10.0, 20.0, 40.0], [11.0, 10.0, 20.0, 40.0],
+                                                                    [15.0, 10.0, 20.0, 40.0]])
+    assert parse_shifts("box-noise+fp-duplicate,half-res") == ("none", "box-noise+fp-duplicate", "half-res")
+    for bad, name in (("box-noise+blur", "blur"), ("none+half-res", "none"), ("all+half-res", "all")):
+        with pytest.raises(ValueError, match=f"unknown shift '{name}'"):
+            parse_shifts(bad)

@@ -214,8 +214,9 @@ def _add_benchmark(sub: "argparse._SubParsersAction") -> None:
     b.add_argument("--out", help="with --peers: write the tables into this markdown file (between marker comments)")
     b.add_argument("--shift", metavar="LIST",
                    help="re-run under detector and camera shifts of the datasets' own sequences, 'all' (every "
-                        "one but scores-same and box-noise) or a comma-separated list out of " + ", ".join(SHIFTS) +
-                        " (refimpl/io/shifts.py): "
+                        "one but " + ", ".join(n for n, s in SHIFTS.items() if not s.in_all) + ") or a "
+                        "comma-separated list out of " + ", ".join(SHIFTS) + ", each name alone or several joined "
+                        "by '+', applied one after the other (refimpl/io/shifts.py): "
                         "HOTA / IDF1 of the baseline, abduction and any --peers per shift, the worst case and the "
                         "largest drop")
     b.add_argument("--repeat", type=int, default=1, metavar="N",

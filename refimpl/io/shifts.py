@@ -32,7 +32,9 @@ whose non-maximum suppression is weak: beside three in ten detections a second, 
 same object, its centre moved by N(0, 0.3) of the box's width and height, its width and height each
 multiplied by exp(N(0, 0.2)) (at least 1 px), with a score drawn from the sequence's lower half.
 
-Deterministic: one ``numpy.random.default_rng(seed)`` per sequence, seeded by its index.  The
+Names joined by ``+`` apply one after the other (``box-noise+fp-duplicate``).  Deterministic: one
+``numpy.random.default_rng(seed)`` per sequence, seeded by its index (and a joined name's k-th part,
+k >= 1, by k too).  The
 table of their scores is refimpl.experiments.shift_table's; the command line reads the names here
 (``--shift``'s help) without importing the benchmarks.
 """
@@ -251,24 +253,31 @@ SHIFTS: dict[str, Shift] = {s.name: s for s in (
 
 def parse_shifts(text: str) -> tuple[str, ...]:
     """``all`` (every shift with ``in_all``) or a comma-separated list of SHIFTS names (``none`` is
-    always run first, the reference)."""
+    always run first, the reference); a name may join shifts with ``+``, applied one after the
+    other (``box-noise+fp-duplicate``: a detector that localizes worse and suppresses weakly)."""
     names = [n for n, s in SHIFTS.items() if s.in_all] if text.strip() == "all" else \
         [n.strip() for n in text.split(",") if n.strip()]
-    unknown = [n for n in names if n not in SHIFTS]
+    unknown = [part for n in names for part in n.split("+")
+               if part not in SHIFTS or (part == "none" and n != "none")]
     if unknown or not names:
-        raise ValueError(f"unknown shift {unknown[0] if unknown else text!r} (choose from all, {', '.join(SHIFTS)})")
+        raise ValueError(f"unknown shift {unknown[0] if unknown else text!r} (choose from all, {', '.join(SHIFTS)}, "
+                         "or several joined by '+')")
     return ("none", *[n for n in names if n != "none"])
 
 
 def shifted_dataset(dataset: Sequence[tuple[str, DetectionSequence, GroundTruth]], shift: str,
                     seed: int = 0) -> list[tuple[str, DetectionSequence, GroundTruth]]:
-    """Every sequence of a loaded dataset under one shift, its detections read again by the default
-    score rule (as one run over files of the shifted rows would read them: calibrated together)."""
+    """Every sequence of a loaded dataset under one shift (or several joined by ``+``, one after the
+    other), its detections read again by the default score rule (as one run over files of the
+    shifted rows would read them: calibrated together).  The k-th part of a joined shift draws from
+    ``default_rng([seed, index, k])``, the first from ``[seed, index]`` as the shift alone does."""
     if shift == "none":
         return list(dataset)
     rule = resolve_rule(DEFAULT_SCORE_RULE)
     out = []
     for index, (name, seq, gt) in enumerate(dataset):
-        dets, truth = SHIFTS[shift].apply(seq, gt, np.random.default_rng([seed, index]))
+        dets, truth = seq, gt
+        for k, part in enumerate(shift.split("+")):
+            dets, truth = SHIFTS[part].apply(dets, truth, np.random.default_rng([seed, index] if k == 0 else [seed, index, k]))
         out.append((name, read_again(dets, rule), truth))
     return calibrated_together(out)
