@@ -106,7 +106,7 @@ def _bursty_recall(seq: DetectionSequence, gt: GroundTruth, rng: np.random.Gener
 
 
 def _false_box_source(seq: DetectionSequence) -> tuple[np.ndarray, np.ndarray, float, float, str] | None:
-    """What a false detection of ``fp-extra`` or ``fp-static`` is drawn from: the sequence's boxes
+    """What a false detection of ``fp-extra``, ``fp-static`` or ``fp-duplicate`` is drawn from: the sequence's boxes
     (sizes), the lower half of its scores, the image's width and height and the sequence's type;
     None for a sequence without detections."""
     every = np.concatenate([np.asarray(f.boxes, dtype=float).reshape(-1, 4) for f in seq.frames]) \
