@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -131,9 +133,12 @@ def test_duplicate_false_positives_sit_beside_three_in_ten_detections_with_low_s
     # one 40 x 80 box a frame over 2,000 frames, scores rising 0.51..20.5: a second box beside it with
     # probability 0.3, so about 600 (binomial sd about 20); its centre offset is N(0, 0.3) of 40 and
     # 80 px (sd 12 and 24 px, about 3 % error over 600), its log width / 40 N(0, 0.2); its score from
-    # the lower half, at most the median score
-    (_, a, _), = shifted_dataset(_toy(2000), "none")
-    (_, b, _), = shifted_dataset(_toy(2000), "fp-duplicate")
+    # the lower half, at most the median score. The toy's image widened to 9000 px so that it stays in
+    # view (x <= 10 + 4 x 2000 + 40); its centre y = 60 is 2.5 sd from the top, so about 0.6 % of the
+    # second boxes (4 of 600) are kept at y = 0, which moves the sd by less than the tolerance
+    wide = [(n, replace(s, image_size=(9000, 480)), g) for n, s, g in _toy(2000)]
+    (_, a, _), = shifted_dataset(wide, "none")
+    (_, b, _), = shifted_dataset(wide, "fp-duplicate")
     twins = [(f.boxes[1:], f.boxes[0], f.scores[1:]) for f in b.frames if len(f) > 1]
     assert all(len(f) <= 2 for f in b.frames) and 540 < len(twins) < 660
     extra = np.vstack([t for t, _, _ in twins])
@@ -144,6 +149,19 @@ def test_duplicate_false_positives_sit_beside_three_in_ten_detections_with_low_s
     assert 0.18 < np.log(extra[:, 2] / 40.0).std() < 0.22
     assert max(s.max() for _, _, s in twins) <= np.median(np.concatenate([f.scores for f in a.frames]))
     assert all(np.array_equal(x.boxes, y.boxes[:1]) for x, y in zip(a.frames, b.frames))  # the true box kept
+
+
+def test_a_second_box_is_centred_in_the_image_as_a_detectors_boxes_are():
+    # The toy's box walks right 4 px a frame out of its 640 x 480 image (centre x = 30 + 4t > 640 from
+    # t = 153 on): its second boxes are centred on the image, x at most 640 and y in 0..480, and the
+    # ones beside it once it is out sit on the right border, x = 640 (their centre moved by N(0, 12 px)
+    # from beyond it). No detection of the benchmark sets is centred outside its image.
+    (_, b, _), = shifted_dataset(_toy(400), "fp-duplicate")
+    twins = [(f.frame, f.boxes[1:]) for f in b.frames if len(f) > 1]
+    centres = np.vstack([t[:, :2] + t[:, 2:] / 2 for _, t in twins])
+    assert centres[:, 0].max() <= 640.0 and centres[:, 1].min() >= 0.0 and centres[:, 1].max() <= 480.0
+    late = np.vstack([t[:, :2] + t[:, 2:] / 2 for frame, t in twins if frame >= 170])  # 30 + 4 x 170 = 710
+    assert len(late) > 50 and np.allclose(late[:, 0], 640.0)
 
 
 def test_joined_shifts_apply_one_after_the_other_the_first_as_it_does_alone():

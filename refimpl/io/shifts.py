@@ -29,8 +29,8 @@ places as the mean detections per frame (at least one), each the size of a rando
 sequence, anywhere in the image, seen in a frame with probability 0.5, its centre moved by N(0,
 0.05) of its size, with a score drawn from the sequence's lower half; ``fp-duplicate``, a detector
 whose non-maximum suppression is weak: beside three in ten detections a second, weaker box on the
-same object, its centre moved by N(0, 0.3) of the box's width and height, its width and height each
-multiplied by exp(N(0, 0.2)) (at least 1 px), with a score drawn from the sequence's lower half.
+same object, its centre moved by N(0, 0.3) of the box's width and height (kept in the image), its width
+and height each multiplied by exp(N(0, 0.2)) (at least 1 px), with a score drawn from the sequence's lower half.
 
 Names joined by ``+`` apply one after the other (``box-noise+fp-duplicate``).  Deterministic: one
 ``numpy.random.default_rng(seed)`` per sequence, seeded by its index (and a joined name's k-th part,
@@ -175,13 +175,15 @@ def _duplicate_false_positives(seq: DetectionSequence, gt: GroundTruth, rng: np.
     source = _false_box_source(seq)
     if source is None:
         return seq, gt
-    low, kind = source[1], source[4]
+    low, image, kind = source[1], np.array(source[2:4]), source[4]
     frames = []
     for fr in seq.frames:
         boxes = np.asarray(fr.boxes, dtype=float).reshape(-1, 4)
         twin = boxes[rng.random(len(boxes)) < DUPLICATE_SHARE].copy()
         n = rng.normal(0.0, 1.0, size=twin.shape)
-        centre = twin[:, :2] + twin[:, 2:] * (0.5 + DUPLICATE_SHIFT * n[:, :2])
+        # a detector's box lies on its image: a second box is centred in it (beside an object at the
+        # border, on the border), as every real detection of the benchmark sets is (tracking/camera.py)
+        centre = np.clip(twin[:, :2] + twin[:, 2:] * (0.5 + DUPLICATE_SHIFT * n[:, :2]), 0.0, image)
         twin[:, 2:] = np.maximum(twin[:, 2:] * np.exp(DUPLICATE_SHIFT * 2 / 3 * n[:, 2:]), 1.0)
         twin[:, :2] = centre - twin[:, 2:] / 2
         frames.append(_with_false(fr, twin, rng.choice(low, size=len(twin)), kind))
