@@ -70,6 +70,7 @@ from .io.lines import too_many_detections
 from .scene import Scene, scene_from_result
 from .solvers import BACKENDS, DEFAULT_BACKEND
 from .tracking.options import TrackerOptions
+from .tracking.camera import image_in_use, warn_if_outside
 from .tracking.pipeline import AUTO, new_tracker, setup_for
 from .tracking.tracker import DEFAULT_MIN_HITS, ResultSink, TrackingResult
 
@@ -240,6 +241,7 @@ class Tracker:
         self._class_of: dict[int, int] = {}  # track number -> the class id of its latest detection
         self._size_warned = False
         self._same_warned = False  # every score the same: said once (docs/model.md 3.19)
+        self._outside_said = False  # a detection centred outside the image: said once (camera.warn_if_outside)
         self._seen = [0, 0, 101, -1]  # detections, rows reported, smallest and largest confidence so far
 
     def _new_tracker(self, size):
@@ -471,6 +473,9 @@ class Tracker:
             warnings.warn(f"frame {frame}: dropped {len(dropped)} detection(s) of zero width or height (below "
                           f"{MIN_DET_SIZE:g} px), dets row(s) {', '.join(map(str, dropped))}", InputFormatWarning,
                           stacklevel=3)
+        if not self._outside_said and len(boxes) and not self.setup.baseline:
+            image = image_in_use(dict(self.setup.constants), self.image_size)
+            self._outside_said = image is not None and warn_if_outside(frame, boxes, image, stacklevel=4)
         conf = self._confidences(boxes, scores, types)
         ended = len(self._tracker.finished)
         self._tracker.step(frame, boxes, conf, types, scores=scores)

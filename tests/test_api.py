@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pickle
+import warnings
 
 import numpy as np
 import pytest
@@ -293,3 +294,19 @@ def test_a_run_calibrates_each_file_on_the_others_and_the_api_follows(shared_dat
 def test_calibrate_with_refuses_what_is_not_a_list_of_readable_files(paths, message):
     with pytest.raises(ValueError, match=message):
         refimpl.Tracker(format="kitti", object_type="pedestrian", calibrate_with=paths)
+
+
+def test_a_detection_centred_outside_the_given_image_is_said_once():
+    # A box (300, 300)-(350, 400) is centred at ((300 + 350) / 2, (300 + 400) / 2) = (325, 350),
+    # outside a 100 x 100 image; the one at (10, 10)-(50, 90) is inside. Frame 1 has only the inside
+    # one, frames 2-4 both: one warning, naming frame 2 and that centre.
+    tracker = refimpl.Tracker(img_size=(100, 100))
+    inside = np.array([[10, 10, 50, 90, 0.9]])
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        tracker.update(inside)
+        for _ in range(3):
+            tracker.update(np.array([[300, 300, 350, 400, 0.9], [10, 10, 50, 90, 0.9]]))
+    outside = [str(w.message) for w in said if "centred outside" in str(w.message)]
+    assert len(outside) == 1 and outside[0].startswith("frame 2: 1 detection(s) centred outside the 100 x 100 image")
+    assert "the first at (325, 350)" in outside[0]

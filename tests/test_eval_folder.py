@@ -192,6 +192,28 @@ def test_img_size_and_const_restore_the_seqinfo_behaviour(tmp_path, capsys):
     assert text["unknown"] != text["seqinfo"]
 
 
+def test_an_image_size_the_detections_do_not_fit_is_said_once_and_the_rows_still_written(tmp_path, capsys):
+    # The demo's detections are centred inside their 640x480 image (its seqinfo.ini): nothing said.
+    # With --img-size 10,10 every one of frame 1's 6 detections is centred outside, the first row's
+    # at (281.931 + 79.93 / 2, 187.466 + 209.537 / 2) = (321.9, 292.2); with the size swapped
+    # (480,640) frames 1-3 have centres up to x = 477.35, and frame 4's first row is the first beyond
+    # 480: (420.791 + 129.139 / 2, 164.003 + 270.287 / 2) = (485.4, 299.1), the only one of its frame.
+    # Said once, as one line; the run goes on and writes its rows (the field of view cut short).
+    dets = str(DEMO / "det" / "det.txt")
+    cases = ((None, None),
+             ("10,10", "frame 1: 6 detection(s) centred outside the 10 x 10 image", "the first at (322, 292)"),
+             ("480,640", "frame 4: 1 detection(s) centred outside the 480 x 640 image", "the first at (485, 299)"))
+    for size, *said in cases:
+        out = tmp_path / f"{size}.txt"
+        assert main(["track", "--dets", dets, "--out", str(out), *(["--img-size", size] if size else [])]) == 0
+        lines = [line for line in capsys.readouterr().err.splitlines() if "centred outside" in line]
+        if said == [None]:
+            assert lines == []
+        else:
+            assert len(lines) == 1 and lines[0].startswith(f"refimpl: warning: {said[0]}") and said[1] in lines[0]
+            assert out.read_text().strip()
+
+
 def test_const_changes_the_model_and_bad_constants_are_one_line_errors(tmp_path, capsys):
     dets = str(DEMO / "det" / "det.txt")
     # no detection reaches confidence 101: no track can start, the results file is empty

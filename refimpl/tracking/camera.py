@@ -6,7 +6,10 @@ the model."""
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Mapping
+
+import numpy as np
 
 from ..core.constants import default_constants
 from .options import NOISE_FACTOR_MAX
@@ -136,3 +139,33 @@ def image_relative(image_size: tuple[int, int]) -> dict[str, int]:
     area = float(image_size[0]) * float(image_size[1]) / (REFERENCE_IMAGE[0] * REFERENCE_IMAGE[1])
     return {"size_threshold": int(round(defaults["size_threshold"] * area)),
             "border_margin": int(round(defaults["border_margin"] * math.sqrt(area)))}
+
+
+def image_in_use(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None) -> tuple[int, int] | None:
+    """The image (width, height) in the image's pixels the field of view is tested against: the
+    constants img_width and img_height where both are given (as :func:`sequence_constants` takes
+    them), else the sequence's image size; None where neither is known."""
+    given = constants or {}
+    if given.get("img_width", 0) > 0 and given.get("img_height", 0) > 0:
+        return int(given["img_width"]), int(given["img_height"])
+    return None if image_size is None else (int(image_size[0]), int(image_size[1]))
+
+
+def warn_if_outside(frame: int, boxes: np.ndarray, image: tuple[int, int], stacklevel: int = 3) -> bool:
+    """One warning, and True, when a detection box (x, y, w, h) of this frame is centred outside the
+    ``image`` (width, height); False otherwise.  No detection of the benchmark sets' files
+    (refimpl.io.datasets: 211,704 detections, each with its own image size) is centred outside its
+    image, so one that is says the image size is not the detections' (a wrong --img-size or
+    seqinfo.ini, width and height swapped, another resolution): the field of view would end inside
+    the scene and cut the tracks there short, silently."""
+    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    cx, cy = b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3] / 2
+    outside = (cx < 0) | (cx > image[0]) | (cy < 0) | (cy > image[1])
+    if not outside.any():
+        return False
+    k = int(np.argmax(outside))
+    warnings.warn(f"frame {frame}: {int(outside.sum())} detection(s) centred outside the {image[0]} x {image[1]} "
+                  f"image the sequence was given (--img-size, seqinfo.ini or img_size), the first at "
+                  f"({cx[k]:.0f}, {cy[k]:.0f}): the field of view ends inside the scene and tracks there are cut short; "
+                  "is it the detections' image size? (said once)", UserWarning, stacklevel=stacklevel)
+    return True

@@ -28,7 +28,8 @@ from ..solvers import BASELINE, DEFAULT_BACKEND, REAL_TIME, get_solver
 from .baseline import stream_sequence
 from .options import TrackerOptions
 from .presets import merge_constants, merge_options, preset_named, resolve_preset
-from .camera import DURATIONS, FRAME_OPTIONS, RATE_OPTIONS, frames_at, sequence_constants, sequence_scale
+from .camera import (DURATIONS, FRAME_OPTIONS, RATE_OPTIONS, frames_at, image_in_use, sequence_constants, sequence_scale,
+                     warn_if_outside)
 from .tracker import AbductionTracker, DEFAULT_MIN_HITS, TrackingResult, check_frame_budget
 
 AUTO = "auto"
@@ -174,7 +175,10 @@ def run_sequence(seq, setup: Setup, *, observer=None, sink=None, keep_records: b
     tracker = new_tracker(setup, seq.image_size, getattr(seq, "fps", None), min_hits, solver=solver,
                           sink=sink, keep_records=keep_records, compact_history=compact_history)
     watch = observe if (observer is not None or on_frame is not None) else None
+    image = image_in_use(dict(setup.constants), seq.image_size)  # None: nothing to test against
     for fr in seq.frames:
+        if image is not None and len(fr.boxes) and warn_if_outside(fr.frame, fr.boxes, image):
+            image = None  # said once
         start = _cpu(tracker.solver) if frame_times is not None else 0.0
         tracker.step(fr.frame, fr.boxes, fr.confidences, fr.types, watch, scores=fr.scores)
         if frame_times is not None:
