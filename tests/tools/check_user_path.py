@@ -124,9 +124,10 @@ def main() -> int:
             verdict = "equal" if all(same.values()) else "DIFFERS: " + ", ".join(k for k, v in same.items() if not v)
             bad += not all(same.values())
             alone, in_run = mine.count(b"\n"), run.count(b"\n")
+            warned = [line for line in one.stderr.splitlines() if "warning:" in line]  # what the user is told
             print(f"{group}/{name}: {alone} rows alone, {in_run} in the run; track --out == "
                   f"--out-dir --pool-scores no == API, --out-dir == benchmark == API calibrate_with, update() "
-                  f"with == without history: {verdict}")
+                  f"with == without history: {verdict}" + "".join(f"\n    {line}" for line in warned))
     print(f"{total} sequences, {total - bad} equal, {bad} failing ({time.perf_counter() - started:.0f} s; "
           f"files in {work})")
     return 1 if bad or total != 53 else 0
