@@ -103,6 +103,20 @@ def test_two_local_workers_write_the_same_bytes(inputs, serial, tmp_path):
     assert parallel.replace(str(tmp_path / "par"), str(out_dir)) == stdout
 
 
+def test_a_warning_said_in_a_worker_reaches_the_user_in_input_order(inputs, tmp_path):
+    # --img-size 10,10: frame 1 of each input (TUD-Campus, and Cut40 and 0007, its first 40 and 20
+    # frames) has 6 detections, every one centred outside a 10 x 10 image. Serially and on two local
+    # workers (whose stderr is not the user's) alike: one line per sequence, named, in input order.
+    for extra in ([], ["--workers", "2", "--serial-below", "0"]):
+        code, _, err = run_cli(["track", "--backend", "cpsat", "--dets", *inputs, "--out-dir",
+                                str(tmp_path / str(len(extra))), "--quiet", "--img-size", "10,10", *extra])
+        assert code == 0, err
+        said = [line for line in err.splitlines() if "centred outside" in line]
+        assert [line.split(": frame 1: ")[0] for line in said] == [
+            "refimpl: warning: TUD-Campus", "refimpl: warning: Cut40", "refimpl: warning: 0007"], said
+        assert all("frame 1: 6 detection(s) centred outside the 10 x 10 image" in line for line in said)
+
+
 def test_the_scale_out_rule_runs_small_work_serially():
     from refimpl.runs.scaleout import LOCAL_MIN_FRAMES_PER_WORKER, Plan, run_tasks
     two = Plan(workers=2)

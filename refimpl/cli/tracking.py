@@ -100,6 +100,8 @@ def cmd_track(args: argparse.Namespace) -> int:
     failed = 0
     with OutputSet() as files:  # every results file lands together, after the last sequence
         for seq, out, path in zip(seqs, results, outs):  # input order: the same bytes however tasks ran
+            for message in out.said:  # said where the task ran (a worker, or here), told here
+                warnings.warn(f"{_prefix(seqs, seq)}{message}", UserWarning, stacklevel=2)
             for line in _limit_lines(out.frames, out.not_optimal_frames, out.budget_hits, out.over_budget, setup):
                 print(f"refimpl track: {_prefix(seqs, seq)}{line}", file=sys.stderr)
             for line in out.violations:

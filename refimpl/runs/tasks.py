@@ -15,6 +15,7 @@ they need the scorer (scipy), which a worker that only tracks never imports.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -155,6 +156,9 @@ class TrackOutput:
     """Frames the frame budget stopped (refimpl.tracking.tracker.TrackingResult)."""
     over_budget: int = 0
     """Frames that took longer than the frame budget."""
+    said: tuple[str, ...] = ()
+    """The warnings tracking the sequence gave (refimpl.tracking.camera.warn_if_outside), for the
+    caller to say in input order: a worker process's stderr is not the user's."""
 
 
 class AnswerCheck:
@@ -179,7 +183,9 @@ class AnswerCheck:
 def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> TrackOutput:
     """Track one sequence through the pipeline (optionally checking each answer)."""
     check = AnswerCheck() if job.check and not job.setup.baseline else None
-    result = run_sequence(job.seq, job.setup, observer=check, on_frame=on_frame)
+    with warnings.catch_warnings(record=True) as said:  # restored after the job
+        warnings.simplefilter("always")
+        result = run_sequence(job.seq, job.setup, observer=check, on_frame=on_frame)
     scene = None
     if job.scene and not job.setup.baseline:
         scene = load(SCENE_FROM_RESULT)(job.seq, result)
@@ -189,7 +195,7 @@ def track_job(job: TrackJob, on_frame: Callable[[], None] | None = None) -> Trac
     return TrackOutput(job.seq.name, result.rows, result.events if job.events else (), result.frames,
                        result.not_optimal_frames,
                        check.checked if check else 0, tuple(check.violations) if check else (), scene, text,
-                       result.budget_hits, result.over_budget)
+                       result.budget_hits, result.over_budget, tuple(str(w.message) for w in said))
 
 
 def results_file_name(path) -> str:
