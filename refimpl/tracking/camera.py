@@ -159,13 +159,13 @@ def warn_if_outside(frame: int, boxes: np.ndarray, image: tuple[int, int], stack
     seqinfo.ini, width and height swapped, another resolution): the field of view would end inside
     the scene and cut the tracks there short, silently."""
     b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    cx, cy = b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3] / 2
-    outside = (cx < 0) | (cx > image[0]) | (cy < 0) | (cy > image[1])
-    if not outside.any():
+    centre = b[:, :2] + 0.5 * b[:, 2:]
+    if centre.min() >= 0 and not (centre > image).any():  # every frame of a run: the fewest array operations
         return False
+    outside = ((centre < 0) | (centre > image)).any(axis=1)
     k = int(np.argmax(outside))
     warnings.warn(f"frame {frame}: {int(outside.sum())} detection(s) centred outside the {image[0]} x {image[1]} "
                   f"image the sequence was given (--img-size, seqinfo.ini or img_size), the first at "
-                  f"({cx[k]:.0f}, {cy[k]:.0f}): the field of view ends inside the scene and tracks there are cut short; "
+                  f"({centre[k, 0]:.0f}, {centre[k, 1]:.0f}): the field of view ends inside the scene and tracks there are cut short; "
                   "is it the detections' image size? (said once)", UserWarning, stacklevel=stacklevel)
     return True
