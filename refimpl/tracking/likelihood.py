@@ -3,7 +3,8 @@ paper, Section 3.1), on its integer scale, with the alternative predictions the 
 add (refimpl decisions, docs/model.md): a new track started with the scene's motion is also
 matched at rest (scene_velocity, 3.20), a halted track at faster and slower speeds along its path
 (uncertain_speed, 3.27), and an unmatched track at its prediction moved by the image shift a
-turning camera gave the scene (scene_shift, 3.28).  Only ML_t changes, never the boxes of P_t.
+turning camera gave the scene (scene_shift, 3.28); and no track is matched to a detection of an
+implausibly different size (size_gate, 3.33).  Only ML_t changes, never the boxes of P_t.
 
 scene_shift: the tracks observed in the frame before (active) are predicted; if most of them
 overlap no detection (IoU >= MATCHED_IOU), the shift is the one image translation of their
@@ -162,3 +163,22 @@ def uncertain_speed(last_seen: list[tuple[int, np.ndarray]], moved_iou: np.ndarr
     halted = [k for k, _ in last_seen]
     best = moved_iou.reshape(len(GAP_SPEEDS), len(halted), -1).max(axis=0)
     ml[halted] = np.maximum(ml[halted], scale_iou(best))  # scale_iou is monotone: the max commutes
+
+
+def size_gate(ml: np.ndarray, boxes: np.ndarray, last_seen: list[tuple[int, int, np.ndarray]], factor: float,
+              growth: float) -> None:
+    """The tracker option size_gate, refimpl decision (docs/model.md 3.33): an object's apparent
+    size changes gradually.  A track's matching likelihood (ML_t, in place) with a detection is 0
+    where the detection's area and the track's last observed area differ by more than ``factor``
+    times ``growth`` per frame since that observation, either way.  ``last_seen``: (track index,
+    frames since its last observation >= 1, last observed box) in the pixels of ``boxes`` (n, 4
+    xywh); ``growth``: the tracker option size_change at the sequence's frame rate (1 without it).
+    Zero likelihood leaves the pair without an iou fact: neither assigned nor resumed."""
+    if not last_seen or not len(boxes):
+        return
+    rows = np.array([k for k, _, _ in last_seen])
+    since = np.array([gap for _, gap, _ in last_seen], dtype=float)
+    last = np.array([box for _, _, box in last_seen], dtype=float).reshape(-1, 4)
+    ratio = (boxes[:, 2] * boxes[:, 3])[None, :] / (last[:, 2] * last[:, 3])[:, None]
+    bound = (float(factor) * float(growth) ** since)[:, None]
+    ml[rows] = np.where((ratio > bound) | (ratio * bound < 1.0), 0, ml[rows])

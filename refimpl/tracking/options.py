@@ -161,6 +161,10 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "across a frame after one without an update, a track's predicted area grows or shrinks by "
                   "at most this factor (per frame at the preset's frame rate, the same change per second at "
                   "any other): a hidden object keeps roughly its size (0: unbounded, SORT's filter)"),
+    TrackerOption("size_gate", _factor("size_gate"), None,
+                  "a track is not matched to a detection whose area differs from the track's last observed "
+                  "area by more than this factor times size_change (1 without it) per frame since then: "
+                  "an object's apparent size changes gradually (0: no such gate, as the paper)"),
     TrackerOption("backfill", _switch("backfill"), ("yes", "no"),
                   "when a track is confirmed (min_hits consecutive updates), also write the earlier frames "
                   "of that streak, a new track's first frame included (results final min_hits frames late)"),
@@ -231,6 +235,7 @@ class TrackerOptions:
     velocity_noise: float = 1.0
     area_noise: float = 1.0
     size_change: float = 0.0
+    size_gate: float = 0.0
     backfill: bool = False
     backfill_gap: int = 0
     fill_hidden: int = 0

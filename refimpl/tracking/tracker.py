@@ -52,7 +52,7 @@ from ..core.hypothesis import Hypothesis, parse_action
 from .motion import BoxKalman, column_medians  # noqa: F401  (column_medians: the scene's velocity; re-exported)
 from .bounds import PredictionBounds
 from .gate import MatchGate
-from .likelihood import matching_likelihood
+from .likelihood import matching_likelihood, size_gate
 from .options import TrackerOptions, WrittenBox
 from .written_box import WrittenBoxLearner
 from ..core.ranges import check_ranges, integer_boxes_fit
@@ -226,8 +226,7 @@ class AbductionTracker:
         evidence sufficed, the frames before a gap)."""
 
     # -- step 1: the problem specification ---------------------------------------------------
-    def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray,
-                      types: tuple[str, ...]) -> FrameProblem:
+    def frame_problem(self, frame: int, boxes: np.ndarray, confidences: np.ndarray, types: tuple[str, ...]) -> FrameProblem:
         """Predict every track and build <VO_t, P_t, ML_t> with the event history of live tracks."""
         tracks = list(self.tracks.values())
         boxes_now, ok = BoxKalman.predict_box_array([t.kalman for t in tracks], self.options.hold_hidden)  # one batch
@@ -250,16 +249,20 @@ class AbductionTracker:
         predictions = tuple(TrackPrediction(t.id, t.type, t.state, b) for t, b in zip(tracks, track_boxes))
         iou: tuple[tuple[str, str, int], ...] = ()
         if len(tracks) and len(boxes):
-            # the last key of a track's observed frames is its last observed frame: they are inserted as
-            # the frames come, in increasing order, and _forget keeps them sorted
-            last_seen = [(k, t.observed[next(reversed(t.observed))]) for k, t in enumerate(tracks)
-                         if t.state == "halted" and t.observed] if self.options.uncertain_speed else []
+            # a track's last observed frame is the last key of its observed frames (inserted in increasing
+            # order as the frames come; _forget keeps them sorted)
+            gated, speeds = self.options.size_gate, self.options.uncertain_speed
+            seen = [(k, frame - f, t.observed[f]) for k, t in enumerate(tracks) if t.observed and (gated or (
+                    speeds and t.state == "halted")) for f in (next(reversed(t.observed)),)]
+            last_seen = [(k, b) for k, _, b in seen if tracks[k].state == "halted"] if speeds else []
             at_rest = [(k, t.at_rest) for k, t in enumerate(tracks) if t.at_rest is not None]
             if scale != 1.0:  # the likelihood in working pixels too (its scene shift rounds to 0.1 px)
                 last_seen = [(k, b * scale) for k, b in last_seen]
                 at_rest = [(k, b * scale) for k, b in at_rest]
             ml = matching_likelihood(working_predicted, working, [t.state for t in tracks], at_rest, last_seen,
                                      self.options.scene_shift)
+            if gated:  # in the image's pixels, as the boxes observed (a ratio of areas)
+                size_gate(ml, boxes, seen, gated, self.options.size_change or 1.0)
             if self._gate is not None:  # the assignments' likelihoods are counted once the hypothesis is in
                 self._likelihood = (ml, {t.id: k for k, t in enumerate(tracks)})
             ks, js = np.nonzero(ml > 0)  # row-major: by track, then by detection
@@ -267,17 +270,14 @@ class AbductionTracker:
             iou = tuple(zip(map(track_ids.__getitem__, ks.tolist()), map(det_ids.__getitem__, js.tolist()),
                             ml[ks, js].tolist()))
         history = tuple(chain.from_iterable(t.history for t in tracks))
-        # Built here, the problem holds what FrameProblem checks by construction (ids made here,
-        # unique; integer boxes with w, h >= 1; one IoU fact per pair, 0..100000; track types
-        # and states from earlier frames), except what comes from the caller: the constants (the
-        # first frame checks them), the detections' types and confidences, and the frame number
-        # (after every event of the history).  Where one of those fails, the constructor raises
-        # its one-line error naming the first offender.
-        if (self.frames and _all_symbols(types) and (not conf or 0 <= min(conf) and max(conf) <= 100)
-                and (self._latest_event < frame or all(e.time < frame for e in history))):
-            make = FrameProblem.unchecked
-        else:
-            make = FrameProblem
+        # Built here, the problem holds what FrameProblem checks by construction (unique ids made here;
+        # integer boxes with w, h >= 1; one IoU fact per pair, 0..100000; track types and states from
+        # earlier frames) but what the caller gives: the constants (checked on the first frame), the
+        # detections' types and confidences, and the frame number (after every event of the history).
+        # Where one of those fails, the constructor raises its one-line error naming the first offender.
+        checked = not (self.frames and _all_symbols(types) and (not conf or 0 <= min(conf) and max(conf) <= 100)
+                       and (self._latest_event < frame or all(e.time < frame for e in history)))
+        make = FrameProblem if checked else FrameProblem.unchecked
         return make(time=frame, detections=detections, tracks=predictions, iou=iou, constants=self._frame_constants(),
                     history=history)
 
