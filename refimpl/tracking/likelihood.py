@@ -4,7 +4,7 @@ add (refimpl decisions, docs/model.md): a new track started with the scene's mot
 matched at rest (scene_velocity, 3.20), a halted track at faster and slower speeds along its path
 (uncertain_speed, 3.27), and an unmatched track at its prediction moved by the image shift a
 turning camera gave the scene (scene_shift, 3.28); and no track is matched to a detection of an
-implausibly different size (size_gate, 3.33).  Only ML_t changes, never the boxes of P_t.
+implausibly different size (size_gate, 3.34).  Only ML_t changes, never the boxes of P_t.
 
 scene_shift: the tracks observed in the frame before (active) are predicted; if most of them
 overlap no detection (IoU >= MATCHED_IOU), the shift is the one image translation of their
@@ -167,7 +167,7 @@ def uncertain_speed(last_seen: list[tuple[int, np.ndarray]], moved_iou: np.ndarr
 
 def size_gate(ml: np.ndarray, boxes: np.ndarray, last_seen: list[tuple[int, int, np.ndarray]], factor: float,
               growth: float) -> None:
-    """The tracker option size_gate, refimpl decision (docs/model.md 3.33): an object's apparent
+    """The tracker option size_gate, refimpl decision (docs/model.md 3.34): an object's apparent
     size changes gradually.  A track's matching likelihood (ML_t, in place) with a detection is 0
     where the detection's area and the track's last observed area differ by more than ``factor``
     times ``growth`` per frame since that observation, either way.  ``last_seen``: (track index,
