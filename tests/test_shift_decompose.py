@@ -55,3 +55,5 @@ def test_a_handover_is_counted_as_far_as_its_causes_hold():
     assert handovers(rows, records(None), seq, gt) == {"changes": 1, "alive": 1, "started": 1, "grown": 1, "inside": 1}
     # ended in frame 4, before the object's next written frame: a handover, not a track still alive
     assert handovers(rows, records(4), seq, gt) == {"changes": 1}
+    # a tracker that keeps no track records (the SORT baseline) has no handovers to explain
+    assert handovers(rows, (), seq, gt) == {}

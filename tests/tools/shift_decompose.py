@@ -18,9 +18,10 @@ on the benchmark and on its shifted copy.  Each step keeps the one before and ad
   tail      from its last written frame to its last detection: its box (one given up too early).
 
 Prints HOTA (refimpl.evaluation, TrackEval's HOTA) of each step unshifted and shifted, the drop,
-and the frames each repair adds; then, in the shifted run, where the track writing an object
-changes across a short gap and why (``handovers``).  A step's share of the drop is how much the drop falls across it.
-A measurement of a tracker's output, not a tracker: nothing of refimpl's is tuned on it.
+and the frames each repair adds; then, for an abduction backend, where in the shifted run the
+track writing an object changes across a short gap and why (``handovers``).  A step's share of
+the drop is how much the drop falls across it.  A measurement of a tracker's output, not a
+tracker: nothing of refimpl's is tuned on it.
 """
 
 from __future__ import annotations
@@ -114,9 +115,11 @@ def handovers(rows: np.ndarray, tracks, seq, gt) -> Counter:
     first box at least twice A's last observed area before it (``grown``); of these, A observed
     during the gap a box at least 3/4 inside the object's and overlapping it by IoU < 0.5: a
     smaller box within it, another object's or a part (``inside``)."""
-    written, _, _, truth = _written(rows, seq, gt)
     record = {track_number(t.id): t for t in tracks}
     count = Counter()
+    if not record:  # a tracker that keeps no records of its tracks (refimpl's SORT baseline)
+        return count
+    written, _, _, truth = _written(rows, seq, gt)
     for obj, frames in written.items():
         ordered = sorted(frames)
         for p, q in zip(ordered[:-1], ordered[1:]):
@@ -183,8 +186,9 @@ def main() -> None:
     for step in STEPS:
         frames = f"{na[step]} / {nb[step]}" if step in na else ""
         print(f"{step:8s} {a[step]:7.2f} {b[step]:14.2f} {a[step] - b[step]:6.2f} {frames:>14s}")
-    print(f"{args.shift}: handovers (handovers' doc) " + ", ".join(
-        f"{k} {changes[k]}" for k in ("changes", "alive", "started", "grown", "inside")))
+    if changes:
+        print(f"{args.shift}: handovers (handovers' doc) " + ", ".join(
+            f"{k} {changes[k]}" for k in ("changes", "alive", "started", "grown", "inside")))
 
 
 if __name__ == "__main__":
