@@ -78,9 +78,10 @@ def _written(rows: np.ndarray, seq, gt):
     return written, detected, votes, truth
 
 
-def repaired(rows: np.ndarray, seq, gt) -> tuple[dict[str, np.ndarray], Counter]:
-    """Each step's rows (STEPS) for one sequence, and the frames each repair adds."""
-    written, detected, votes, truth = _written(rows, seq, gt)
+def repaired(rows: np.ndarray, seq, gt, seen=None) -> tuple[dict[str, np.ndarray], Counter]:
+    """Each step's rows (STEPS) for one sequence, and the frames each repair adds (``seen``: the
+    rows' _written, where the caller has it)."""
+    written, detected, votes, truth = seen or _written(rows, seq, gt)
     name = {track: OFFSET + count.most_common(1)[0][0] for track, count in votes.items()}
     joined = rows.copy()
     joined[:, 1] = [name.get(int(t), t) for t in rows[:, 1].tolist()]
@@ -108,18 +109,18 @@ def repaired(rows: np.ndarray, seq, gt) -> tuple[dict[str, np.ndarray], Counter]
     return steps, added
 
 
-def handovers(rows: np.ndarray, tracks, seq, gt) -> Counter:
+def handovers(rows: np.ndarray, tracks, seq, gt, seen=None) -> Counter:
     """Where the track writing an object changes across a gap of 1 to 10 unwritten frames, from
     track A (the gap's first side) to track B: ``changes``; of these, A not ended by then
     (``alive``); of these, B started after A last wrote the object (``started``); of these, B's
     first box at least twice A's last observed area before it (``grown``); of these, A observed
     during the gap a box at least 3/4 inside the object's and overlapping it by IoU < 0.5: a
-    smaller box within it, another object's or a part (``inside``)."""
+    smaller box within it, another object's or a part (``inside``).  ``seen``: as for repaired."""
     record = {track_number(t.id): t for t in tracks}
     count = Counter()
     if not record:  # a tracker that keeps no records of its tracks (refimpl's SORT baseline)
         return count
-    written, _, _, truth = _written(rows, seq, gt)
+    written, _, _, truth = seen or _written(rows, seq, gt)
     for obj, frames in written.items():
         ordered = sorted(frames)
         for p, q in zip(ordered[:-1], ordered[1:]):
@@ -163,9 +164,10 @@ def decompose(name: str, data: str, shift: str, tracker: str) -> tuple[dict, dic
         for _, seq, gt in dataset:
             result = run_sequence(seq, setup)
             rows = result.rows[:, :6].astype(float)
-            steps, n = repaired(rows, seq, gt)
+            seen = _written(rows, seq, gt)  # the ground-truth matching, once for both
+            steps, n = repaired(rows, seq, gt, seen)
             added += n
-            changes += handovers(rows, result.tracks, seq, gt)
+            changes += handovers(rows, result.tracks, seq, gt, seen)
             for step in STEPS:
                 scores[step].append(evaluate_sequence(gt, steps[step]))
         out.append(({step: 100 * combine(scores[step])["hota"] for step in STEPS}, added, changes))
