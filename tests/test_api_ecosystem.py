@@ -230,16 +230,22 @@ def test_a_presets_durations_mean_the_same_seconds_at_another_frame_rate():
 
 
 def test_the_motion_noise_means_the_same_per_second_at_another_frame_rate():
-    # velocity_noise is a variance per frame at the preset's frame rate, times (tuned fps / fps) ** 2
-    # (camera.NOISE_EXPONENT): mot/pedestrian's 1.0 at 25 fps is (25 / 12.5) ** 2 = 4 at 12.5 fps,
-    # (25 / 50) ** 2 = 0.25 at 50 fps, 1 at 25 fps and without a frame rate; kitti/car's 10 at 10 fps
-    # is 10 * (10 / 5) ** 2 = 40 at 5 fps.  A value the user gives is per frame as given.
+    # velocity_noise is a variance per frame at the preset's frame rate, times (tuned fps / fps) to the
+    # power velocity_exponent (2 for mot/pedestrian): its 1.0 at 25 fps is (25 / 12.5) ** 2 = 4 at
+    # 12.5 fps, (25 / 50) ** 2 = 0.25 at 50 fps, 1 at 25 fps and without a frame rate; kitti/car (4: a
+    # steady acceleration) has 10 at 10 fps, 10 * (10 / 5) ** 4 = 160 at 5 fps and 10 * (10 / 20) ** 4 =
+    # 0.625 at 20 fps; with velocity_exponent 2 given, 10 * 2 ** 2 = 40 at 5 fps.  A velocity_noise the
+    # user gives is per frame as given; at 0.1 fps kitti/car's would be 10 * 100 ** 4 = 1e9, held at
+    # the option's largest value, 1e6 (NOISE_FACTOR_MAX).
     def noise(**kw):
         return refimpl.Tracker(**kw)._tracker.options.velocity_noise
     assert [noise(fps=f) for f in (12.5, 50, 25)] == [4.0, 0.25, 1.0] and noise() == 1.0
-    assert noise(format="kitti", object_type="car", fps=5) == 40.0
-    assert noise(format="kitti", object_type="car") == 10.0
+    car = {"format": "kitti", "object_type": "car"}
+    assert [noise(**car, fps=f) for f in (5, 20, 10)] == [160.0, 0.625, 10.0] and noise(**car) == 10.0
+    assert noise(**car, fps=5, velocity_exponent=2) == 40.0
+    assert noise(**car, fps=0.1) == 1e6
     assert noise(fps=50, velocity_noise=3.0) == 3.0
+    assert noise(fps=50, velocity_noise=3.0, velocity_exponent=4) == 3.0
 
 
 def test_the_pixel_constants_scale_with_the_image():

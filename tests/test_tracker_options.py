@@ -18,13 +18,13 @@ from test_streaming_output import _walk
 from test_abduction_tracker import _occlusion_sequence
 
 
-PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "area_noise": 1.0, "size_change": 0.0, "size_gate": 0.0,
+PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "velocity_exponent": 2.0, "area_noise": 1.0, "size_change": 0.0, "size_gate": 0.0,
                  "backfill_gap": 0,
                  "fill_hidden": 0, "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0, "write_peak": 0,
                  "peak_wait": 0, "learned_gate": 0, "wander_noise": 0}
 """The values that make the plain tracker (SORT's filter, its size unbounded while unseen and ungated, and its output, no gap backfilled or occlusion filled in,
 the tracker's bridge of old: gaps of at most 2 frames resumed at confidence >= 90, the constant iou_thresh and SORT's measurement noise,
-docs/tracking.md)
+docs/tracking.md; velocity_exponent only acts with a preset's frame rate, and 2 is the conversion the presets had before it)
 for the options that are not switches; every switch (choices yes/no) is off."""
 
 
@@ -47,7 +47,7 @@ def test_every_option_row_has_one_field_and_the_defaults_are_the_plain_tracker()
 
 def test_option_flags_list_every_row_in_table_order():
     flags = [o.flag for o in TRACKER_OPTIONS]
-    assert flags[:3] == ["--written-box", "--velocity-noise", "--area-noise"]  # name -> flag: _ becomes -
+    assert flags[:4] == ["--written-box", "--velocity-noise", "--velocity-exponent", "--area-noise"]  # name -> flag: _ becomes -
     # the flags joined by ", " with " and " before the last; the extra flags come first
     assert option_flags() == ", ".join(flags[:-1]) + " and " + flags[-1]
     assert option_flags("--const") == "--const, " + ", ".join(flags[:-1]) + " and " + flags[-1]

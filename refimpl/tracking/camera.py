@@ -24,12 +24,6 @@ it was tuned at to the sequence's (:func:`frames_at`, docs/model.md 3.22), as ar
 options of FRAME_OPTIONS."""
 FRAME_OPTIONS = ("backfill_gap", "fill_hidden", "bridge_gap", "peak_wait")
 """The tracker options that are durations in frames, converted as DURATIONS are."""
-NOISE_EXPONENT = 2
-"""A velocity in pixels per frame is a speed in pixels per second times the frame interval, so
-the change the filter allows it from one frame to the next, stated as a change of speed, is that
-many pixels per frame times the interval: its variance (velocity_noise) scales with the square of
-the interval (docs/model.md 3.22, "Motion").  Chosen among 0 (frames as written), 1, 2, 3 by the
-worst case over the shifts on the tuning sets."""
 
 
 def frames_at(frames: int, fps: float, tuned_fps: float) -> int:
@@ -40,10 +34,12 @@ def frames_at(frames: int, fps: float, tuned_fps: float) -> int:
     return max(1, int(math.floor(frames * float(fps) / float(tuned_fps) + 0.5)))
 
 
-def velocity_noise_at(noise: float, fps: float, tuned_fps: float) -> float:
+def velocity_noise_at(noise: float, fps: float, tuned_fps: float, exponent: float = 2) -> float:
     """The Kalman filter's velocity process noise (the tracker option velocity_noise, a variance
-    per frame tuned at ``tuned_fps``) at ``fps``: times (tuned_fps / fps) ** NOISE_EXPONENT."""
-    return float(noise) * (float(tuned_fps) / float(fps)) ** NOISE_EXPONENT
+    per frame tuned at ``tuned_fps``) at ``fps``: times (tuned_fps / fps) ** ``exponent`` (the
+    tracker option velocity_exponent; docs/model.md 3.22, "Motion"), at most the option's largest
+    value NOISE_FACTOR_MAX (kitti/car's 10 at 10 fps is 1e9 at 0.1 fps with exponent 4)."""
+    return min(float(noise) * (float(tuned_fps) / float(fps)) ** float(exponent), NOISE_FACTOR_MAX)
 
 
 def factor_at(factor: float, fps: float, tuned_fps: float) -> float:
@@ -56,11 +52,13 @@ def factor_at(factor: float, fps: float, tuned_fps: float) -> float:
     return min(float(factor) ** (float(tuned_fps) / float(fps)), NOISE_FACTOR_MAX)
 
 
-RATE_OPTIONS = {"velocity_noise": velocity_noise_at, "size_change": factor_at}
-"""The tracker options that are per frame but no duration, each with its conversion from the
-preset's frame rate to the sequence's, applied unless the user gave the option: the process noise
-of the Kalman filter's velocities (:func:`velocity_noise_at`) and the bound on an unobserved
-track's change of size (:func:`factor_at`)."""
+RATE_OPTIONS = {"velocity_noise": lambda o, fps, tuned: velocity_noise_at(o.velocity_noise, fps, tuned, o.velocity_exponent),
+                "size_change": lambda o, fps, tuned: factor_at(o.size_change, fps, tuned)}
+"""The tracker options that are per frame but no duration, each with its value at the sequence's
+frame rate from the options tuned at the preset's, applied unless the user gave the option: the
+process noise of the Kalman filter's velocities (:func:`velocity_noise_at`, by the power
+velocity_exponent of the ratio of frame intervals) and the bound on an unobserved track's change
+of size (:func:`factor_at`)."""
 
 
 def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,

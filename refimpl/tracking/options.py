@@ -51,6 +51,8 @@ NOISE_FACTOR_MAX = 1e6
 """The largest factor on the Kalman filter's process noise: far beyond any use (the presets hold
 1..100), and small enough that the filter's covariance stays finite (``--velocity-noise 1e308``
 made it inf, the state NaN, and the run a traceback)."""
+EXPONENT_MAX = 6
+"""The largest velocity_exponent: beyond any physical model of motion (4: a steady acceleration)."""
 
 
 def _number(value: object) -> float | None:
@@ -70,6 +72,15 @@ def _positive(name: str) -> Callable[[object], float]:
         v = _number(value)
         if v is None or not (0 < v <= NOISE_FACTOR_MAX):
             raise ValueError(f"{name} must be a positive number up to {NOISE_FACTOR_MAX:g}, got {value!r}")
+        return v
+    return parse
+
+
+def _exponent(name: str) -> Callable[[object], float]:
+    def parse(value: object) -> float:
+        v = _number(value)
+        if v is None or not (0 <= v <= EXPONENT_MAX):
+            raise ValueError(f"{name} must be a number 0..{EXPONENT_MAX:g}, got {value!r}")
         return v
     return parse
 
@@ -154,6 +165,11 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "closer to the midpoint of the detections one frame before and after"),
     TrackerOption("velocity_noise", _positive("velocity_noise"), None,
                   "the factor on the process noise of the Kalman filter's velocities (1: SORT's filter)"),
+    TrackerOption("velocity_exponent", _exponent("velocity_exponent"), None,
+                  "at a frame rate other than the preset's, velocity_noise times (preset's fps / sequence's fps) "
+                  "to this power: 2 the same change of speed per frame, 3 a random change of speed per second "
+                  "(white-noise acceleration), 4 a steady acceleration (an approaching car's image speed grows "
+                  "steadily; 0: per frame whatever the rate)"),
     TrackerOption("area_noise", _positive("area_noise"), None,
                   "the factor on the process noise of the Kalman filter's box area (1: SORT's filter; large: "
                   "the filtered size follows the detections)"),
@@ -233,6 +249,7 @@ class TrackerOptions:
 
     written_box: WrittenBox = DEFAULT_WRITTEN_BOX
     velocity_noise: float = 1.0
+    velocity_exponent: float = 2.0
     area_noise: float = 1.0
     size_change: float = 0.0
     size_gate: float = 0.0

@@ -125,7 +125,7 @@ def new_tracker(setup: Setup, image_size: tuple[int, int] | None = None, fps: fl
     if fps and setup.tuned_fps:
         options = replace(options, **{name: frames_at(getattr(options, name), fps, setup.tuned_fps)
                                       for name in FRAME_OPTIONS if name not in setup.in_frames})
-        options = replace(options, **{name: at(getattr(options, name), fps, setup.tuned_fps)
+        options = replace(options, **{name: at(options, fps, setup.tuned_fps)
                                       for name, at in RATE_OPTIONS.items() if name not in setup.in_frames})
     return AbductionTracker(solver or get_solver(setup.backend),
                             sequence_constants(dict(setup.constants), image_size, fps, setup.tuned_fps,
