@@ -46,6 +46,8 @@ COUNT_WORDS = {"two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "seven": 7,
                "ten": 10, "eleven": 11, "twelve": 12, "thirteen": 13, "fourteen": 14,
                "fifteen": 15, "sixteen": 16, "seventeen": 17, "eighteen": 18, "nineteen": 19,
                "twenty": 20}
+COUNT_WORDS |= {f"twenty-{w}": 20 + n for w, n in
+                {"one": 1, **{k: v for k, v in COUNT_WORDS.items() if v < 10}}.items()}  # twenty-one .. twenty-nine
 
 # the values an option without argparse choices accepts, from the registry it reads ("all": the
 # keyword of the list options that takes every row)
@@ -242,7 +244,7 @@ def _paragraph(doc: Path, starts: str) -> str:
 
 
 def _count_word(text: str, noun: str) -> int:
-    m = re.search(r"\b(\w+) " + noun, text)
+    m = re.search(r"\b([\w-]+) " + noun, text)
     assert m and m.group(1).lower() in COUNT_WORDS, f"no count word before {noun!r}: {text[:80]!r}"
     return COUNT_WORDS[m.group(1).lower()]
 
