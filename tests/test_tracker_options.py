@@ -21,7 +21,7 @@ from test_abduction_tracker import _occlusion_sequence
 PLAIN_TRACKER = {"written_box": "filtered", "velocity_noise": 1.0, "velocity_exponent": 2.0, "area_noise": 1.0, "size_change": 0.0, "size_gate": 0.0,
                  "backfill_gap": 0,
                  "fill_hidden": 0, "bridge_gap": 2, "bridge_conf": 90, "write_evidence": 0, "write_peak": 0,
-                 "peak_wait": 0, "learned_gate": 0, "wander_noise": 0}
+                 "peak_wait": 0, "new_speed": 0.0, "learned_gate": 0, "wander_noise": 0}
 """The values that make the plain tracker (SORT's filter, its size unbounded while unseen and ungated, and its output, no gap backfilled or occlusion filled in,
 the tracker's bridge of old: gaps of at most 2 frames resumed at confidence >= 90, the constant iou_thresh and SORT's measurement noise,
 docs/tracking.md; velocity_exponent only acts with a preset's frame rate, and 2 is the conversion the presets had before it)

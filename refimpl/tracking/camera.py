@@ -12,7 +12,7 @@ from typing import Mapping
 import numpy as np
 
 from ..core.constants import default_constants
-from .options import NOISE_FACTOR_MAX
+from .options import NOISE_FACTOR_MAX, REACH_MAX
 
 HIDDEN_MAX_SECONDS = 10.0
 """The safety bound on any halt (model constant lost_after_hidden_max), in seconds of the sequence's
@@ -53,12 +53,14 @@ def factor_at(factor: float, fps: float, tuned_fps: float) -> float:
 
 
 RATE_OPTIONS = {"velocity_noise": lambda o, fps, tuned: velocity_noise_at(o.velocity_noise, fps, tuned, o.velocity_exponent),
-                "size_change": lambda o, fps, tuned: factor_at(o.size_change, fps, tuned)}
+                "size_change": lambda o, fps, tuned: factor_at(o.size_change, fps, tuned),
+                "new_speed": lambda o, fps, tuned: min(o.new_speed * float(tuned) / float(fps), REACH_MAX)}
 """The tracker options that are per frame but no duration, each with its value at the sequence's
 frame rate from the options tuned at the preset's, applied unless the user gave the option: the
 process noise of the Kalman filter's velocities (:func:`velocity_noise_at`, by the power
-velocity_exponent of the ratio of frame intervals) and the bound on an unobserved track's change
-of size (:func:`factor_at`)."""
+velocity_exponent of the ratio of frame intervals), the bound on an unobserved track's change
+of size (:func:`factor_at`) and the speed a track seen once may have (new_speed, box sizes per
+frame: the same per second, at most REACH_MAX)."""
 
 
 def sequence_constants(constants: Mapping[str, int] | None, image_size: tuple[int, int] | None,

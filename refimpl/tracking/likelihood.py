@@ -2,7 +2,7 @@
 paper, Section 3.1), on its integer scale, with the alternative predictions the tracker options
 add (refimpl decisions, docs/model.md): a new track started with the scene's motion is also
 matched at rest (scene_velocity, 3.20), a halted track at faster and slower speeds along its path
-(uncertain_speed, 3.27), and an unmatched track at its prediction moved by the image shift a
+(uncertain_speed, 3.27), a track seen once at any speed up to a bound (new_speed, 3.35), and an unmatched track at its prediction moved by the image shift a
 turning camera gave the scene (scene_shift, 3.28); and no track is matched to a detection of an
 implausibly different size (size_gate, 3.34).  Only ML_t changes, never the boxes of P_t.
 
@@ -46,6 +46,13 @@ NEAREST = 3
 similar width (within SIZE_RATIO either way)."""
 
 SIZE_RATIO = 1.5
+
+NEW_SPEED_WEIGHT = 0.5
+"""The tracker option new_speed (docs/model.md 3.35): the share of its overlap at which a track
+seen once is matched at a speed it has not shown: below a track's own prediction at the same
+overlap, so that a detection it does overlap, or another track's, is the better explanation.
+Chosen on kitti-car-train among 0.3 (matches nothing: times a detection's confidence it stays
+below iou_thresh), 0.5 and 0.7 by the worst case over the shifts (model/presets.json)."""
 
 _MATCHED = int(MATCHED_IOU * IOU_SCALE)  # MATCHED_IOU on ML_t's integer scale
 
@@ -100,13 +107,14 @@ def shifted_likelihood(predicted: np.ndarray, boxes: np.ndarray, ml: np.ndarray,
 
 def matching_likelihood(predicted: np.ndarray, boxes: np.ndarray, states: list[str],
                         at_rest: list[tuple[int, np.ndarray]], last_seen: list[tuple[int, np.ndarray]],
-                        shifted: bool) -> np.ndarray:
+                        shifted: bool, seen_once: list[tuple[int, np.ndarray, int]] = (),
+                        reach: float = 0.0, similar: float = 1.0) -> np.ndarray:
     """ML_t (integer, tracks x detections) of the tracks' ``predicted`` boxes (n, 4) and the
     frame's detections ``boxes`` (m, 4): the scaled IoU, then each option's alternative prediction
     where it is better.  ``states``: each track's state; ``at_rest``: (index, first box) of the
     tracks started with the scene's motion and not seen since (scene_velocity); ``last_seen``:
     (index, last observed box) of the halted tracks, given with uncertain_speed; ``shifted``:
-    the option scene_shift.  (The tracker options are read by the caller: options.py reads this
+    the option scene_shift; ``seen_once``, ``reach``, ``similar``: those of :func:`new_speed`.  (The tracker options are read by the caller: options.py reads this
     module's constants for its help texts.)"""
     n = len(predicted)
     if last_seen:  # the halted tracks' moved boxes in the same iou_matrix call (elementwise: the same values)
@@ -123,6 +131,8 @@ def matching_likelihood(predicted: np.ndarray, boxes: np.ndarray, states: list[s
         either_motion(at_rest, boxes, ml)
     if moved is not None:
         uncertain_speed(last_seen, moved, ml)
+    if seen_once and reach > 0 and len(boxes):
+        new_speed(seen_once, boxes, ml, reach, similar)
     return ml
 
 
@@ -163,6 +173,34 @@ def uncertain_speed(last_seen: list[tuple[int, np.ndarray]], moved_iou: np.ndarr
     halted = [k for k, _ in last_seen]
     best = moved_iou.reshape(len(GAP_SPEEDS), len(halted), -1).max(axis=0)
     ml[halted] = np.maximum(ml[halted], scale_iou(best))  # scale_iou is monotone: the max commutes
+
+
+def new_speed(seen_once: list[tuple[int, np.ndarray, int]], boxes: np.ndarray, ml: np.ndarray,
+              reach: float, similar: float) -> None:
+    """The tracker option new_speed, refimpl decision (docs/model.md 3.35): a track seen once has
+    not shown its speed (a car crossing the view moves further than its own width between frames,
+    so its second detection overlaps neither its first nor the filter's prediction at rest).  Until
+    it is observed again its matching likelihood (ML_t, in place) with a detection of about its size
+    (areas within ``similar`` either way) is also NEW_SPEED_WEIGHT times the overlap of that
+    detection with its box moved towards it by at most ``reach`` times the square root of its area
+    per frame since it was seen.  ``seen_once``: (track index, its observed box, frames since >= 1)
+    in the pixels of ``boxes``."""
+    rows = [k for k, _, _ in seen_once]
+    first = np.array([box for _, box, _ in seen_once], dtype=float).reshape(-1, 4)
+    since = np.array([n for _, _, n in seen_once], dtype=float)
+    size = first[:, None, 2:]  # (t, 1, 2): the box keeps its size
+    start = first[:, None, :2] + size / 2
+    step = (boxes[None, :, :2] + boxes[None, :, 2:] / 2) - start  # (t, m, 2) centre to centre
+    far = np.hypot(step[..., 0], step[..., 1])
+    bound = (reach * since * np.sqrt(first[:, 2] * first[:, 3]))[:, None]
+    centre = start + step * np.minimum(1.0, bound / np.maximum(far, 1e-9))[..., None]
+    low = np.maximum(centre - size / 2, boxes[None, :, :2])
+    high = np.minimum(centre + size / 2, boxes[None, :, :2] + boxes[None, :, 2:])
+    inter = np.prod(np.clip(high - low, 0.0, None), axis=2)
+    own, theirs = (first[:, 2] * first[:, 3])[:, None], (boxes[:, 2] * boxes[:, 3])[None, :]
+    overlap = inter / (own + theirs - inter)
+    alike = (theirs <= own * similar) & (theirs * similar >= own)
+    ml[rows] = np.maximum(ml[rows], np.where(alike, scale_iou(NEW_SPEED_WEIGHT * overlap), 0))
 
 
 def size_gate(ml: np.ndarray, boxes: np.ndarray, last_seen: list[tuple[int, int, np.ndarray]], factor: float,

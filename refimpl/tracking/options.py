@@ -51,6 +51,8 @@ NOISE_FACTOR_MAX = 1e6
 """The largest factor on the Kalman filter's process noise: far beyond any use (the presets hold
 1..100), and small enough that the filter's covariance stays finite (``--velocity-noise 1e308``
 made it inf, the state NaN, and the run a traceback)."""
+REACH_MAX = 100
+"""The largest new_speed, in box sizes per frame: a bound no object meets."""
 EXPONENT_MAX = 6
 """The largest velocity_exponent: beyond any physical model of motion (4: a steady acceleration)."""
 
@@ -81,6 +83,15 @@ def _exponent(name: str) -> Callable[[object], float]:
         v = _number(value)
         if v is None or not (0 <= v <= EXPONENT_MAX):
             raise ValueError(f"{name} must be a number 0..{EXPONENT_MAX:g}, got {value!r}")
+        return v
+    return parse
+
+
+def _reach(name: str) -> Callable[[object], float]:
+    def parse(value: object) -> float:
+        v = _number(value)
+        if v is None or not (0 <= v <= REACH_MAX):
+            raise ValueError(f"{name} must be a number of box sizes 0..{REACH_MAX:g}, got {value!r}")
         return v
     return parse
 
@@ -218,6 +229,12 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   f"{', '.join(f'{f:g}' for f in GAP_SPEEDS[:-1])} and {GAP_SPEEDS[-1]:g} times as far as the "
                   "filter predicts since its last observation (an unseen object's speed is known only "
                   "roughly) instead of the prediction alone"),
+    TrackerOption("new_speed", _reach("new_speed"), None,
+                  "a track seen once has not shown its speed: until observed again it is also matched, at "
+                  "half the overlap, to a detection of about its size (areas within size_change) by its box "
+                  "moved towards it by at most this many box sizes (square root of its area) per frame since "
+                  "(per frame at the preset's frame rate, the same speed per second at any other): a car "
+                  "crossing the view moves further than its width between frames (0: off)"),
     TrackerOption("scene_shift", _switch("scene_shift"), ("yes", "no"),
                   "when most tracks seen in the previous frame overlap no detection and one image shift of "
                   f"their predictions makes at least {SHIFT_SUPPORT} of them, and {SHIFT_SUPPORT} more than without "
@@ -263,6 +280,7 @@ class TrackerOptions:
     peak_wait: int = 0
     scene_velocity: bool = False
     uncertain_speed: bool = False
+    new_speed: float = 0.0
     scene_shift: bool = False
     learned_gate: int = 0
     wander_noise: int = 0

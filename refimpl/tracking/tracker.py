@@ -29,9 +29,7 @@ What the results file holds (refimpl decision; measurements in docs/tracking.md)
   writes the earlier frames of the streak that confirmed it (up to min_hits frames back: a new
   track's first frame and its first min_hits - 1 updates; SORT never writes them): a frame's rows
   are then final min_hits frames late instead of bridge_gap.
-Measured on MOT15 and KITTI: writing longer hidden spans, or every resumed frame, adds more false
-positives than it removes misses (flickering false detections survive halts), which is why the
-defaults are this conservative.
+Why each rule is as it is, measured on MOT15 and KITTI: docs/tracking.md.
 """
 
 from __future__ import annotations
@@ -259,8 +257,10 @@ class AbductionTracker:
             if scale != 1.0:  # the likelihood in working pixels too (its scene shift rounds to 0.1 px)
                 last_seen = [(k, b * scale) for k, b in last_seen]
                 at_rest = [(k, b * scale) for k, b in at_rest]
+            once = [(k, t.observed[f] * scale, frame - f) for k, t in enumerate(tracks) if t.hits == 1
+                    and t.state == "active" for f in t.observed] if self.options.new_speed else []  # started last frame
             ml = matching_likelihood(working_predicted, working, [t.state for t in tracks], at_rest, last_seen,
-                                     self.options.scene_shift)
+                                     self.options.scene_shift, once, self.options.new_speed, self.options.size_change or math.inf)
             if gated:  # in the image's pixels, as the boxes observed (a ratio of areas)
                 size_gate(ml, boxes, seen, gated, self.options.size_change or 1.0)
             if self._gate is not None:  # the assignments' likelihoods are counted once the hypothesis is in
