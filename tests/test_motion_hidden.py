@@ -174,15 +174,19 @@ def test_size_change_means_the_same_per_second_at_another_frame_rate():
 @pytest.mark.parametrize("fps", [0.1, 1000.0])
 def test_every_preset_converts_to_both_ends_of_the_frame_rate_range(fps):
     # core.ranges.FPS_MIN and FPS_MAX: every preset's per-frame rates convert to a valid tracker:
-    # the velocity noise v * (tuned / fps) ** 2 (kitti/car at 0.1 fps: 10 * 100 ** 2 = 10^5 <= 10^6)
-    # and size_change F ** (tuned / fps), at most 10^6 (kitti/car at 0.1 fps: 1.25 ** 100, held at
-    # 10^6; at 1000 fps 1.25 ** 0.01 = 1.0022 > 1)
+    # the velocity noise v * (tuned / fps) ** k, k the preset's velocity_exponent, at most 10^6
+    # (kitti/car, k 4, at 0.1 fps: 10 * 100 ** 4 = 10^9, held at 10^6; mot/pedestrian, k 2: 1 *
+    # 250 ** 2 = 62500), size_change F ** (tuned / fps), at most 10^6 (kitti/car at 0.1 fps: 1.25 **
+    # 100, held at 10^6; at 1000 fps 1.25 ** 0.01 = 1.0022 > 1), and new_speed R * tuned / fps, at
+    # most 100 (kitti/car at 0.1 fps: 1.5 * 100 = 150, held at 100; at 1000 fps 0.015)
     import refimpl
     from refimpl.tracking.presets import load_presets
     for name, preset in load_presets().items():
         options = refimpl.Tracker(preset=name, fps=fps)._tracker.options
         tuned, given = preset.fps, preset.tracker
-        assert options.velocity_noise == pytest.approx(given.velocity_noise * (tuned / fps) ** 2)
+        noise = min(given.velocity_noise * (tuned / fps) ** given.velocity_exponent, 1e6)
+        assert options.velocity_noise == pytest.approx(noise)
+        assert options.new_speed == pytest.approx(min(given.new_speed * tuned / fps, 100))
         change = given.size_change and min(given.size_change ** (tuned / fps), 1e6)
         assert options.size_change == pytest.approx(change) and (change == 0 or change > 1)
 
