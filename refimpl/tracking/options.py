@@ -78,20 +78,12 @@ def _positive(name: str) -> Callable[[object], float]:
     return parse
 
 
-def _exponent(name: str) -> Callable[[object], float]:
+def _between(name: str, high: float, what: str = "a number") -> Callable[[object], float]:
+    """A number 0..high (velocity_exponent: a power; new_speed: box sizes a frame)."""
     def parse(value: object) -> float:
         v = _number(value)
-        if v is None or not (0 <= v <= EXPONENT_MAX):
-            raise ValueError(f"{name} must be a number 0..{EXPONENT_MAX:g}, got {value!r}")
-        return v
-    return parse
-
-
-def _reach(name: str) -> Callable[[object], float]:
-    def parse(value: object) -> float:
-        v = _number(value)
-        if v is None or not (0 <= v <= REACH_MAX):
-            raise ValueError(f"{name} must be a number of box sizes 0..{REACH_MAX:g}, got {value!r}")
+        if v is None or not (0 <= v <= high):
+            raise ValueError(f"{name} must be {what} 0..{high:g}, got {value!r}")
         return v
     return parse
 
@@ -176,7 +168,7 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "closer to the midpoint of the detections one frame before and after"),
     TrackerOption("velocity_noise", _positive("velocity_noise"), None,
                   "the factor on the process noise of the Kalman filter's velocities (1: SORT's filter)"),
-    TrackerOption("velocity_exponent", _exponent("velocity_exponent"), None,
+    TrackerOption("velocity_exponent", _between("velocity_exponent", EXPONENT_MAX), None,
                   "at a frame rate other than the preset's, velocity_noise times (preset's fps / sequence's fps) "
                   "to this power: 2 the same change of speed per frame, 3 a random change of speed per second "
                   "(white-noise acceleration), 4 a steady acceleration (an approaching car's image speed grows "
@@ -229,7 +221,7 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   f"{', '.join(f'{f:g}' for f in GAP_SPEEDS[:-1])} and {GAP_SPEEDS[-1]:g} times as far as the "
                   "filter predicts since its last observation (an unseen object's speed is known only "
                   "roughly) instead of the prediction alone"),
-    TrackerOption("new_speed", _reach("new_speed"), None,
+    TrackerOption("new_speed", _between("new_speed", REACH_MAX, "a number of box sizes"), None,
                   "a track seen once has not shown its speed: until observed again it is also matched, at "
                   "half the overlap, to a detection of about its size (areas within size_change) by its box "
                   "moved towards it by at most this many box sizes (square root of its area) per frame since "
