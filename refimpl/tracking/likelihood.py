@@ -2,8 +2,9 @@
 paper, Section 3.1), on its integer scale, with the alternative predictions the tracker options
 add (refimpl decisions, docs/model.md): a new track started with the scene's motion is also
 matched at rest (scene_velocity, 3.20), a halted track at faster and slower speeds along its path
-(uncertain_speed, 3.27), a track seen once at any speed up to a bound (new_speed, 3.35), and an unmatched track at its prediction moved by the image shift a
-turning camera gave the scene (scene_shift, 3.28); and no track is matched to a detection of an
+(uncertain_speed, 3.27), a track started in the frame before at any speed up to a bound
+(new_speed, 3.35), and an unmatched track at its prediction moved by the image shift a turning
+camera gave the scene (scene_shift, 3.28); and no track is matched to a detection of an
 implausibly different size (size_gate, 3.34).  Only ML_t changes, never the boxes of P_t.
 
 scene_shift: the tracks observed in the frame before (active) are predicted; if most of them
@@ -114,8 +115,9 @@ def matching_likelihood(predicted: np.ndarray, boxes: np.ndarray, states: list[s
     where it is better.  ``states``: each track's state; ``at_rest``: (index, first box) of the
     tracks started with the scene's motion and not seen since (scene_velocity); ``last_seen``:
     (index, last observed box) of the halted tracks, given with uncertain_speed; ``shifted``:
-    the option scene_shift; ``seen_once``, ``reach``, ``similar``: those of :func:`new_speed`.  (The tracker options are read by the caller: options.py reads this
-    module's constants for its help texts.)"""
+    the option scene_shift; ``seen_once``, ``reach``, ``similar``: those of :func:`new_speed`.
+    (The tracker options are read by the caller: options.py reads this module's constants for its
+    help texts.)"""
     n = len(predicted)
     if last_seen:  # the halted tracks' moved boxes in the same iou_matrix call (elementwise: the same values)
         every = iou_matrix(np.concatenate((predicted, _speed_boxes(last_seen, predicted))), boxes)
@@ -179,12 +181,14 @@ def new_speed(seen_once: list[tuple[int, np.ndarray, int]], boxes: np.ndarray, m
               reach: float, similar: float) -> None:
     """The tracker option new_speed, refimpl decision (docs/model.md 3.35): a track seen once has
     not shown its speed (a car crossing the view moves further than its own width between frames,
-    so its second detection overlaps neither its first nor the filter's prediction at rest).  Until
-    it is observed again its matching likelihood (ML_t, in place) with a detection of about its size
+    so its second detection overlaps neither its first nor the filter's prediction at rest).  Its
+    matching likelihood (ML_t, in place) with a detection of about its size
     (areas within ``similar`` either way) is also NEW_SPEED_WEIGHT times the overlap of that
     detection with its box moved towards it by at most ``reach`` times the square root of its area
     per frame since it was seen.  ``seen_once``: (track index, its observed box, frames since >= 1)
-    in the pixels of ``boxes``."""
+    in the pixels of ``boxes``; the tracker gives the tracks started in the frame before (frames
+    since 1): for halted ones too, the reach growing with the frames, a false detection seen once
+    latched onto the next near it (docs/model.md 3.35)."""
     rows = [k for k, _, _ in seen_once]
     first = np.array([box for _, box, _ in seen_once], dtype=float).reshape(-1, 4)
     since = np.array([n for _, _, n in seen_once], dtype=float)

@@ -222,11 +222,11 @@ TRACKER_OPTIONS: tuple[TrackerOption, ...] = (
                   "filter predicts since its last observation (an unseen object's speed is known only "
                   "roughly) instead of the prediction alone"),
     TrackerOption("new_speed", _between("new_speed", REACH_MAX, "a number of box sizes"), None,
-                  "a track seen once has not shown its speed: until observed again it is also matched, at "
-                  "half the overlap, to a detection of about its size (areas within size_change) by its box "
-                  "moved towards it by at most this many box sizes (square root of its area) per frame since "
-                  "(per frame at the preset's frame rate, the same speed per second at any other): a car "
-                  "crossing the view moves further than its width between frames (0: off)"),
+                  "a track started in the frame before has not shown its speed: it is also matched, at half "
+                  "the overlap, to a detection of about its size (areas within size_change) by its box moved "
+                  "towards it by at most this many box sizes (square root of its area) a frame (at the "
+                  "preset's frame rate, the same speed per second at any other): a car crossing the view "
+                  "moves further than its width between frames (0: off)"),
     TrackerOption("scene_shift", _switch("scene_shift"), ("yes", "no"),
                   "when most tracks seen in the previous frame overlap no detection and one image shift of "
                   f"their predictions makes at least {SHIFT_SUPPORT} of them, and {SHIFT_SUPPORT} more than without "
